@@ -1,0 +1,1 @@
+"""Conflict stage: relative geometry (CPA, tau) of every ownship-intruder pair."""

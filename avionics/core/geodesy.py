@@ -1,0 +1,69 @@
+"""WGS-84 geodetic <-> local East-North tangent plane. Only the horizontal plane is projected: altitude stays
+an altitude in its own datum, so the tangent plane's tilt never leaks into vertical separation."""
+
+from __future__ import annotations
+
+import numpy as np
+
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+
+
+def geodetic_to_ecef(lat_deg, lon_deg, h_m):
+    lat, lon = np.radians(lat_deg), np.radians(lon_deg)
+    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
+    x = (n + h_m) * np.cos(lat) * np.cos(lon)
+    y = (n + h_m) * np.cos(lat) * np.sin(lon)
+    z = (n * (1.0 - WGS84_E2) + h_m) * np.sin(lat)
+    return x, y, z
+
+
+def ecef_to_geodetic(x, y, z):
+    """Bowring's method with two iterations: sub-millimetre for aircraft altitudes."""
+    lon = np.arctan2(y, x)
+    p = np.hypot(x, y)
+    lat = np.arctan2(z, p * (1.0 - WGS84_E2))
+    for _ in range(3):
+        n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
+        h = p / np.cos(lat) - n
+        lat = np.arctan2(z, p * (1.0 - WGS84_E2 * n / (n + h)))
+    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
+    h = p / np.cos(lat) - n
+    return np.degrees(lat), np.degrees(lon), h
+
+
+class LocalTangentPlane:
+    """East/North metres on the tangent plane at a reference point (on the ellipsoid surface)."""
+
+    def __init__(self, lat0_deg: float, lon0_deg: float):
+        self.lat0_deg = float(lat0_deg)
+        self.lon0_deg = float(lon0_deg)
+        lat0, lon0 = np.radians(lat0_deg), np.radians(lon0_deg)
+        self._origin = np.array(geodetic_to_ecef(lat0_deg, lon0_deg, 0.0))
+        sl, cl, so, co = np.sin(lat0), np.cos(lat0), np.sin(lon0), np.cos(lon0)
+        # Rows: east, north, up unit vectors in ECEF.
+        self._rot = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+
+    def to_en(self, lat_deg, lon_deg):
+        """Horizontal (east, north) in metres of points at the ellipsoid surface below them."""
+        ecef = np.array(geodetic_to_ecef(lat_deg, lon_deg, 0.0))
+        d = ecef - self._origin.reshape((3,) + (1,) * (ecef.ndim - 1))
+        enu = np.tensordot(self._rot, d, axes=1)
+        return enu[0], enu[1]
+
+    def to_geodetic(self, east_m, north_m):
+        """Inverse of to_en: the surface point whose projection is (east, north)."""
+        east_m, north_m = np.asarray(east_m, float), np.asarray(north_m, float)
+        # Start from the tangent-plane point, then drop it onto the ellipsoid along the local vertical.
+        enu = np.stack([east_m, north_m, np.zeros_like(east_m)])
+        ecef = self._rot.T @ enu.reshape(3, -1) + self._origin[:, None]
+        lat, lon, _ = ecef_to_geodetic(*ecef)
+        # One Newton correction so that to_en(to_geodetic(e, n)) == (e, n) to well below a millimetre.
+        for _ in range(2):
+            e2, n2 = self.to_en(lat, lon)
+            de, dn = east_m.reshape(-1) - e2, north_m.reshape(-1) - n2
+            m_per_deg_lat = np.radians(1.0) * WGS84_A
+            lat = lat + dn / m_per_deg_lat
+            lon = lon + de / (m_per_deg_lat * np.cos(np.radians(lat)))
+        return lat.reshape(east_m.shape), lon.reshape(east_m.shape)

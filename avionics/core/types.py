@@ -1,0 +1,107 @@
+"""Values that flow between the stages. All SI: metres, seconds, m/s; positions in WGS-84 degrees at the
+edges and local ENU metres inside. Altitudes always say which datum they are in."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+
+
+class AltitudeDatum(str, Enum):
+    """Which kind of altitude a number is. Two altitudes are only differenced within one datum."""
+
+    PRESSURE = "pressure"  # barometric pressure altitude, standard 1013.25 hPa reference
+    GEOMETRIC = "geometric"  # GNSS height above mean sea level
+
+
+class AddressSource(str, Enum):
+    """The link an address came from: a 1090ES and a UAT address are different aircraft until shown otherwise."""
+
+    ES1090 = "1090es"
+    UAT = "uat"
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class IntruderKey:
+    """Identity of an intruder: (address, address source). Never the address alone."""
+
+    address: int
+    source: AddressSource
+
+    def __str__(self) -> str:
+        return f"{self.source.value}-{self.address:06X}"
+
+    @classmethod
+    def parse(cls, text: str) -> "IntruderKey":
+        source, _, address = text.partition("-")
+        return cls(int(address, 16), AddressSource(source))
+
+
+@dataclass(frozen=True, slots=True)
+class IntruderReport:
+    """One validated ADSB_VEHICLE report. Optional fields are None when the sender flagged them invalid
+    or sent a sentinel; nothing downstream sees a sentinel or NaN."""
+
+    key: IntruderKey
+    time_s: float  # time of applicability: receipt time back-dated by tslc
+    received_s: float
+    lat_deg: float
+    lon_deg: float
+    altitude_m: float | None
+    altitude_datum: AltitudeDatum | None
+    velocity_en_mps: tuple[float, float] | None  # (east, north)
+    vertical_rate_mps: float | None  # positive up
+    callsign: str | None = None
+    squawk: int | None = None
+    emitter_type: int = 0
+    simulated: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class OwnshipFix:
+    """A validated GLOBAL_POSITION_INT: geometric (GNSS, MSL) position and NED velocity."""
+
+    time_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_msl_m: float
+    height_above_home_m: float
+    velocity_ned_mps: tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class OwnshipPressure:
+    """Ownship pressure altitude from SCALED_PRESSURE through the ISA standard atmosphere."""
+
+    time_s: float
+    pressure_altitude_m: float
+
+
+Input = IntruderReport | OwnshipFix | OwnshipPressure
+
+
+class AdvisoryLevel(IntEnum):
+    NONE = 0
+    TA = 1  # traffic advisory
+    RA = 2  # resolution advisory
+
+
+@dataclass(frozen=True, slots=True)
+class Advisory:
+    """The advisory state for one intruder, with the geometry that justified it."""
+
+    intruder: IntruderKey
+    level: AdvisoryLevel
+    time_s: float
+    reason: str  # why the level is what it is: "tau", "range", "diverging", "stale", "no_ownship", ...
+    sensitivity_level: int
+    range_m: float
+    closure_rate_mps: float  # positive when closing
+    t_cpa_s: float
+    hmd_m: float  # horizontal miss distance at CPA
+    vmd_m: float | None  # vertical separation at horizontal CPA (None: intruder altitude unknown)
+    range_tau_s: float  # inf when not closing
+    mod_tau_s: float  # modified tau with the DMOD of the active level (TA DMOD when NONE)
+    vertical_tau_s: float  # time to co-altitude; inf when not converging
+    altitude_datum: AltitudeDatum | None
+    datum_mismatch: bool  # relative altitude formed across datums, with widened uncertainty

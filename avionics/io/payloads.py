@@ -1,0 +1,81 @@
+"""JSON payloads of the zenoh contract (docs/zenoh.md). Plain dicts of SI numbers, enums as strings."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from avionics import __version__
+from avionics.core.types import Advisory, AdvisoryLevel
+from avionics.tracking.tracker import IntruderTrack
+
+SCHEMA_VERSION = 1
+
+
+def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = None) -> dict:
+    return {
+        "schema": SCHEMA_VERSION,
+        "vehicle": vehicle,
+        "intruder": str(advisory.intruder),
+        "address": advisory.intruder.address,
+        "address_source": advisory.intruder.source.value,
+        "callsign": callsign,
+        "level": advisory.level.name,
+        "reason": advisory.reason,
+        "time_s": advisory.time_s,
+        "sensitivity_level": advisory.sensitivity_level,
+        "range_m": advisory.range_m,
+        "closure_rate_mps": advisory.closure_rate_mps,
+        "t_cpa_s": advisory.t_cpa_s,
+        "hmd_m": advisory.hmd_m,
+        "vmd_m": advisory.vmd_m,
+        "range_tau_s": advisory.range_tau_s,
+        "mod_tau_s": advisory.mod_tau_s,
+        "vertical_tau_s": advisory.vertical_tau_s,
+        "altitude_datum": advisory.altitude_datum.value if advisory.altitude_datum else None,
+        "datum_mismatch": advisory.datum_mismatch,
+    }
+
+
+def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
+                  lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None) -> dict:
+    ve, vn, vu = (float(v) for v in x[3:6])
+    return {
+        "schema": SCHEMA_VERSION,
+        "vehicle": vehicle,
+        "intruder": str(track.key),
+        "address": track.key.address,
+        "address_source": track.key.source.value,
+        "callsign": track.callsign,
+        "squawk": track.squawk,
+        "emitter_type": track.emitter_type,
+        "simulated": track.simulated,
+        "model": "cv-kalman",
+        "time_s": now_s,
+        "last_report_s": track.last_report_s,
+        "age_s": now_s - track.last_report_s,
+        "updates": track.n_updates,
+        "lat_deg": lat_deg,
+        "lon_deg": lon_deg,
+        "altitude_m": float(x[2]) if altitude_valid else None,
+        "altitude_datum": track.datum.value if altitude_valid and track.datum else None,
+        "velocity_enu_mps": [ve, vn, vu],
+        "ground_speed_mps": math.hypot(ve, vn),
+        "track_deg": math.degrees(math.atan2(ve, vn)) % 360.0,
+        "vertical_rate_mps": vu if altitude_valid else None,
+        "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
+        "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
+        "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
+        "range_m": advisory.range_m if advisory else None,
+        "t_cpa_s": advisory.t_cpa_s if advisory else None,
+        "hmd_m": advisory.hmd_m if advisory else None,
+        "vmd_m": advisory.vmd_m if advisory else None,
+        "range_tau_s": advisory.range_tau_s if advisory else None,
+        "mod_tau_s": advisory.mod_tau_s if advisory else None,
+    }
+
+
+def status_payload(vehicle: str, now_s: float, status: dict, counters: dict) -> dict:
+    return {"schema": SCHEMA_VERSION, "vehicle": vehicle, "version": __version__, "time_s": now_s, **status,
+            "counters": dict(sorted(counters.items()))}

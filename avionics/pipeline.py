@@ -1,0 +1,195 @@
+"""The functional core: step(now, inputs) -> StepResult, with no I/O, clocks or sockets inside.
+
+ingest (validated inputs) -> track (ownship filter, one track per intruder) -> assess (CPA, tau)
+-> advise (sensitivity level, TA/RA tests, advisory state per intruder).
+
+The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
+Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
+intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Iterable
+
+import numpy as np
+
+from avionics.advisory.logic import AdvisoryState, detect
+from avionics.advisory.tables import TCAS_II_V71, SensitivityLevel, select_level
+from avionics.config import Config
+from avionics.conflict.cpa import pair_geometry
+from avionics.core.geodesy import LocalTangentPlane
+from avionics.core.types import (
+    Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
+)
+from avionics.tracking.ownship import OwnshipFilter, OwnshipState
+from avionics.tracking.tracker import IntruderTracker
+
+
+TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
+
+
+@dataclass(frozen=True, slots=True)
+class StepResult:
+    time_s: float
+    changes: list[Advisory]  # advisories whose level changed in this step, in intruder order
+    assessed: list[Advisory]  # the advisory of every intruder assessed in this step
+
+
+@dataclass
+class _Assessment:
+    advisory: Advisory
+    state: AdvisoryState = field(default_factory=AdvisoryState)
+
+
+class DaaCore:
+    def __init__(self, config: Config, counters: Counter | None = None, table=TCAS_II_V71):
+        self.config = config
+        self.counters = counters if counters is not None else Counter()
+        self.table = table
+        self.plane: LocalTangentPlane | None = None
+        self.ownship = OwnshipFilter(config.altitude, config.input)
+        self.tracker = IntruderTracker(config.tracking, self.counters)
+        self.assessments: dict[IntruderKey, _Assessment] = {}
+        self.level: SensitivityLevel | None = None
+        self._last_full_assessment_s = -math.inf
+        self._last_ownship: OwnshipState | None = None
+
+    # -- ingest --------------------------------------------------------------------------------------------
+    def _en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        if self.plane is None:
+            self.plane = LocalTangentPlane(lat_deg, lon_deg)
+        east, north = self.plane.to_en(lat_deg, lon_deg)
+        return float(east), float(north)
+
+    def _ingest(self, item: Input, dirty: set[IntruderKey]) -> None:
+        if isinstance(item, IntruderReport):
+            if self.tracker.ingest(item, *self._en(item.lat_deg, item.lon_deg)):
+                dirty.add(item.key)
+        elif isinstance(item, OwnshipFix):
+            if not self.ownship.update_fix(item, *self._en(item.lat_deg, item.lon_deg)):
+                self.counters["ownship.out_of_order"] += 1
+        elif isinstance(item, OwnshipPressure):
+            if not self.ownship.update_pressure(item):
+                self.counters["ownship_pressure.before_first_fix"] += 1
+        else:
+            raise TypeError(f"not a core input: {item!r}")
+
+    # -- step ------------------------------------------------------------------------------------------------
+    def step(self, now_s: float, inputs: Iterable[Input] = ()) -> StepResult:
+        dirty: set[IntruderKey] = set()
+        for item in inputs:
+            self._ingest(item, dirty)
+        changes: list[Advisory] = []
+        for key in self.tracker.prune(now_s):
+            gone = self.assessments.pop(key, None)
+            if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
+                changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
+        period = 1.0 / self.config.advisory.assessment_hz
+        if now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S:
+            self._last_full_assessment_s = now_s
+            keys = sorted(self.tracker.tracks)
+        else:
+            keys = sorted(dirty)
+        assessed = self._assess(now_s, keys, changes) if keys else []
+        return StepResult(now_s, changes, assessed)
+
+    def _ownship_altitudes(self, own: OwnshipState, datum: AltitudeDatum | None) -> tuple[float, bool]:
+        """Ownship altitude in the intruder's datum, and whether it had to be taken from the other datum."""
+        if datum is AltitudeDatum.PRESSURE:
+            if own.pressure_altitude_m is not None:
+                return own.pressure_altitude_m, False
+            return float(own.x[2]), True
+        return float(own.x[2]), False
+
+    def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory]) -> list[Advisory]:
+        own = self.ownship.state_at(now_s)
+        self._last_ownship = own
+        if own is None:
+            return self._drop_all(now_s, keys, "no_ownship", changes)
+        cfg = self.config
+        agl = (float(own.x[2]) - cfg.advisory.ground_elevation_m if cfg.advisory.ground_elevation_m is not None
+               else own.height_above_home_m)
+        sl_altitude = own.pressure_altitude_m if own.pressure_altitude_m is not None else float(own.x[2])
+        self.level = level = select_level(agl, sl_altitude, self.table)
+
+        xs, _ = self.tracker.predict(keys, now_s)
+        tracks = [self.tracker.tracks[k] for k in keys]
+        own_alt = np.empty(len(keys))
+        mismatch = np.zeros(len(keys), bool)
+        has_alt = np.array([t.altitude_valid(now_s, cfg.tracking.max_coast_s) for t in tracks], bool)
+        for i, track in enumerate(tracks):
+            own_alt[i], mismatch[i] = self._ownship_altitudes(own, track.datum)
+        mismatch &= has_alt
+        self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
+        geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
+                                 np.where(has_alt, xs[:, 2] - own_alt, np.inf), xs[:, 5] - own.x[5])
+        margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
+        candidates = detect(geometry, level, has_alt, margin, cfg.advisory.ra_enabled, cfg.advisory.hmd_filter)
+        stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
+
+        out = []
+        for i, key in enumerate(keys):
+            entry = self.assessments.get(key)
+            state = entry.state if entry else AdvisoryState()
+            candidate = AdvisoryLevel(int(candidates[i]))
+            if stale[i]:
+                candidate = AdvisoryLevel.NONE
+            changed = state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
+            dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
+            advisory = Advisory(
+                intruder=key, level=state.level, time_s=now_s,
+                reason=self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod),
+                sensitivity_level=level.sl,
+                range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
+                t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
+                vmd_m=float(geometry.vmd_m[i]) if has_alt[i] else None,
+                range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(geometry.mod_tau(dmod)[i]),
+                vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
+                altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
+            )
+            self.assessments[key] = _Assessment(advisory, state)
+            if changed:
+                changes.append(advisory)
+            out.append(advisory)
+        return out
+
+    @staticmethod
+    def _reason(level: AdvisoryLevel, candidate: AdvisoryLevel, stale: bool, s_dot_v: float, range_m: float,
+                dmod_m: float) -> str:
+        if stale:
+            return "stale"
+        if level is not candidate:
+            return "hold"  # TA minimum duration
+        if level is AdvisoryLevel.NONE:
+            return "diverging" if s_dot_v > 0.0 else "clear"
+        return "range" if range_m <= dmod_m else "tau"
+
+    def _drop_all(self, now_s: float, keys: list[IntruderKey], reason: str, changes: list[Advisory]):
+        """Without ownship there is no relative geometry: every advisory ends, with the reason."""
+        out = []
+        for key in keys:
+            entry = self.assessments.get(key)
+            if entry is None:
+                continue
+            if entry.state.next(now_s, AdvisoryLevel.NONE, 0.0, force=True):
+                entry.advisory = _with_level(entry.advisory, now_s, AdvisoryLevel.NONE, reason)
+                changes.append(entry.advisory)
+            out.append(entry.advisory)
+        return out
+
+    # -- views for the shell -------------------------------------------------------------------------------
+    def advisories(self) -> dict[IntruderKey, Advisory]:
+        return {k: a.advisory for k, a in self.assessments.items()}
+
+    def ownship_state(self) -> OwnshipState | None:
+        return self._last_ownship
+
+
+def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:
+    from dataclasses import replace
+
+    return replace(advisory, level=level, time_s=now_s, reason=reason)

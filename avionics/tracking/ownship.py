@@ -1,0 +1,81 @@
+"""Ownship state: a CV Kalman filter on GLOBAL_POSITION_INT fixes, plus the pressure-altitude offset.
+
+Ownship pressure altitude at any instant = filtered geometric altitude + a smoothed (pressure - geometric)
+offset learned from SCALED_PRESSURE, so both datums are available whenever a recent pressure exists.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from avionics.config import AltitudeConfig, InputConfig
+from avionics.core.types import OwnshipFix, OwnshipPressure
+from avionics.tracking.kalman_cv import CvKalman, Measurement
+
+GNSS_POSITION_SIGMA_M = 2.0
+GNSS_ALTITUDE_SIGMA_M = 4.0
+GNSS_VELOCITY_SIGMA_MPS = 0.3
+OWNSHIP_ACCEL_SIGMA_MPS2 = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class OwnshipState:
+    t_s: float
+    x: np.ndarray  # [east, north, alt_msl (geometric), v_east, v_north, v_up]
+    pressure_altitude_m: float | None  # None: no recent SCALED_PRESSURE
+    height_above_home_m: float
+
+
+class OwnshipFilter:
+    def __init__(self, altitude: AltitudeConfig, inputs: InputConfig):
+        self.altitude_cfg = altitude
+        self.input_cfg = inputs
+        self.kf: CvKalman | None = None
+        self.last_fix: OwnshipFix | None = None
+        self.baro_offset_m: float | None = None  # pressure altitude - geometric altitude
+        self.last_pressure_s: float | None = None
+
+    def update_fix(self, fix: OwnshipFix, east: float, north: float) -> bool:
+        vn, ve, vd = fix.velocity_ned_mps
+        z = Measurement(
+            (0, 1, 2, 3, 4, 5),
+            np.array([east, north, fix.alt_msl_m, ve, vn, -vd]),
+            np.array([GNSS_POSITION_SIGMA_M] * 2 + [GNSS_ALTITUDE_SIGMA_M] + [GNSS_VELOCITY_SIGMA_MPS] * 3),
+        )
+        if self.kf is None or fix.time_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
+            self.kf = CvKalman(fix.time_s, z.value, np.diag(z.sigma**2), OWNSHIP_ACCEL_SIGMA_MPS2,
+                               OWNSHIP_ACCEL_SIGMA_MPS2)
+        elif fix.time_s <= self.kf.t_s:
+            return False  # out of order or duplicate: counted by the caller
+        else:
+            self.kf.update(fix.time_s, z)
+        self.last_fix = fix
+        return True
+
+    def update_pressure(self, pressure: OwnshipPressure) -> bool:
+        if self.kf is None:
+            return False  # the offset needs a geometric altitude to refer to
+        geometric = self.kf.predict_to(pressure.time_s)[0][2]
+        sample = pressure.pressure_altitude_m - geometric
+        if self.baro_offset_m is None or self.last_pressure_s is None:
+            self.baro_offset_m = sample
+        else:
+            dt = max(pressure.time_s - self.last_pressure_s, 0.0)
+            alpha = 1.0 - math.exp(-dt / self.altitude_cfg.baro_offset_smoothing_s)
+            self.baro_offset_m += alpha * (sample - self.baro_offset_m)
+        self.last_pressure_s = pressure.time_s
+        return True
+
+    def state_at(self, t_s: float) -> OwnshipState | None:
+        """Ownship at t_s, or None without a fix in the last ownship_timeout_s."""
+        if self.kf is None or self.last_fix is None or t_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
+            return None
+        x, _ = self.kf.predict_to(t_s)
+        pressure_alt = None
+        if self.last_pressure_s is not None and t_s - self.last_pressure_s <= self.input_cfg.pressure_timeout_s:
+            pressure_alt = x[2] + self.baro_offset_m
+        hah = self.last_fix.height_above_home_m + (x[2] - self.last_fix.alt_msl_m)
+        return OwnshipState(t_s, x, pressure_alt, hah)
