@@ -125,8 +125,9 @@ class DaaCore:
             own_alt[i], mismatch[i] = self._ownship_altitudes(own, track.datum)
         mismatch &= has_alt
         self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
+        # Unknown intruder altitude: zeros keep the arithmetic finite; has_alt masks them in detect().
         geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
-                                 np.where(has_alt, xs[:, 2] - own_alt, np.inf), xs[:, 5] - own.x[5])
+                                 np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         candidates = detect(geometry, level, has_alt, margin, cfg.advisory.ra_enabled, cfg.advisory.hmd_filter)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)

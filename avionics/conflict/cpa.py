@@ -40,14 +40,13 @@ class PairGeometry:
 def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
     s_xy, v_xy = np.atleast_2d(s_xy).astype(float), np.atleast_2d(v_xy).astype(float)
     sz, vz = np.atleast_1d(sz).astype(float), np.atleast_1d(vz).astype(float)
-    r2 = np.einsum("ij,ij->i", s_xy, s_xy)
-    r = np.sqrt(r2)
+    r = np.hypot(s_xy[:, 0], s_xy[:, 1])
     sv = np.einsum("ij,ij->i", s_xy, v_xy)
     v2 = np.einsum("ij,ij->i", v_xy, v_xy)
     with np.errstate(divide="ignore", invalid="ignore"):
         t_cpa = np.where(v2 > 0.0, np.maximum(0.0, -sv / np.where(v2 > 0.0, v2, 1.0)), 0.0)
         closure = np.where(r > 0.0, -sv / np.where(r > 0.0, r, 1.0), 0.0)
-        range_tau = np.where(sv < 0.0, -r2 / np.where(sv < 0.0, sv, -1.0), INF)
+        range_tau = np.where(closure > 0.0, r / np.where(closure > 0.0, closure, 1.0), INF)
         range_tau = np.where(r == 0.0, 0.0, range_tau)
         converging = sz * vz < 0.0
         vtau = np.where(converging, -sz / np.where(converging, vz, 1.0), INF)

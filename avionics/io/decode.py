@@ -122,7 +122,10 @@ class MessageDecoder:
 
         callsign = None
         if flags & VALID_CALLSIGN:
-            raw = msg.callsign.encode("latin-1") if isinstance(msg.callsign, str) else bytes(msg.callsign)
+            # pymavlink keeps the wire bytes in _callsign_raw; its str has U+FFFD for non-ASCII bytes, which
+            # latin-1 cannot encode (that raised). Any non-ASCII text becomes non-ASCII bytes: rejected below.
+            raw = getattr(msg, "_callsign_raw", msg.callsign)
+            raw = raw.encode("utf-8", "surrogatepass") if isinstance(raw, str) else bytes(raw)
             text = raw.split(b"\0", 1)[0].decode("ascii", errors="replace").strip()
             if text and text.isprintable() and text.isascii() and "\ufffd" not in text:
                 callsign = text

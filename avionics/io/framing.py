@@ -39,6 +39,7 @@ class FrameScanner:
         self.mav = mavlink2.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
         self.mav.robust_parsing = True
         self._buf = bytearray()
+        self._signature_left = 0  # bytes at the buffer head that are the signature of a frame already decoded
 
     def feed(self, data: bytes, end_of_datagram: bool = False) -> list:
         """Decode what data completes. With end_of_datagram (UDP), a frame cannot continue in the next
@@ -46,6 +47,12 @@ class FrameScanner:
         self._buf += data
         buf, out, i, garbage = self._buf, [], 0, 0
         while i < len(buf):
+            if self._signature_left:
+                resume = self._after_signature(buf, i, end_of_datagram)
+                if resume is None:
+                    break  # wait for the bytes that tell where the next frame starts
+                i, self._signature_left = resume, 0
+                continue
             if buf[i] not in (V1_MARKER, V2_MARKER):
                 i += 1
                 garbage += 1
@@ -63,14 +70,56 @@ class FrameScanner:
                 garbage += 1
                 continue
             out.append(msg)
-            i += length
+            if buf[i] == V2_MARKER and buf[i + 2] & mavlink2.MAVLINK_IFLAG_SIGNED:
+                # The CRC does not cover the signature: a signature cut short by lost bytes still decodes and
+                # would swallow the head of the next frame. Decide where the next frame starts next.
+                i += length - SIGNATURE_LEN
+                self._signature_left = SIGNATURE_LEN
+            else:
+                i += length
         if garbage:
             self.counters["frame.skipped_bytes"] += garbage
         del buf[:i]
-        if len(buf) > MAX_FRAME:  # only possible without a marker in the tail: cannot start a frame
+        if end_of_datagram:
+            self._signature_left = 0
+        if len(buf) > MAX_FRAME + SIGNATURE_LEN:  # cannot happen: a kept tail is one incomplete candidate
             self.counters["frame.skipped_bytes"] += len(buf)
             buf.clear()
+            self._signature_left = 0
         return out
+
+    def _after_signature(self, buf: bytearray, i: int, end_of_datagram: bool) -> int | None:
+        """buf[i:i + _signature_left] is the signature of a frame just decoded. The next frame starts after it,
+        or inside it when the signature lost bytes. Returns where to scan on, or None to wait for more bytes."""
+        end = i + self._signature_left
+        verdict = self._probe(buf, end, end_of_datagram)
+        if verdict:
+            return end  # the usual case: a valid frame right after the signature
+        undecided = verdict is None
+        for j in range(i, min(end, len(buf))):
+            if buf[j] in (V1_MARKER, V2_MARKER):
+                verdict = self._probe(buf, j, end_of_datagram)
+                if verdict:
+                    self.counters["frame.signature_truncated"] += 1
+                    return j
+                undecided = undecided or verdict is None
+        # No frame inside the signature: scanning goes on after it (garbage there is counted).
+        return None if undecided else end
+
+    def _probe(self, buf: bytearray, j: int, end_of_datagram: bool) -> bool | None:
+        """Does a valid frame start at buf[j]? None: cannot tell before more bytes arrive. Counts nothing."""
+        if j >= len(buf):
+            return False if end_of_datagram else None
+        if buf[j] not in (V1_MARKER, V2_MARKER):
+            return False
+        length = frame_length(buf, j)
+        if length is None or len(buf) - j < length:
+            return False if end_of_datagram else None
+        try:
+            msg = self.mav.decode(bytearray(buf[j:j + length]))
+        except Exception:  # noqa: BLE001
+            return False
+        return not isinstance(msg, (mavlink2.MAVLink_unknown, mavlink2.MAVLink_bad_data))
 
     def _decode(self, frame: bytes):
         try:
@@ -84,5 +133,10 @@ class FrameScanner:
             return None
         if msg.get_type() == "BAD_DATA":
             self.counters["frame.undecodable"] += 1
+            return None
+        if isinstance(msg, mavlink2.MAVLink_unknown):
+            # pymavlink returns an unknown msgid without any CRC check (no CRC_EXTRA): garbage holding a 0xFD
+            # and a length would be accepted and swallow the valid frames it spans.
+            self.counters["frame.unknown_msgid"] += 1
             return None
         return msg

@@ -1,0 +1,80 @@
+"""Straight-line encounters fed straight into DaaCore (no MAVLink): for tests of the core's timing logic."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from avionics.config import load_config
+from avionics.core.geodesy import LocalTangentPlane
+from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
+from avionics.pipeline import DaaCore
+
+PLANE = LocalTangentPlane(47.0, 8.0)
+
+
+@dataclass
+class Mover:
+    """Straight constant-velocity flight in the ENU plane: position (e, n, alt) at t=0, velocity (ve, vn, vu)."""
+
+    p0: tuple[float, float, float]
+    v: tuple[float, float, float]
+
+    def at(self, t: float):
+        return tuple(p + v * t for p, v in zip(self.p0, self.v))
+
+    def velocity(self, t: float):
+        return self.v
+
+
+@dataclass
+class Reversal:
+    """Flies `before` until turn_s, then reverses its velocity in place (an idealised 180-degree turn)."""
+
+    before: Mover
+    turn_s: float
+
+    def at(self, t: float):
+        if t < self.turn_s:
+            return self.before.at(t)
+        here = self.before.at(self.turn_s)
+        return tuple(p - v * (t - self.turn_s) for p, v in zip(here, self.before.v))
+
+    def velocity(self, t: float):
+        return self.before.v if t < self.turn_s else tuple(-v for v in self.before.v)
+
+
+@dataclass
+class Encounter:
+    ownship: Mover
+    intruder: Mover | Reversal
+    key: IntruderKey = IntruderKey(0xABC123, AddressSource.ES1090)
+    datum: AltitudeDatum | None = AltitudeDatum.PRESSURE
+    pressure: bool = True  # ownship SCALED_PRESSURE available
+    report_until_s: float = float("inf")
+    ownship_until_s: float = float("inf")
+    overrides: list[str] = field(default_factory=list)
+
+    def run(self, duration_s: float, dt: float = 0.1):
+        """Step at dt, ownship at 5 Hz, intruder reports at 1 Hz; returns (core, [(t, change)])."""
+        core = DaaCore(load_config(overrides=self.overrides))
+        changes = []
+        for k in range(int(round(duration_s / dt)) + 1):
+            t = round(k * dt, 6)
+            inputs = []
+            if abs(t * 5 - round(t * 5)) < 1e-6 and t <= self.ownship_until_s:
+                e, n, alt = self.ownship.at(t)
+                lat, lon = PLANE.to_geodetic(e, n)
+                ve, vn, vu = self.ownship.v
+                inputs.append(OwnshipFix(t, float(lat), float(lon), alt, alt, (vn, ve, -vu)))
+                if self.pressure:
+                    inputs.append(OwnshipPressure(t, alt))
+            if abs(t - round(t)) < 1e-6 and t <= self.report_until_s:
+                e, n, alt = self.intruder.at(t)
+                lat, lon = PLANE.to_geodetic(e, n)
+                ve, vn, vu = self.intruder.velocity(t)
+                inputs.append(IntruderReport(self.key, t, t, float(lat), float(lon),
+                                             alt if self.datum else None, self.datum, (ve, vn),
+                                             vu if self.datum else None))
+            for change in core.step(t, inputs).changes:
+                changes.append((t, change))
+        return core, changes

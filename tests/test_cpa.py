@@ -1,0 +1,60 @@
+"""CPA and tau against brute-force sampling of the relative trajectory and hand-computed cases."""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from avionics.conflict.cpa import modified_tau, pair_geometry
+
+coord = st.floats(-20000, 20000, allow_nan=False)
+speed = st.floats(-300, 300, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(sx=coord, sy=coord, vx=speed, vy=speed, sz=st.floats(-1000, 1000), vz=st.floats(-50, 50))
+def test_cpa_is_the_minimum_of_the_sampled_future(sx, sy, vx, vy, sz, vz):
+    g = pair_geometry([[sx, sy]], [[vx, vy]], [sz], [vz])
+    t = np.linspace(0.0, 2000.0, 200001)
+    d = np.hypot(sx + vx * t, sy + vy * t)
+    assert g.hmd_m[0] <= d.min() + 1e-6
+    assert g.hmd_m[0] == np.hypot(sx + vx * g.t_cpa_s[0], sy + vy * g.t_cpa_s[0])
+    assert g.t_cpa_s[0] >= 0.0
+    assert math.isclose(g.vmd_m[0], sz + vz * g.t_cpa_s[0], abs_tol=1e-9)
+    assert math.isclose(g.range_m[0], math.hypot(sx, sy))
+
+
+@settings(max_examples=200, deadline=None)
+@given(sx=coord, sy=coord, vx=speed, vy=speed)
+def test_range_tau_is_range_over_closure(sx, sy, vx, vy):
+    g = pair_geometry([[sx, sy]], [[vx, vy]], [0.0], [0.0])
+    r = math.hypot(sx, sy)
+    if g.s_dot_v[0] < 0 and r > 0:
+        assert math.isclose(g.range_tau_s[0], r / g.closure_rate_mps[0], rel_tol=1e-9)
+    elif r > 0:
+        assert g.range_tau_s[0] == math.inf
+
+
+def test_head_on_hand_numbers():
+    # 10 km apart, closing at 200 m/s, co-altitude: tau 50 s, CPA at 50 s with zero miss.
+    g = pair_geometry([[0.0, 10000.0]], [[0.0, -200.0]], [0.0], [0.0])
+    assert g.range_tau_s[0] == 50.0 and g.t_cpa_s[0] == 50.0 and g.hmd_m[0] == 0.0
+    assert g.closure_rate_mps[0] == 200.0 and g.vertical_tau_s[0] == 0.0
+    # modified tau with DMOD 1000 m: (1000^2 - 10000^2) / (10000 * -200) = 49.5 s
+    assert math.isclose(g.mod_tau(1000.0)[0], 49.5)
+
+
+def test_degenerate_pairs():
+    g = pair_geometry([[0.0, 0.0], [500.0, 0.0], [500.0, 0.0]], [[10.0, 0.0], [0.0, 0.0], [10.0, 0.0]],
+                      [100.0, 100.0, -50.0], [-10.0, 0.0, -5.0])
+    # co-located: range 0, tau 0, inside any DMOD
+    assert g.range_m[0] == 0.0 and g.range_tau_s[0] == 0.0 and modified_tau(0.0, 0.0, 100.0) == 0.0
+    # zero relative velocity: CPA now, miss = current range, never closing
+    assert g.t_cpa_s[1] == 0.0 and g.hmd_m[1] == 500.0 and g.range_tau_s[1] == math.inf
+    assert g.mod_tau(100.0)[1] == math.inf
+    # diverging: CPA now
+    assert g.t_cpa_s[2] == 0.0 and g.range_tau_s[2] == math.inf
+    # vertical: converging pair -> time to co-altitude; diverging -> inf
+    assert g.vertical_tau_s[0] == 10.0 and g.vertical_tau_s[2] == math.inf
+    assert np.all(np.isfinite(g.hmd_m))

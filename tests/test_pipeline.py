@@ -1,0 +1,131 @@
+"""The functional core's alerting behaviour against hand-computed TCAS II thresholds."""
+
+import math
+
+import pytest
+
+from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.core.units import FT, KT, NM
+from synthetic import PLANE, Encounter, Mover, Reversal
+
+ALT = 3000 * FT  # SL 4: TA tau 30 s, DMOD 0.48 nm; RA tau 20 s, DMOD 0.35 nm, HMD 0.57 nm
+V = 125 * KT  # each, closing 250 kt
+R0 = 6 * NM
+
+
+def onset(range0, closing, tau, dmod):
+    """Time at which modified tau (r^2 - DMOD^2) / (r * closing) falls to tau."""
+    r = (tau * closing + math.sqrt((tau * closing) ** 2 + 4 * dmod**2)) / 2
+    return (range0 - r) / closing
+
+
+def head_on(**kw):
+    return Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((0, R0, ALT), (0, -V, 0)), **kw)
+
+
+def levels(changes):
+    return [(round(t, 2), c.level) for t, c in changes]
+
+
+def test_head_on_ta_ra_clear_at_hand_computed_times():
+    core, changes = head_on().run(110)
+    seq = levels(changes)
+    assert [lvl for _, lvl in seq] == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.NONE]
+    t_ta, t_ra, t_clear = (t for t, _ in seq)
+    assert t_ta == pytest.approx(onset(R0, 2 * V, 30, 0.48 * NM), abs=0.11)
+    assert t_ra == pytest.approx(onset(R0, 2 * V, 20, 0.35 * NM), abs=0.11)
+    assert t_clear == pytest.approx(R0 / (2 * V), abs=0.11)  # clear of conflict once the range diverges
+    assert changes[-1][1].reason == "diverging"
+    assert all(c.sensitivity_level == 4 for _, c in changes)
+
+
+def test_intruder_without_altitude_gets_a_ta_and_never_an_ra():
+    _, changes = head_on(datum=None).run(110)
+    assert [c.level for _, c in changes] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    assert changes[0][1].vmd_m is None
+
+
+def test_vertical_separation_beyond_zthr_gives_nothing():
+    enc = Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((0, R0, ALT + 900 * FT), (0, -V, 0)))
+    _, changes = enc.run(110)
+    assert changes == []
+
+
+def test_mismatched_datums_widen_the_vertical_test_and_say_so():
+    # 900 ft above: outside TA ZTHR 850 ft with matching datums; with no ownship pressure altitude the
+    # pressure-altitude intruder is compared with GNSS altitude and the 200 ft margin makes it a TA (not RA:
+    # 700 ft > RA ZTHR 600 ft).
+    enc = Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((0, R0, ALT + 900 * FT), (0, -V, 0)), pressure=False)
+    core, changes = enc.run(110)
+    assert [c.level for _, c in changes] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    assert changes[0][1].datum_mismatch
+    assert core.counters["assessment.datum_mismatch"] > 0
+
+
+def test_geometric_intruder_needs_no_pressure_altitude():
+    _, changes = head_on(datum=AltitudeDatum.GEOMETRIC, pressure=False).run(110)
+    assert [c.level for _, c in changes] == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.NONE]
+    assert not any(c.datum_mismatch for _, c in changes)
+
+
+def test_ta_stays_at_least_8_s():
+    # The intruder turns away 2 s after the TA onset: diverging at once, but the TA holds for 8 s.
+    turn = math.ceil(onset(R0, 2 * V, 30, 0.48 * NM)) + 2.0
+    enc = head_on()
+    enc.intruder = Reversal(enc.intruder, turn)
+    _, changes = enc.run(110)
+    assert [c.level for _, c in changes] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    (t_ta, _), (t_none, none) = changes
+    assert 8.0 <= t_none - t_ta <= 8.0 + 0.11
+    assert none.reason in ("diverging", "clear")
+
+
+def test_stale_track_drops_its_advisory_without_the_ta_hold():
+    t_ta = onset(R0, 2 * V, 30, 0.48 * NM)
+    last = math.ceil(t_ta) + 1  # reports stop just after the TA onset
+    _, changes = head_on(report_until_s=last).run(110)
+    assert [c.level for _, c in changes][:2] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    t_drop, drop = changes[1]
+    assert drop.reason == "stale"
+    assert t_drop == pytest.approx(last + 6.0, abs=0.11)  # tracking.max_coast_s
+
+
+def test_lost_ownship_ends_advisories():
+    t_ta = onset(R0, 2 * V, 30, 0.48 * NM)
+    _, changes = head_on(ownship_until_s=math.ceil(t_ta) + 1).run(110)
+    assert [c.level for _, c in changes] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    assert changes[1][1].reason == "no_ownship"
+
+
+def test_same_address_from_1090es_and_uat_are_two_tracks():
+    core, _ = head_on().run(5)
+    lat, lon = PLANE.to_geodetic(5000.0, 5000.0)
+    uat = IntruderKey(0xABC123, AddressSource.UAT)
+    core.step(5.5, [IntruderReport(uat, 5.5, 5.5, float(lat), float(lon), ALT, AltitudeDatum.PRESSURE, (0, 0), 0)])
+    assert set(core.tracker.tracks) == {IntruderKey(0xABC123, AddressSource.ES1090), uat}
+
+
+def test_report_from_another_aircraft_under_the_same_address_is_not_merged():
+    core, _ = head_on().run(5)
+    key = IntruderKey(0xABC123, AddressSource.ES1090)
+    before = core.tracker.tracks[key].kf.x.copy()
+    far = PLANE.to_geodetic(80000.0, 0.0)  # 80 km away one second later: not the same aircraft
+    for i, t in enumerate((5.5, 6.5)):
+        core.step(t, [IntruderReport(key, t, t, float(far[0]), float(far[1]), ALT, AltitudeDatum.PRESSURE,
+                                     (0, 0), 0)])
+        assert core.counters["track.implausible_jump"] == i + 1
+    assert abs(core.tracker.tracks[key].kf.x[0] - before[0]) < 100  # the tracked aircraft is untouched
+    core.step(7.5, [IntruderReport(key, 7.5, 7.5, float(far[0]), float(far[1]), ALT, AltitudeDatum.PRESSURE,
+                                   (0, 0), 0)])
+    assert core.counters["track.restarted"] == 1  # three in a row: the track follows the new reports
+
+
+def test_out_of_order_and_duplicate_reports_are_counted_and_dropped():
+    core, _ = head_on().run(5)
+    key = IntruderKey(0xABC123, AddressSource.ES1090)
+    x = core.tracker.tracks[key].kf.x.copy()
+    lat, lon = PLANE.to_geodetic(0.0, R0)
+    for t in (5.0, 3.0):
+        core.step(5.2, [IntruderReport(key, t, 5.2, float(lat), float(lon), ALT, AltitudeDatum.PRESSURE, (0, 0), 0)])
+    assert core.counters["report.duplicate"] == 1 and core.counters["report.out_of_order"] == 1
+    assert (core.tracker.tracks[key].kf.x == x).all()
