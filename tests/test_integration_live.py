@@ -1,0 +1,89 @@
+"""The whole chain over real sockets: SITL autopilot (this process) <-UDP-> `avionics run` (a child
+process) -> zenoh -> a subscriber in another session. Head-on: TA, then RA, then clear."""
+
+import json
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import avionics.io  # noqa: F401
+from pymavlink.dialects.v20 import common as mavlink2
+
+from avionics.config import ZenohConfig
+from avionics.io.zenoh_bus import open_session
+from sitl.impairments import PRESETS
+from sitl.live import fly
+from sitl.scenario import load_encounter
+
+START_S, END_S = 46.0, 93.0  # head-on: TA ~55 s, RA ~65 s, CPA 86.4 s
+
+
+def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_port):
+    endpoint = f"tcp/127.0.0.1:{tcp_port}"
+    onboard = subprocess.Popen(
+        [sys.executable, "-m", "avionics.cli", "run", "--connection", f"udpin:127.0.0.1:{udp_port}",
+         "--set", f'zenoh.listen=["{endpoint}"]', "--set", "vehicle.id=testuav",
+         "--duration", str(END_S - START_S + 10)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    received = {"advisories": [], "status": []}
+    lock = threading.Lock()
+
+    def on_sample(sample):
+        with lock:
+            kind = "status" if str(sample.key_expr).endswith("/status") else "advisories"
+            if kind == "advisories" or "/tracks/" not in str(sample.key_expr):
+                received[kind].append((str(sample.key_expr), str(sample.encoding), json.loads(sample.payload.to_bytes())))
+
+    session = None
+    try:
+        time.sleep(1.5)
+        session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))
+        subscribers = [session.declare_subscriber("daa/testuav/advisories/*", on_sample),
+                       session.declare_subscriber("daa/testuav/status", on_sample)]
+        # Bad input on the same link before the encounter: garbage with start markers, and an ADSB_VEHICLE
+        # with latitude 91 degrees. Neither may cost a valid frame or raise an advisory.
+        mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=156)
+        bad = mav.adsb_vehicle_encode(0xBADBAD, 910000000, 80000000, 0, 914400, 0, 12000, 0, b"BAD", 1, 0,
+                                      0x1FF, 0).pack(mav)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as raw:
+            for _ in range(3):
+                raw.sendto(bytes([0xFD, 0x40, 0, 0, 0xFE, 0x20, 1, 2]) + bad, ("127.0.0.1", udp_port))
+        recording = fly(load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["default"], seed=3,
+                        start_s=START_S, duration_s=END_S - START_S)
+        time.sleep(1.5)
+        for sub in subscribers:
+            sub.undeclare()
+    finally:
+        onboard.terminate()
+        _, err = onboard.communicate(timeout=20)
+        if session is not None:
+            session.close()
+
+    collisions = [r.msg for r in recording.of_type("COLLISION")]
+    levels = []
+    for msg in collisions:
+        if not levels or levels[-1] != msg.threat_level:
+            levels.append(msg.threat_level)
+    assert levels == [mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW, mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,
+                      mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE], err
+    ta = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW)
+    ra = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH)
+    assert ta.action == mavlink2.MAV_COLLISION_ACTION_REPORT and ra.action == mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND
+    assert ta.id == ra.id == 0xA10001 and ta.src == mavlink2.MAV_COLLISION_SRC_ADSB
+    assert 25 < ta.time_to_minimum_delta < 38 and ta.horizontal_minimum_delta < 150
+    assert {m.id for m in collisions} == {0xA10001}  # nothing from the invalid report
+    assert recording.of_type("HEARTBEAT") and recording.of_type("STATUSTEXT")
+
+    with lock:
+        advisories = [p for _, _, p in received["advisories"]]
+        encodings = {e for _, e, _ in received["advisories"]}
+        status = received["status"][-1][2]
+    assert [a["level"] for a in advisories if a["level"] != "NONE"][:1] == ["TA"]
+    assert "RA" in [a["level"] for a in advisories] and advisories[-1]["level"] == "NONE"
+    assert all(a["intruder"] == "1090es-A10001" and a["vehicle"] == "testuav" for a in advisories)
+    assert encodings == {"application/json"}
+    assert status["counters"]["adsb.lat_out_of_range"] == 3
+    assert status["counters"]["frame.skipped_bytes"] > 0
+    assert status["ownship_valid"] and status["sensitivity_level"] == 4
