@@ -64,10 +64,10 @@ class DaaNode:
                 self._refresh.pop(advisory.intruder, None)
             else:
                 self._refresh[advisory.intruder] = now_s + cfg.mavlink.collision_refresh_s
-        current = self.core.advisories()
         for key, due in list(self._refresh.items()):
-            if now_s >= due and key in current:
-                self._emit_advisory(current[key])
+            entry = self.core.assessments.get(key)
+            if now_s >= due and entry is not None:
+                self._emit_advisory(entry.advisory)
                 self._refresh[key] = now_s + cfg.mavlink.collision_refresh_s
         if self._heartbeat.due(now_s):
             self.mavlink_out.append(encode.heartbeat())

@@ -84,13 +84,13 @@ class DaaCore:
         for item in inputs:
             self._ingest(item, dirty)
         changes: list[Advisory] = []
-        for key in self.tracker.prune(now_s):
-            gone = self.assessments.pop(key, None)
-            if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
-                changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
         period = 1.0 / self.config.advisory.assessment_hz
         if now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S:
             self._last_full_assessment_s = now_s
+            for key in self.tracker.prune(now_s):
+                gone = self.assessments.pop(key, None)
+                if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
+                    changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
             keys = sorted(self.tracker.tracks)
         else:
             keys = sorted(dirty)
@@ -132,6 +132,9 @@ class DaaCore:
         candidates = detect(geometry, level, has_alt, margin, cfg.advisory.ra_enabled, cfg.advisory.hmd_filter)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
 
+        mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
+                   AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
+        mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
         out = []
         for i, key in enumerate(keys):
             entry = self.assessments.get(key)
@@ -148,7 +151,7 @@ class DaaCore:
                 range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
                 t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
                 vmd_m=float(geometry.vmd_m[i]) if has_alt[i] else None,
-                range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(geometry.mod_tau(dmod)[i]),
+                range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
                 vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
                 altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
             )

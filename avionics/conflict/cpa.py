@@ -43,7 +43,7 @@ def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
     r = np.hypot(s_xy[:, 0], s_xy[:, 1])
     sv = np.einsum("ij,ij->i", s_xy, v_xy)
     v2 = np.einsum("ij,ij->i", v_xy, v_xy)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t_cpa = np.where(v2 > 0.0, np.maximum(0.0, -sv / np.where(v2 > 0.0, v2, 1.0)), 0.0)
         closure = np.where(r > 0.0, -sv / np.where(r > 0.0, r, 1.0), 0.0)
         range_tau = np.where(closure > 0.0, r / np.where(closure > 0.0, closure, 1.0), INF)
@@ -65,6 +65,6 @@ def modified_tau(range_m, s_dot_v, dmod_m) -> np.ndarray:
     dmod_m = np.broadcast_to(np.asarray(dmod_m, float), range_m.shape)
     inside = range_m <= dmod_m
     closing = s_dot_v < 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         tau = np.where(closing, (dmod_m**2 - range_m**2) / np.where(closing, s_dot_v, -1.0), INF)
     return np.where(inside, 0.0, tau)

@@ -31,6 +31,24 @@ def frame_length(buf: bytes | bytearray, i: int) -> int | None:
     return V2_OVERHEAD + buf[i + 1] + (SIGNATURE_LEN if signed else 0)
 
 
+def header_verdict(buf: bytes | bytearray, i: int) -> bool | str | None:
+    """Can the candidate at buf[i] be a frame we decode, judged from its header alone? True; None when the
+    header is not complete; else the counter to count it under. Garbage holding a marker is mostly refused
+    here, so a stream does not hold back the frames behind it while the length it claims arrives."""
+    v1 = buf[i] == V1_MARKER
+    if len(buf) - i < (6 if v1 else 10):
+        return None
+    if not v1 and buf[i + 2] & ~mavlink2.MAVLINK_IFLAG_SIGNED:
+        return "frame.bad_header"  # an incompatibility flag we do not know: MAVLink 2 says drop the frame
+    msgid = buf[i + 5] if v1 else buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
+    msgtype = mavlink2.mavlink_map.get(msgid)
+    if msgtype is None:
+        return "frame.unknown_msgid"  # no CRC_EXTRA: it could never be checked
+    if v1 and buf[i + 1] > msgtype.unpacker.size:
+        return "frame.bad_header"  # MAVLink 1 payloads are never longer than the message (v2 may grow)
+    return True
+
+
 class FrameScanner:
     """Turns bytes into decoded pymavlink messages; every skipped byte run and bad frame is counted."""
 
@@ -54,6 +72,15 @@ class FrameScanner:
                 i, self._signature_left = resume, 0
                 continue
             if buf[i] not in (V1_MARKER, V2_MARKER):
+                i += 1
+                garbage += 1
+                continue
+            header = header_verdict(buf, i)
+            if header is None and not end_of_datagram:
+                break  # wait for the rest of this header
+            if header is not True:
+                if header is not None:
+                    self.counters[header] += 1
                 i += 1
                 garbage += 1
                 continue
@@ -111,6 +138,11 @@ class FrameScanner:
         if j >= len(buf):
             return False if end_of_datagram else None
         if buf[j] not in (V1_MARKER, V2_MARKER):
+            return False
+        header = header_verdict(buf, j)
+        if header is None:
+            return False if end_of_datagram else None
+        if header is not True:
             return False
         length = frame_length(buf, j)
         if length is None or len(buf) - j < length:

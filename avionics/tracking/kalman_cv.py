@@ -22,12 +22,11 @@ def cv_transition(dt: float) -> np.ndarray:
 
 
 def cv_process_noise(dt: float, sigma_h_mps2: float, sigma_v_mps2: float) -> np.ndarray:
-    q = np.zeros((6, 6))
-    for axis, sigma in ((0, sigma_h_mps2), (1, sigma_h_mps2), (2, sigma_v_mps2)):
-        g = np.array([dt * dt / 2.0, dt])
-        block = np.outer(g, g) * sigma * sigma
-        idx = [axis, axis + 3]
-        q[np.ix_(idx, idx)] = block
+    var = np.array([sigma_h_mps2, sigma_h_mps2, sigma_v_mps2]) ** 2
+    q = np.empty((6, 6))
+    q[:3, :3] = np.diag(var * dt**4 / 4.0)  # G G^T with G = [dt^2/2, dt], per axis
+    q[:3, 3:] = q[3:, :3] = np.diag(var * dt**3 / 2.0)
+    q[3:, 3:] = np.diag(var * dt**2)
     return q
 
 
