@@ -8,8 +8,8 @@ from hypothesis import strategies as st
 
 from avionics.conflict.cpa import modified_tau, pair_geometry
 
-coord = st.floats(-20000, 20000, allow_nan=False)
-speed = st.floats(-300, 300, allow_nan=False)
+coord = st.floats(-20000, 20000, allow_nan=False, allow_subnormal=False)
+speed = st.floats(-300, 300, allow_nan=False, allow_subnormal=False)
 
 
 @settings(max_examples=200, deadline=None)

@@ -53,17 +53,19 @@ class LocalTangentPlane:
         return enu[0], enu[1]
 
     def to_geodetic(self, east_m, north_m):
-        """Inverse of to_en: the surface point whose projection is (east, north)."""
+        """Inverse of to_en: the surface point whose projection onto the plane is (east, north).
+
+        That point lies on the line through the plane point along the local vertical; intersecting the line
+        with the ellipsoid is a quadratic in the distance u along the vertical (exact, no iteration).
+        """
         east_m, north_m = np.asarray(east_m, float), np.asarray(north_m, float)
-        # Start from the tangent-plane point, then drop it onto the ellipsoid along the local vertical.
-        enu = np.stack([east_m, north_m, np.zeros_like(east_m)])
-        ecef = self._rot.T @ enu.reshape(3, -1) + self._origin[:, None]
-        lat, lon, _ = ecef_to_geodetic(*ecef)
-        # One Newton correction so that to_en(to_geodetic(e, n)) == (e, n) to well below a millimetre.
-        for _ in range(2):
-            e2, n2 = self.to_en(lat, lon)
-            de, dn = east_m.reshape(-1) - e2, north_m.reshape(-1) - n2
-            m_per_deg_lat = np.radians(1.0) * WGS84_A
-            lat = lat + dn / m_per_deg_lat
-            lon = lon + de / (m_per_deg_lat * np.cos(np.radians(lat)))
+        e_axis, n_axis, u_axis = self._rot
+        c = self._origin[:, None] + np.outer(e_axis, east_m.reshape(-1)) + np.outer(n_axis, north_m.reshape(-1))
+        b2 = (WGS84_A * (1.0 - WGS84_F)) ** 2
+        d = np.array([1.0 / WGS84_A**2, 1.0 / WGS84_A**2, 1.0 / b2])
+        qa = np.sum(d * u_axis * u_axis)
+        qb = np.sum(d[:, None] * c * u_axis[:, None], axis=0)
+        qc = np.sum(d[:, None] * c * c, axis=0) - 1.0
+        u = (-qb + np.sqrt(qb * qb - qa * qc)) / qa  # the intersection nearest the plane
+        lat, lon, _ = ecef_to_geodetic(*(c + np.outer(u_axis, u)))
         return lat.reshape(east_m.shape), lon.reshape(east_m.shape)
