@@ -32,6 +32,7 @@ SOURCE_UAT = 32768
 
 ALTITUDE_TYPES = {0: AltitudeDatum.PRESSURE, 1: AltitudeDatum.GEOMETRIC}  # ADSB_ALTITUDE_TYPE
 MAX_ICAO = 0xFFFFFF
+MIN_HEIGHT_ABOVE_HOME_M = -9000.0  # a home on a summit above a valley flight; anything lower is corrupt
 
 
 def _lat_lon(prefix: str, lat_e7: int, lon_e7: int, counters: Counter) -> tuple[float, float] | None:
@@ -163,6 +164,8 @@ class MessageDecoder:
             return None
         if msg.alt == INT32_MAX or not cfg.min_altitude_m <= msg.alt * 1e-3 <= cfg.max_altitude_m:
             return self._reject("gpi.altitude_invalid")
+        if msg.relative_alt == INT32_MAX or not MIN_HEIGHT_ABOVE_HOME_M <= msg.relative_alt * 1e-3 <= cfg.max_altitude_m:
+            return self._reject("gpi.relative_alt_invalid")  # it selects the AGL sensitivity levels
         velocity = (msg.vx * 1e-2, msg.vy * 1e-2, msg.vz * 1e-2)  # north, east, down
         if math.hypot(velocity[0], velocity[1]) > cfg.max_ground_speed_mps or \
                 abs(velocity[2]) > cfg.max_vertical_rate_mps or INT16_MAX in (msg.vx, msg.vy, msg.vz):

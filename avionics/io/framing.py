@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import Counter
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # common plus the ArduPilot messages a real link carries
 
 V1_MARKER = 0xFE
 V2_MARKER = 0xFD

@@ -7,6 +7,7 @@ FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbag
 from __future__ import annotations
 
 import select
+import socket
 import struct
 import time
 from collections import Counter
@@ -30,13 +31,16 @@ class MavlinkLink:
                  baud: int = 57600, tlog_out: str | Path | None = None):
         self.connection = connection
         self.counters = counters
-        self.is_log = connection.endswith((".tlog", ".bin.tlog")) and not connection.startswith(("udp", "tcp"))
+        self.is_log = connection.lower().endswith((".tlog", ".raw", ".mavlink")) and \
+            not connection.startswith(("udp", "tcp"))
         try:
             self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
                                                    source_component=source_component, autoreconnect=True)
         except Exception as exc:  # noqa: BLE001  (pymavlink raises anything from socket to serial errors)
             raise LinkError(f"cannot open MAVLink connection {connection!r}: {exc}") from exc
         self.datagrams = isinstance(self.conn, mavutil.mavudp)
+        if type(self.conn) is mavutil.mavtcp:
+            self.conn.retries = 0  # reconnects after EOF: one attempt, not seconds of sleeping inside receive()
         self.scanner = FrameScanner(counters, source_system, source_component)
         self.mav = mavlink2.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
         self._tlog = open(tlog_out, "ab") if tlog_out else None
@@ -47,7 +51,7 @@ class MavlinkLink:
         if self.is_log:
             msg = self.conn.recv_msg()
             return [msg] if msg is not None else []
-        fd = self.conn.fd
+        fd = self._wait_fd()
         if fd is None:
             time.sleep(timeout_s)
             return []
@@ -62,6 +66,7 @@ class MavlinkLink:
                 self.counters["link.receive_error"] += 1
                 break
             if not data:
+                self._drop_closed_tcpin_peer()
                 break
             msgs = self.scanner.feed(bytes(data) if isinstance(data, (bytes, bytearray)) else data.encode(),
                                      end_of_datagram=self.datagrams)
@@ -71,6 +76,39 @@ class MavlinkLink:
                 break
         return out
 
+    def _wait_fd(self):
+        """pymavlink's tcp client reconnects on EOF without updating conn.fd, and leaves no socket when that
+        fails: select() on the stale fd raised EBADF and stopped the node. Use the live socket, or retry."""
+        conn = self.conn
+        if type(conn) is mavutil.mavtcp:
+            if conn.port is None:
+                try:
+                    conn.do_connect()
+                except OSError:
+                    conn.port = None
+                    return None
+                self.counters["link.reconnected"] += 1
+            conn.fd = conn.port.fileno()
+        return conn.fd
+
+    def _drop_closed_tcpin_peer(self) -> None:
+        """pymavlink's tcpin keeps a connection its peer has closed: select() then returns at once for ever
+        and a reconnecting peer is never accepted. Go back to listening instead."""
+        conn = self.conn
+        if not isinstance(conn, mavutil.mavtcpin) or conn.port is None:
+            return
+        try:
+            closed = conn.port.recv(1, socket.MSG_PEEK) == b""
+        except BlockingIOError:
+            return  # nothing queued yet: still connected
+        except OSError:
+            closed = True
+        if closed:
+            conn.port.close()
+            conn.port = None
+            conn.fd = conn.listen.fileno()
+            self.counters["link.disconnected"] += 1
+
     def _record(self, msgs) -> None:
         """pymavlink's setup_logfile() writes nothing on UDP links, so the tlog is written here."""
         if self._tlog is None:
@@ -78,6 +116,7 @@ class MavlinkLink:
         stamp = struct.pack(">Q", int(time.time() * 1e6))
         for msg in msgs:
             self._tlog.write(stamp + bytes(msg.get_msgbuf()))
+        self._tlog.flush()  # a crash must not lose what was received
 
     def send(self, msg) -> None:
         buf = msg.pack(self.mav)
@@ -88,7 +127,8 @@ class MavlinkLink:
     def close(self) -> None:
         if self._tlog is not None:
             self._tlog.close()
-        self.conn.close()
+        if not (type(self.conn) is mavutil.mavtcp and self.conn.port is None):  # pymavlink would raise
+            self.conn.close()
 
     @property
     def at_end(self) -> bool:
