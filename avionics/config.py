@@ -69,6 +69,27 @@ class TrackingConfig:
     max_coast_s: float = 6.0  # without reports for longer: advisory dropped, reason "stale"
     delete_after_s: float = 20.0  # without reports for longer: track deleted
     max_innovation_speed_mps: float = 400.0  # a report implying a jump faster than this is not this aircraft
+    # Track filter (docs/tracking.md): cv = one Kalman CV filter per track; imm, rmimm (Hwang's residual-mean
+    # likelihood), vb-imm, vb-rmimm (Dai's variational-Bayes measurement noise) = the vectorised IMM tracker.
+    filter: str = "cv"
+    imm_horizontal_modes: tuple[str, ...] = ("cv", "ct")  # of cv, ca, ct, cs
+    imm_vertical_modes: tuple[str, ...] = ("ch", "cad")  # of ch, cad
+    imm_switch_probability: float = 0.05  # per second, out of each mode (Hwang eq 21, Baek & Bang eq 30)
+    imm_cv_sigma_mps2: float = 0.3  # CV white acceleration (Baek & Bang eq 5)
+    imm_ca_sigma_mps2: float = 3.0  # CA acceleration noise, heading-rotated (Baek & Bang eq 31)
+    imm_ct_sigma_mps2: float = 2.0  # CT acceleration increment per step (Hwang eq 18)
+    imm_cs_alpha_per_s: float = 0.1  # CS manoeuvre frequency (Dai eq 10)
+    imm_cs_max_accel_mps2: float = 20.0  # CS acceleration bound (Dai eq 12)
+    imm_ch_sigma_mps: float = 0.1  # CH vertical-speed increment per step (Baek & Bang eq 7)
+    imm_cad_sigma_mps2: float = 1.0  # CAD vertical acceleration (Baek & Bang eq 8)
+    imm_initial_accel_sigma_mps2: float = 3.0  # prior on an intruder's acceleration at track initiation
+    gate_probability: float = 0.9999  # chi-square validation gate (Radosavljevic eq 17)
+    rmimm_floor: float = 0.05  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
+    yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
+    vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
+    vb_c1: float = 500.0  # VB forgetting factor constants (Dai eq 17)
+    vb_c2: float = 5000.0
+    vb_c3: float = 2000.0
 
 
 @dataclass(frozen=True)
@@ -85,6 +106,8 @@ class AdvisoryConfig:
     ta_min_duration_s: float = 8.0  # TCAS II: a TA stays at least 8 s
     ra_enabled: bool = True
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
+    profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
+    profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")
     ground_elevation_m: float | None = None  # AGL = MSL - this; None: AGL from height above home
 
 
@@ -173,6 +196,32 @@ def _parse_override(text: str) -> dict:
     return node
 
 
+TRACK_FILTERS = ("cv", "imm", "rmimm", "vb-imm", "vb-rmimm")
+
+
+def _validate_tracking_filter(t: TrackingConfig) -> None:
+    if t.filter not in TRACK_FILTERS:
+        raise ConfigError(f"tracking.filter: {t.filter!r} is not one of {', '.join(TRACK_FILTERS)}")
+    for name, modes, allowed in (("imm_horizontal_modes", t.imm_horizontal_modes, ("cv", "ca", "ct", "cs")),
+                                 ("imm_vertical_modes", t.imm_vertical_modes, ("ch", "cad"))):
+        if not modes or len(set(modes)) != len(modes) or not set(modes) <= set(allowed):
+            raise ConfigError(f"tracking.{name}: {list(modes)} must be distinct modes out of {list(allowed)}")
+    for name in ("imm_cv_sigma_mps2", "imm_ca_sigma_mps2", "imm_ct_sigma_mps2", "imm_cs_alpha_per_s",
+                 "imm_cs_max_accel_mps2", "imm_ch_sigma_mps", "imm_cad_sigma_mps2", "imm_initial_accel_sigma_mps2",
+                 "rmimm_floor", "yaw_rate_time_constant_s"):
+        if getattr(t, name) <= 0:
+            raise ConfigError(f"tracking.{name}: must be > 0, got {getattr(t, name)}")
+    for name in ("vb_c1", "vb_c2", "vb_c3"):
+        if getattr(t, name) < 0:
+            raise ConfigError(f"tracking.{name}: must be >= 0, got {getattr(t, name)}")
+    if not 0.0 < t.imm_switch_probability < 0.5:
+        raise ConfigError(f"tracking.imm_switch_probability: must be in (0, 0.5), got {t.imm_switch_probability}")
+    if not 0.5 < t.gate_probability < 1.0:
+        raise ConfigError(f"tracking.gate_probability: must be in (0.5, 1), got {t.gate_probability}")
+    if not 1 <= t.vb_iterations <= 100:
+        raise ConfigError(f"tracking.vb_iterations: must be in [1, 100], got {t.vb_iterations}")
+
+
 def validate(config: Config) -> Config:
     if config.zenoh.mode not in ("peer", "client", "router"):
         raise ConfigError(f"zenoh.mode: {config.zenoh.mode!r} is not peer, client or router")
@@ -195,6 +244,13 @@ def validate(config: Config) -> Config:
             raise ConfigError(f"{name}: must be > 0, got {value}")
     if config.tracking.delete_after_s < config.tracking.max_coast_s:
         raise ConfigError("tracking.delete_after_s must be >= tracking.max_coast_s")
+    _validate_tracking_filter(config.tracking)
+    from avionics.advisory.tables import ProfileError, load_profile
+
+    try:
+        load_profile(config.advisory.profile, config.advisory.profile_overrides)
+    except ProfileError as exc:
+        raise ConfigError(f"advisory.profile: {exc}") from exc
     if not 0 <= config.vehicle.own_icao <= 0xFFFFFF:
         raise ConfigError(f"vehicle.own_icao: {config.vehicle.own_icao:#x} is not a 24-bit address")
     return config

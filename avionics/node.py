@@ -58,7 +58,7 @@ class DaaNode:
         for advisory in result.changes:
             self._emit_advisory(advisory)
             if cfg.mavlink.statustext:
-                self.mavlink_out.append(encode.statustext(encode.advisory_text(advisory),
+                self.mavlink_out.append(encode.statustext(encode.advisory_text(advisory, self._callsign(advisory)),
                                                           encode.SEVERITY[advisory.level]))
             if advisory.level is AdvisoryLevel.NONE:
                 self._refresh.pop(advisory.intruder, None)
@@ -77,12 +77,17 @@ class DaaNode:
             self.zenoh_out.append(("status", status_payload(self.vehicle, now_s, self.status(now_s),
                                                             self.counters)))
 
+    def _callsign(self, advisory: Advisory) -> str | None:
+        track = self.core.tracker.tracks.get(advisory.intruder)
+        return track.callsign if track else None
+
     def _emit_advisory(self, advisory: Advisory) -> None:
+        callsign = self._callsign(advisory)
         self.mavlink_out.append(encode.collision(advisory))
+        self.mavlink_out.append(encode.daa_advisory(advisory, callsign))
         if self.config.zenoh.enabled:
-            track = self.core.tracker.tracks.get(advisory.intruder)
             self.zenoh_out.append((f"advisories/{advisory.intruder}",
-                                   advisory_payload(self.vehicle, advisory, track.callsign if track else None)))
+                                   advisory_payload(self.vehicle, advisory, callsign)))
 
     def track_messages(self, now_s: float) -> list[tuple[str, dict]]:
         core = self.core

@@ -18,7 +18,8 @@ from typing import Iterable
 import numpy as np
 
 from avionics.advisory.logic import AdvisoryState, detect
-from avionics.advisory.tables import TCAS_II_V71, SensitivityLevel, select_level
+from avionics.advisory.resolution import ResolutionLogic, Threat
+from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
 from avionics.config import Config
 from avionics.conflict.cpa import pair_geometry
 from avionics.core.geodesy import LocalTangentPlane
@@ -26,7 +27,7 @@ from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
-from avionics.tracking.tracker import IntruderTracker
+from avionics.tracking.imm_tracker import make_tracker
 
 
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
@@ -46,13 +47,16 @@ class _Assessment:
 
 
 class DaaCore:
-    def __init__(self, config: Config, counters: Counter | None = None, table=TCAS_II_V71):
+    def __init__(self, config: Config, counters: Counter | None = None):
         self.config = config
         self.counters = counters if counters is not None else Counter()
-        self.table = table
+        self.profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
+        self.levels = LevelSelector(self.profile)
+        self.resolution = ResolutionLogic(self.profile)
+        self._ra_threats: dict[IntruderKey, Threat] = {}
         self.plane: LocalTangentPlane | None = None
         self.ownship = OwnshipFilter(config.altitude, config.input)
-        self.tracker = IntruderTracker(config.tracking, self.counters)
+        self.tracker = make_tracker(config.tracking, self.counters)  # tracking.filter: cv or an IMM
         self.assessments: dict[IntruderKey, _Assessment] = {}
         self.level: SensitivityLevel | None = None
         self._last_full_assessment_s = -math.inf
@@ -88,6 +92,7 @@ class DaaCore:
         if now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S:
             self._last_full_assessment_s = now_s
             for key in self.tracker.prune(now_s):
+                self._ra_threats.pop(key, None)
                 gone = self.assessments.pop(key, None)
                 if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
                     changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
@@ -114,7 +119,8 @@ class DaaCore:
         agl = (float(own.x[2]) - cfg.advisory.ground_elevation_m if cfg.advisory.ground_elevation_m is not None
                else own.height_above_home_m)
         sl_altitude = own.pressure_altitude_m if own.pressure_altitude_m is not None else float(own.x[2])
-        self.level = level = select_level(agl, sl_altitude, self.table)
+        self.level = level = self.levels.select(agl, sl_altitude)
+        ra_allowed = cfg.advisory.ra_enabled and not (agl is not None and agl < self.profile.ra_inhibit_below_agl_m)
 
         xs, _ = self.tracker.predict(keys, now_s)
         tracks = [self.tracker.tracks[k] for k in keys]
@@ -129,20 +135,28 @@ class DaaCore:
         geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
-        candidates = detect(geometry, level, has_alt, margin, cfg.advisory.ra_enabled, cfg.advisory.hmd_filter)
+        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
 
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
                    AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
         mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
-        out = []
+        states = []
         for i, key in enumerate(keys):
             entry = self.assessments.get(key)
             state = entry.state if entry else AdvisoryState()
-            candidate = AdvisoryLevel(int(candidates[i]))
-            if stale[i]:
-                candidate = AdvisoryLevel.NONE
-            changed = state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
+            candidate = AdvisoryLevel(NONE if stale[i] else int(candidates[i]))
+            state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
+            states.append((state, candidate, entry.advisory if entry else None))
+            if state.level is AdvisoryLevel.RA:
+                self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
+            else:
+                self._ra_threats.pop(key, None)
+        resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]), agl,
+                                             level.alim_m or 0.0)
+        out = []
+        for i, key in enumerate(keys):
+            state, candidate, previous = states[i]
             dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
             advisory = Advisory(
                 intruder=key, level=state.level, time_s=now_s,
@@ -154,9 +168,11 @@ class DaaCore:
                 range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
                 vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
                 altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
+                **(_ra_fields(resolution) if state.level is AdvisoryLevel.RA and resolution else {}),
             )
             self.assessments[key] = _Assessment(advisory, state)
-            if changed:
+            if previous is None and advisory.level is not AdvisoryLevel.NONE or \
+                    previous is not None and previous.ra_key() != advisory.ra_key():
                 changes.append(advisory)
             out.append(advisory)
         return out
@@ -176,6 +192,7 @@ class DaaCore:
         """Without ownship there is no relative geometry: every advisory ends, with the reason."""
         out = []
         for key in keys:
+            self._ra_threats.pop(key, None)
             entry = self.assessments.get(key)
             if entry is None:
                 continue
@@ -193,7 +210,18 @@ class DaaCore:
         return self._last_ownship
 
 
+NONE = int(AdvisoryLevel.NONE)
+
+
+def _ra_fields(r) -> dict:
+    return dict(ra_sense=r.sense.value, ra_strength=r.strength.value, ra_words=r.words(),
+                target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
+                ra_separation_m=r.separation_m)
+
+
 def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:
     from dataclasses import replace
 
-    return replace(advisory, level=level, time_s=now_s, reason=reason)
+    return replace(advisory, level=level, time_s=now_s, reason=reason, ra_sense=None, ra_strength=None,
+                   ra_words=None, target_vertical_rate_mps=None, ra_reversed=False, ra_crossing=False,
+                   ra_separation_m=None)

@@ -78,12 +78,14 @@ def adsb_vehicle(state: KinematicState, icao: int, datum: AltitudeDatum, source:
 
 
 def schedule(scenario: Scenario, impairments: AdsbImpairments, seed: int = 0,
-             config: AutopilotConfig = AutopilotConfig(), duration_s: float | None = None) -> list[Event]:
-    """Every message of the encounter in delivery order."""
+             config: AutopilotConfig = AutopilotConfig(), duration_s: float | None = None,
+             ownship: bool = True) -> list[Event]:
+    """Every message of the encounter in delivery order (ownship=False: the intruders' only, for a closed
+    loop that generates ownship messages as it flies)."""
     duration = scenario.duration_s if duration_s is None else duration_s
     own_traj, intruder_trajs = scenario.trajectories()
     events: list[Event] = []
-    for k in range(int(math.floor(duration * config.ownship_hz)) + 1):
+    for k in range(int(math.floor(duration * config.ownship_hz)) + 1 if ownship else 0):
         t = k / config.ownship_hz
         for msg in ownship_messages(own_traj.state_at(t), scenario.ground_elevation_m, int(t * 1000)):
             events.append(Event(t, msg, t))

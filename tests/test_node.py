@@ -44,7 +44,8 @@ def test_collision_is_refreshed_every_second_while_active_and_heartbeat_runs_at_
     gaps = [b - a for a, b in zip(active, active[1:])]
     assert gaps and max(gaps) <= 1.0 + 1e-6  # the autopilot never waits more than 1 s for a live threat
     texts = [m.text for _, mav, _ in out for m in mav if m.get_type() == "STATUSTEXT"]
-    assert texts[0].startswith("DAA TA 1090es-A10001") and texts[1].startswith("DAA RA 1090es-A10001")
+    assert texts[0] == "TA HEADON TAU 30S 0M +0FT"  # the intruder's callsign, as a pilot would read it
+    assert texts[1] in ("RA CLIMB 1500 FPM HEADON", "RA DESCEND 1500 FPM HEADON")
 
 
 def test_tracks_and_status_are_published_at_their_rates_as_json():

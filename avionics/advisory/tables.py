@@ -1,66 +1,220 @@
-"""TCAS II v7.1 sensitivity-level thresholds, as data.
+"""Alerting profiles as data: sensitivity-level tables, low-altitude inhibits and the pilot/autopilot response
+model, loaded from TOML (avionics/advisory/profiles/*.toml, also reachable as config/profiles/).
 
-Sources: RTCA DO-185B; FAA "Introduction to TCAS II Version 7.1" (2011), Table 3 (SL by altitude band,
-TA/RA tau, DMOD, ZTHR, ALIM) and the RA horizontal miss distance filter; the same numbers as NASA DAIDALUS
-TCASTable. SL 2 issues TAs only; above FL420 the thresholds widen (last row).
+Built-in profiles: `tcas2` (TCAS II v7.1), `small-uas` (well clear for small UAS, ASTM F3442), `do365`
+(DO-365-like well clear). A profile is chosen by name or path (advisory.profile) and any value overridden
+with advisory.profile_overrides, e.g. ["sl4.ra_tau_s=25", "response.delay_s=3"].
 """
 
 from __future__ import annotations
 
+import math
+import tomllib
 from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
 
-from avionics.core.units import FT, NM
+from avionics.core.units import FT, FPM, G0, NM
+
+PROFILE_DIR = "profiles"
+DISTANCE_UNITS = {"_nm": NM, "_ft": FT, "_m": 1.0}
 
 
 @dataclass(frozen=True, slots=True)
 class SensitivityLevel:
     sl: int
-    ceiling_m: float  # the band holds altitudes <= this (SL 2: < 1000 ft AGL)
-    agl_band: bool  # band bounds are above ground level (SL 2, 3); else pressure altitude
+    ceiling_m: float  # the band holds altitudes <= this (an AGL band below 1000 ft: < this)
+    agl_band: bool  # band bounds are above ground level (TCAS SL 2, 3); else pressure altitude
     ta_tau_s: float
     ta_dmod_m: float
     ta_zthr_m: float
-    ra_tau_s: float | None  # None: no RA at this level
-    ra_dmod_m: float | None
-    ra_zthr_m: float | None
-    alim_m: float | None
-    ra_hmd_m: float | None  # RA horizontal miss distance filter
+    ra_tau_s: float | None = None  # None: no RA at this level
+    ra_dmod_m: float | None = None
+    ra_zthr_m: float | None = None
+    alim_m: float | None = None
+    ra_hmd_m: float | None = None  # RA horizontal miss distance filter
 
 
-def _row(sl, ceiling_ft, agl, ta_tau, ta_dmod_nm, ta_zthr_ft, ra_tau, ra_dmod_nm, ra_zthr_ft, alim_ft, hmd_nm):
-    opt = lambda v, k: None if v is None else v * k  # noqa: E731
+@dataclass(frozen=True, slots=True)
+class ResponseModel:
+    """How ownship answers an RA: after delay_s, accelerate at accel to rate (DO-185B standard response)."""
+
+    delay_s: float
+    accel_mps2: float
+    rate_mps: float
+    strengthen_delay_s: float  # strengthening and reversal
+    strengthen_accel_mps2: float
+    strengthen_rate_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class AlertProfile:
+    name: str
+    description: str
+    levels: tuple[SensitivityLevel, ...]
+    response: ResponseModel
+    ra_inhibit_below_agl_m: float
+    descend_inhibit_below_agl_m: float
+    increase_descent_inhibit_below_agl_m: float
+    sl_hysteresis_m: float
+
+
+class ProfileError(ValueError):
+    """A profile file or override that cannot be used, naming the key."""
+
+
+def _distance(table: dict, key: str, where: str, required: bool = True) -> float | None:
+    found = [(suffix, k) for suffix in DISTANCE_UNITS if (k := key + suffix) in table]
+    if not found:
+        if required:
+            raise ProfileError(f"{where}: missing {key}_nm, {key}_ft or {key}_m")
+        return None
+    if len(found) > 1:
+        raise ProfileError(f"{where}: give {key} in one unit only")
+    suffix, k = found[0]
+    return _number(table[k], f"{where}.{k}") * DISTANCE_UNITS[suffix]
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value) or value < 0:
+        raise ProfileError(f"{where}: expected a number >= 0, got {value!r}")
+    return float(value)
+
+
+LEVEL_KEYS = {"sl", "ceiling_ft", "agl", "ta_tau_s", "ra_tau_s"} | {
+    f"{name}{suffix}" for name in ("ta_dmod", "ta_zthr", "ra_dmod", "ra_zthr", "alim", "ra_hmd")
+    for suffix in DISTANCE_UNITS}
+
+
+def _level(table: dict, where: str) -> SensitivityLevel:
+    unknown = set(table) - LEVEL_KEYS
+    if unknown:
+        raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}")
+    has_ra = "ra_tau_s" in table
+    ra = lambda key: _distance(table, key, where, required=has_ra)  # noqa: E731
     return SensitivityLevel(
-        sl, ceiling_ft * FT, agl, ta_tau, ta_dmod_nm * NM, ta_zthr_ft * FT,
-        ra_tau, opt(ra_dmod_nm, NM), opt(ra_zthr_ft, FT), opt(alim_ft, FT), opt(hmd_nm, NM),
+        sl=int(table["sl"]), ceiling_m=_number(table["ceiling_ft"], f"{where}.ceiling_ft") * FT,
+        agl_band=bool(table.get("agl", False)), ta_tau_s=_number(table["ta_tau_s"], f"{where}.ta_tau_s"),
+        ta_dmod_m=_distance(table, "ta_dmod", where), ta_zthr_m=_distance(table, "ta_zthr", where),
+        ra_tau_s=_number(table["ra_tau_s"], f"{where}.ra_tau_s") if has_ra else None,
+        ra_dmod_m=ra("ra_dmod"), ra_zthr_m=ra("ra_zthr"), alim_m=ra("alim"), ra_hmd_m=ra("ra_hmd"),
     )
 
 
-INF = float("inf")
+def _apply_override(data: dict, text: str) -> None:
+    """'sl4.ra_tau_s=25' (every row of SL 4), 'response.delay_s=3' or 'sl_hysteresis_ft=50'."""
+    key, sep, raw = text.partition("=")
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ProfileError(f"profile override {text!r}: expected key=number") from None
+    if not sep:
+        raise ProfileError(f"profile override {text!r}: expected key=number")
+    head, dot, leaf = key.strip().partition(".")
+    if not dot:
+        if head not in data:
+            raise ProfileError(f"profile override {text!r}: unknown key {head!r}")
+        data[head] = value
+    elif head == "response":
+        if leaf not in data["response"]:
+            raise ProfileError(f"profile override {text!r}: unknown response key {leaf!r}")
+        data["response"][leaf] = value
+    elif head.startswith("sl") and head[2:].isdigit():
+        rows = [row for row in data["levels"] if row["sl"] == int(head[2:])]
+        if not rows:
+            raise ProfileError(f"profile override {text!r}: the profile has no {head}")
+        for row in rows:
+            for suffix in DISTANCE_UNITS:  # a distance given in another unit replaces the profile's
+                if leaf.endswith(suffix):
+                    for other in DISTANCE_UNITS:
+                        row.pop(leaf[: -len(suffix)] + other, None)
+            row[leaf] = value
+    else:
+        raise ProfileError(f"profile override {text!r}: expected slN.key, response.key or a top-level key")
 
-# sl, band ceiling [ft], AGL band, TA tau [s], TA DMOD [nm], TA ZTHR [ft], RA tau [s], RA DMOD [nm],
-# RA ZTHR [ft], ALIM [ft], RA HMD [nm]
-TCAS_II_V71: tuple[SensitivityLevel, ...] = (
-    _row(2, 1000, True, 20, 0.30, 850, None, None, None, None, None),
-    _row(3, 2350, True, 25, 0.33, 850, 15, 0.20, 600, 300, 0.40),
-    _row(4, 5000, False, 30, 0.48, 850, 20, 0.35, 600, 300, 0.57),
-    _row(5, 10000, False, 40, 0.75, 850, 25, 0.55, 600, 350, 0.74),
-    _row(6, 20000, False, 45, 1.00, 850, 30, 0.80, 600, 400, 0.82),
-    _row(7, 42000, False, 48, 1.30, 850, 35, 1.10, 700, 600, 0.98),
-    _row(7, INF, False, 48, 1.30, 1200, 35, 1.10, 800, 700, 0.98),  # above FL420
-)
+
+def profile_text(name_or_path: str) -> tuple[str, str]:
+    """(source description, TOML text) of a built-in profile name or a profile file path."""
+    builtin = resources.files("avionics.advisory").joinpath(PROFILE_DIR, f"{name_or_path}.toml")
+    if builtin.is_file():
+        return f"built-in profile {name_or_path!r}", builtin.read_text()
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.is_file():
+        return str(path), path.read_text()
+    names = sorted(p.name[:-5] for p in resources.files("avionics.advisory").joinpath(PROFILE_DIR).iterdir()
+                   if p.name.endswith(".toml"))
+    raise ProfileError(f"unknown profile {name_or_path!r}: expected one of {names} or a .toml file")
+
+
+def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
+    where, text = profile_text(name_or_path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ProfileError(f"{where}: {exc}") from exc
+    for override in overrides:
+        _apply_override(data, override)
+    try:
+        r = data["response"]
+        response = ResponseModel(
+            _number(r["delay_s"], "response.delay_s"), _number(r["accel_g"], "response.accel_g") * G0,
+            _number(r["rate_fpm"], "response.rate_fpm") * FPM,
+            _number(r["strengthen_delay_s"], "response.strengthen_delay_s"),
+            _number(r["strengthen_accel_g"], "response.strengthen_accel_g") * G0,
+            _number(r["strengthen_rate_fpm"], "response.strengthen_rate_fpm") * FPM)
+        levels = tuple(_level(row, f"{where} levels[{i}]") for i, row in enumerate(data["levels"]))
+        profile = AlertProfile(
+            name=data["name"], description=data.get("description", ""), levels=levels, response=response,
+            ra_inhibit_below_agl_m=_number(data["ra_inhibit_below_agl_ft"], "ra_inhibit_below_agl_ft") * FT,
+            descend_inhibit_below_agl_m=_number(data["descend_inhibit_below_agl_ft"],
+                                                "descend_inhibit_below_agl_ft") * FT,
+            increase_descent_inhibit_below_agl_m=_number(data["increase_descent_inhibit_below_agl_ft"],
+                                                         "increase_descent_inhibit_below_agl_ft") * FT,
+            sl_hysteresis_m=_number(data["sl_hysteresis_ft"], "sl_hysteresis_ft") * FT)
+    except KeyError as exc:
+        raise ProfileError(f"{where}: missing key {exc}") from None
+    if not levels or not math.isinf(levels[-1].ceiling_m):
+        raise ProfileError(f"{where}: the last level must have ceiling_ft = inf")
+    if any(b.ceiling_m <= a.ceiling_m for a, b in zip(levels, levels[1:])):
+        raise ProfileError(f"{where}: level ceilings must increase")
+    return profile
+
+
+TCAS_II_V71: tuple[SensitivityLevel, ...] = load_profile("tcas2").levels
 
 
 def select_level(agl_m: float | None, altitude_m: float, table=TCAS_II_V71) -> SensitivityLevel:
-    """The row whose band holds ownship: AGL for the low bands (SL 2, 3), pressure altitude above.
+    """The row whose band holds ownship: AGL for the AGL bands (TCAS SL 2, 3), pressure altitude above.
+    Without AGL the AGL bands are skipped (the altitude bands are more conservative)."""
+    return table[level_index(agl_m, altitude_m, table)]
 
-    TCAS II uses the radar altimeter for SL 2/3; without AGL we fall through to the altitude bands, which
-    is the conservative choice (larger thresholds) for a UAV flying low over high terrain only if its
-    altitude is above the AGL bands; docs/advisories.md explains the choice.
-    """
-    for row in table:
+
+def level_index(agl_m: float | None, altitude_m: float, table) -> int:
+    for i, row in enumerate(table):
         if row.agl_band:
-            if agl_m is not None and (agl_m < row.ceiling_m if row.sl == 2 else agl_m <= row.ceiling_m):
-                return row
+            lowest = i == 0
+            if agl_m is not None and (agl_m < row.ceiling_m if lowest else agl_m <= row.ceiling_m):
+                return i
         elif altitude_m <= row.ceiling_m:
-            return row
-    return table[-1]
+            return i
+    return len(table) - 1
+
+
+class LevelSelector:
+    """Sensitivity level with hysteresis: the band only changes once ownship is hysteresis_m past the
+    boundary, so a flight along a band boundary does not toggle thresholds."""
+
+    def __init__(self, profile: AlertProfile):
+        self.profile = profile
+        self.index: int | None = None
+
+    def select(self, agl_m: float | None, altitude_m: float) -> SensitivityLevel:
+        levels, h = self.profile.levels, self.profile.sl_hysteresis_m
+        shift = lambda dz: level_index(None if agl_m is None else agl_m + dz, altitude_m + dz, levels)  # noqa: E731
+        if self.index is None:
+            self.index = level_index(agl_m, altitude_m, levels)
+        elif shift(-h) > self.index:
+            self.index = shift(-h)
+        elif shift(+h) < self.index:
+            self.index = shift(+h)
+        return levels[self.index]

@@ -105,3 +105,15 @@ class Advisory:
     vertical_tau_s: float  # time to co-altitude; inf when not converging
     altitude_datum: AltitudeDatum | None
     datum_mismatch: bool  # relative altitude formed across datums, with widened uncertainty
+    # The resolution advisory (level RA only): one ownship manoeuvre shared by every RA threat.
+    ra_sense: str | None = None  # "climb" | "descend"
+    ra_strength: str | None = None  # "preventive" | "level_off" | "corrective" | "increase"
+    ra_words: str | None = None  # TCAS phrase: "CLIMB", "DONT DESCEND", "INCREASE DESCENT", "CLIMB NOW", ...
+    target_vertical_rate_mps: float | None = None  # None for a preventive RA (a limit, not a target)
+    ra_reversed: bool = False
+    ra_crossing: bool = False  # the sense takes ownship through the intruder's altitude
+    ra_separation_m: float | None = None  # least projected vertical separation at CPA with the RA flown
+
+    def ra_key(self) -> tuple:
+        """What a pilot would hear change: level, sense, strength, reversal."""
+        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed)

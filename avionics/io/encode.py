@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 
 import avionics.io  # noqa: F401
-from pymavlink.dialects.v20 import common as mavlink2
+from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
 from avionics.core.types import Advisory, AdvisoryLevel
-from avionics.core.units import FT
+from avionics.core.units import FPM, FT
 
 THREAT_LEVEL = {
     AdvisoryLevel.NONE: mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE,
@@ -41,14 +41,46 @@ def collision(advisory: Advisory):
     )
 
 
-def advisory_text(advisory: Advisory) -> str:
-    """One line for a pilot's ground station, at most 50 characters."""
-    who = str(advisory.intruder)
+def advisory_text(advisory: Advisory, callsign: str | None = None) -> str:
+    """One line for a pilot's ground station, at most 50 characters: "RA CLIMB 1500 FPM ABC123"."""
+    who = callsign or str(advisory.intruder)
     if advisory.level is AdvisoryLevel.NONE:
-        return f"DAA clear {who} ({advisory.reason})"[:STATUSTEXT_LEN]
-    vertical = "alt?" if advisory.vmd_m is None else f"{advisory.vmd_m / FT:+.0f}ft"
-    tau = "--" if math.isinf(advisory.mod_tau_s) else f"{advisory.mod_tau_s:.0f}s"
-    return f"DAA {advisory.level.name} {who} {tau} {advisory.hmd_m:.0f}m {vertical}"[:STATUSTEXT_LEN]
+        return f"CLEAR OF CONFLICT {who} ({advisory.reason})"[:STATUSTEXT_LEN]
+    if advisory.level is AdvisoryLevel.RA and advisory.ra_words:
+        rate = advisory.target_vertical_rate_mps
+        target = "" if rate is None or rate == 0 else f" {abs(rate) / FPM:.0f} FPM"
+        return f"RA {advisory.ra_words}{target} {who}"[:STATUSTEXT_LEN]
+    vertical = "ALT?" if advisory.vmd_m is None else f"{advisory.vmd_m / FT:+.0f}FT"
+    tau = "--" if math.isinf(advisory.mod_tau_s) else f"{advisory.mod_tau_s:.0f}S"
+    return f"{advisory.level.name} {who} TAU {tau} {advisory.hmd_m:.0f}M {vertical}"[:STATUSTEXT_LEN]
+
+
+SENSE = {None: mavlink2.DAA_RA_SENSE_NONE, "climb": mavlink2.DAA_RA_SENSE_CLIMB,
+         "descend": mavlink2.DAA_RA_SENSE_DESCEND}
+STRENGTH = {None: mavlink2.DAA_RA_STRENGTH_NONE, "preventive": mavlink2.DAA_RA_STRENGTH_PREVENTIVE,
+            "level_off": mavlink2.DAA_RA_STRENGTH_LEVEL_OFF, "corrective": mavlink2.DAA_RA_STRENGTH_CORRECTIVE,
+            "increase": mavlink2.DAA_RA_STRENGTH_INCREASE}
+
+
+def _nan_if_none_or_inf(value: float | None) -> float:
+    return math.nan if value is None or math.isinf(value) else value
+
+
+def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | None = None):
+    """The project's DAA_ADVISORY (avionics/io/dialect/daa.xml): the whole advisory for an autopilot."""
+    flags = ((mavlink2.DAA_ADVISORY_FLAGS_REVERSED if advisory.ra_reversed else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_CROSSING if advisory.ra_crossing else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_DATUM_MISMATCH if advisory.datum_mismatch else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN if advisory.vmd_m is None else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_UAT if advisory.intruder.source.value == "uat" else 0))
+    return mavlink2.MAVLink_daa_advisory_message(
+        id=advisory.intruder.address, level=int(advisory.level), sense=SENSE[advisory.ra_sense],
+        strength=STRENGTH[advisory.ra_strength], flags=flags, sensitivity_level=advisory.sensitivity_level,
+        target_vertical_rate=_nan_if_none_or_inf(advisory.target_vertical_rate_mps), range=advisory.range_m,
+        time_to_cpa=advisory.t_cpa_s, horizontal_miss=advisory.hmd_m,
+        vertical_miss=_nan_if_none_or_inf(advisory.vmd_m), tau=_nan_if_none_or_inf(advisory.range_tau_s),
+        mod_tau=_nan_if_none_or_inf(advisory.mod_tau_s), pc=_nan_if_none_or_inf(pc),
+        callsign=(callsign or "").encode("ascii", "replace")[:9])
 
 
 def statustext(text: str, severity: int):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import Counter
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
-from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # common plus the ArduPilot messages a real link carries
+from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
 V1_MARKER = 0xFE
 V2_MARKER = 0xFD

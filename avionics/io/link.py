@@ -15,7 +15,7 @@ from pathlib import Path
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
 from pymavlink import mavutil
-from pymavlink.dialects.v20 import common as mavlink2
+from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
 from avionics.io.framing import FrameScanner
 

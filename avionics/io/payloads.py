@@ -10,7 +10,7 @@ from avionics import __version__
 from avionics.core.types import Advisory, AdvisoryLevel
 from avionics.tracking.tracker import IntruderTrack
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate
 
 
 def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = None) -> dict:
@@ -35,6 +35,13 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "vertical_tau_s": advisory.vertical_tau_s,
         "altitude_datum": advisory.altitude_datum.value if advisory.altitude_datum else None,
         "datum_mismatch": advisory.datum_mismatch,
+        "ra_sense": advisory.ra_sense,
+        "ra_strength": advisory.ra_strength,
+        "ra_words": advisory.ra_words,
+        "target_vertical_rate_mps": advisory.target_vertical_rate_mps,
+        "ra_reversed": advisory.ra_reversed,
+        "ra_crossing": advisory.ra_crossing,
+        "ra_separation_m": advisory.ra_separation_m,
     }
 
 

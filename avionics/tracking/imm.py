@@ -1,0 +1,351 @@
+"""Vectorised IMM bank: N tracks x M modes stacked in arrays, one call updates any subset of the tracks.
+
+One ImmBank holds one axis group (the horizontal [x, y, vx, vy, ax, ay] or the vertical [z, vz] state) for every
+track slot: x (C, M, n), P (C, M, n, n), mu (C, M). `update(slots, dt, z, mask, r_var)` runs one IMM cycle for
+the given slots only (Baek & Bang eqs 11-17, the same as Hwang eqs 3-5 and Dai eqs 26-40):
+
+    interaction      mixing probabilities mu_ij = M_ij(dt) mu_i / c_j             Baek & Bang eq 11
+                     mixed x_0j, P_0j                                             Baek & Bang eqs 12-13
+    mode filtering   x_j- = F_j x_0j, P_j- = F_j P_0j F_j^T + Q_j               Baek & Bang eqs 18-19
+                     Kalman update (Joseph form), residual r_j, covariance S_j    Dai eqs 30-36
+    likelihood       log N(r_j; 0, S_j) (log domain)                              Baek & Bang eq 14
+                     or the residual-mean likelihood of RMIMM                     Hwang eqs 11-14
+    mode probability mu_j = c_j Lambda_j / c                                       Baek & Bang eq 15
+    combination      x = sum mu_j x_j, P = sum mu_j (P_j + dx dx^T)               Baek & Bang eqs 16-17
+
+with the measurement noise optionally learnt by variational Bayes (Dai eqs 17-25). The measured components are
+the first d of the state (Hwang's C = [I 0]: position and velocity); a component missing from a report is
+masked out exactly (its row of H is zero, its residual zero, its innovation variance 1).
+
+`update` computes everything without touching the bank and returns a Pending cycle with the chi-square gate
+statistic of each track (Radosavljevic eq 17); `commit(pending, accept)` then stores the accepted tracks only.
+Between reports nothing is stored: `predict(slots, dt)` is the IMM trajectory prediction of Baek & Bang Sec.
+3.3 (interaction, mode-matched prediction, pure Markov mode propagation mu(k+1) = Pi mu(k) of eq 20,
+combination), so a coasting track's mode probabilities follow the Markov chain only (filterpy's
+`IMMEstimator.update(None)` would instead renormalise them with stale likelihoods).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from avionics.tracking import models
+
+LOG_2PI = math.log(2.0 * math.pi)
+TINY = 1e-300
+
+
+@dataclass(frozen=True)
+class ModeSpec:
+    """One mode filter. kind: cv, ca, ct, cs (horizontal) or ch, cad (vertical).
+    sigma: process noise (cv, ca, ct, cad: m/s^2; ch: m/s). cs: alpha (1/s, manoeuvre frequency) and a_max."""
+
+    kind: str
+    sigma: float = 1.0
+    alpha: float = 0.1
+    a_max: float = 30.0
+    heading_noise: bool = True  # ca: Baek & Bang eq 31 (False: eq 6's isotropic noise)
+
+    def __post_init__(self):
+        if self.kind not in models.HORIZONTAL_MODES + models.VERTICAL_MODES:
+            raise ValueError(f"unknown mode {self.kind!r}")
+
+    @property
+    def dim(self) -> int:
+        return models.H_DIM if self.kind in models.HORIZONTAL_MODES else models.V_DIM
+
+    def build(self, dt: np.ndarray, x0: np.ndarray, heading: np.ndarray | None):
+        """(F_mean, F_cov, Q), each (B, n, n), for a batch; x0 (B, n) is this mode's mixed initial state."""
+        k = self.kind
+        if k == "cv":
+            return models.cv(dt, self.sigma)
+        if k == "ca":
+            return models.ca(dt, self.sigma, heading if self.heading_noise else None)
+        if k == "ct":
+            return models.ct(dt, self.sigma)
+        if k == "cs":
+            return models.cs(dt, self.alpha, self.a_max, x0[:, 4:6])
+        if k == "ch":
+            return models.ch(dt, self.sigma)
+        return models.cad(dt, self.sigma)
+
+
+@dataclass(frozen=True)
+class VbParams:
+    """Variational-Bayes measurement noise (Dai eqs 17-25, after Sarkka & Nummenmaa 2009).
+
+    Each track's estimate starts at its nominal (configured) variances with prior_count pseudo-observations
+    (alpha_0 = prior_count, beta_0 = prior_count * nominal). eq 17's forgetting factor uses the estimate
+    normalised by the nominal variance, so that c1..c3 mean the same for metres and metres per second."""
+
+    iterations: int = 5  # N of eqs 22-25 (Dai: 30; the fixed point converges in a few)
+    c1: float = 500.0
+    c2: float = 5000.0
+    c3: float = 2000.0
+    prior_count: float = 5.0
+    floor_fraction: float = 1e-2  # the estimate never drops below this fraction of nominal
+
+
+@dataclass
+class Pending:
+    """One IMM cycle computed for a batch of slots, not yet stored."""
+
+    slots: np.ndarray
+    dt: np.ndarray
+    x: np.ndarray  # (B, M, n) mode posteriors
+    p: np.ndarray  # (B, M, n, n)
+    mu: np.ndarray  # (B, M)
+    d2: np.ndarray  # (B,) gate statistic: min over modes of r^T S^-1 r (Radosavljevic eq 17)
+    dof: np.ndarray  # (B,) measured components
+    loglik: np.ndarray  # (B, M) log-likelihoods actually used (after RMIMM)
+    extra: dict = field(default_factory=dict)
+
+
+def _sym(p: np.ndarray) -> np.ndarray:
+    return 0.5 * (p + np.swapaxes(p, -1, -2))
+
+
+class ImmBank:
+    def __init__(self, modes: list[ModeSpec], d: int, switch_matrix: np.ndarray, period_s: float = 1.0,
+                 likelihood: str = "standard", vb: VbParams | None = None, rmimm_floor: float = 0.05,
+                 capacity: int = 16, yaw_time_constant_s: float = 11.9):
+        if len(modes) < 1 or len({m.dim for m in modes}) != 1:
+            raise ValueError("modes must be non-empty and share one state dimension")
+        if likelihood not in ("standard", "rmimm"):
+            raise ValueError(f"likelihood must be standard or rmimm, got {likelihood!r}")
+        self.modes = list(modes)
+        self.names = [m.kind for m in modes]
+        self.m = len(modes)
+        self.n = modes[0].dim
+        self.d = d
+        self.chain = models.MarkovChain(switch_matrix, period_s)
+        self.likelihood = likelihood
+        self.vb = vb
+        self.rmimm_floor = rmimm_floor
+        self.yaw_time_constant_s = yaw_time_constant_s
+        self.horizontal = self.n == models.H_DIM
+        self._turn_mode = next((i for i, k in enumerate(self.names) if k in ("ct", "ca", "cs")), None)
+        self._alloc(capacity)
+
+    # -- storage -----------------------------------------------------------------------------------------
+    def _alloc(self, capacity: int) -> None:
+        m, n, d = self.m, self.n, self.d
+        self.capacity = capacity
+        self.x = np.zeros((capacity, m, n))
+        self.p = np.tile(np.eye(n), (capacity, m, 1, 1))
+        self.mu = np.full((capacity, m), 1.0 / m)
+        self.ebar = np.zeros((capacity, m, m, n))  # RMIMM: E[e_j | true mode t], Hwang eqs 12-13
+        self.yaw = np.zeros(capacity)  # smoothed Hwang eq 20 yaw rate, rad/s counter-clockwise
+        self.vb_alpha = np.ones((capacity, d))
+        self.vb_beta = np.ones((capacity, d))
+        self.vb_hist = np.ones((capacity, 2, d))  # normalised variance estimates at k-1, k-2 (eq 17)
+        self.vb_nominal = np.ones((capacity, d))
+
+    def grow(self, capacity: int) -> None:
+        if capacity <= self.capacity:
+            return
+        old = {k: getattr(self, k) for k in ("x", "p", "mu", "ebar", "yaw", "vb_alpha", "vb_beta", "vb_hist", "vb_nominal")}
+        c0 = self.capacity
+        self._alloc(capacity)
+        for k, v in old.items():
+            getattr(self, k)[:c0] = v
+
+    def init(self, slots, x: np.ndarray, p: np.ndarray, mu: np.ndarray | None = None,
+             nominal_var: np.ndarray | None = None) -> None:
+        """Start the given slots: every mode at (x, p); mode probabilities mu (default uniform); VB noise at
+        nominal_var (B, d)."""
+        slots = np.atleast_1d(slots)
+        x = np.reshape(x, (len(slots), self.n))
+        p = np.reshape(p, (len(slots), self.n, self.n))
+        self.x[slots] = x[:, None, :]
+        self.p[slots] = p[:, None, :, :]
+        for j in (j for j, kind in enumerate(self.names) if kind == "cv"):  # CV carries no acceleration
+            self.x[slots, j, 4:6] = 0.0
+            self.p[slots, j, 4:6, :] = 0.0
+            self.p[slots, j, :, 4:6] = 0.0
+            self.p[slots, j, 4, 4] = self.p[slots, j, 5, 5] = models.CV_ACCEL_FLOOR_MPS2**2
+        self.mu[slots] = 1.0 / self.m if mu is None else mu
+        self.ebar[slots] = 0.0
+        self.yaw[slots] = 0.0
+        if self.vb is not None:
+            nominal = np.broadcast_to(np.asarray(nominal_var, float), (len(slots), self.d))
+            self.vb_nominal[slots] = nominal
+            self.vb_alpha[slots] = self.vb.prior_count
+            self.vb_beta[slots] = self.vb.prior_count * nominal
+            self.vb_hist[slots] = 1.0
+
+    def noise_estimate(self, slots) -> np.ndarray:
+        """(B, d) VB measurement-noise variance estimates (Dai eq 22), or NaN without VB."""
+        slots = np.atleast_1d(slots)
+        if self.vb is None:
+            return np.full((len(slots), self.d), np.nan)
+        return self.vb_beta[slots] / self.vb_alpha[slots]
+
+    # -- the IMM cycle -----------------------------------------------------------------------------------
+    def _interact_predict(self, slots: np.ndarray, dt: np.ndarray):
+        """Interaction (eqs 11-13) and mode-matched prediction (eqs 18-19) for a batch."""
+        mu = self.mu[slots]  # (B, M)
+        x = self.x[slots]  # (B, M, n)
+        p = self.p[slots]  # (B, M, n, n)
+        trans = self.chain.at(dt)  # (B, M, M) [from, to]
+        cbar = np.einsum("bi,bij->bj", mu, trans)  # predicted mode probabilities (Hwang eq 5 mu-hat)
+        omega = trans * mu[:, :, None] / np.maximum(cbar, TINY)[:, None, :]  # Baek & Bang eq 11, mu_ij
+        x0 = np.einsum("bij,bin->bjn", omega, x)  # eq 12
+        dx = x[:, :, None, :] - x0[:, None, :, :]  # (B, i, j, n)
+        p0 = np.einsum("bij,bimn->bjmn", omega, p) + np.einsum("bij,bijm,bijn->bjmn", omega, dx, dx)  # eq 13
+        heading = None
+        if self.horizontal:
+            xc = np.einsum("bi,bin->bn", mu, x)
+            heading = models.heading_rad(xc[:, 2], xc[:, 3])
+        fm = np.empty((len(slots), self.m, self.n, self.n))
+        fc = np.empty_like(fm)
+        q = np.empty_like(fm)
+        for j, mode in enumerate(self.modes):  # loop over modes (M <= 4), each vectorised over the batch
+            fm[:, j], fc[:, j], q[:, j] = mode.build(dt, x0[:, j], heading)
+        xp = np.einsum("bjmn,bjn->bjm", fm, x0)  # eq 18
+        pp = _sym(fc @ p0 @ np.swapaxes(fc, -1, -2) + q)  # eq 19
+        return cbar, x0, xp, pp, fm
+
+    def predict(self, slots, dt):
+        """IMM trajectory prediction to dt after each slot's last update (Baek & Bang Sec. 3.3), nothing
+        stored: combined x (B, n), P (B, n, n) and Markov-propagated mode probabilities (B, M) (eq 20)."""
+        slots = np.atleast_1d(slots)
+        dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
+        cbar, _, xp, pp, _ = self._interact_predict(slots, dt)
+        x, p = combine(xp, pp, cbar)
+        return x, p, cbar
+
+    def posterior(self, slots):
+        """Combined posterior at each slot's last update (eqs 16-17)."""
+        slots = np.atleast_1d(slots)
+        return combine(self.x[slots], self.p[slots], self.mu[slots])
+
+    def update(self, slots, dt, z: np.ndarray, mask: np.ndarray, r_var: np.ndarray) -> Pending:
+        """One IMM cycle for the slots with measurements z (B, d), mask (B, d) of measured components and
+        measurement variances r_var (B, d) (ignored under VB, which estimates them). Nothing is stored."""
+        slots = np.atleast_1d(slots)
+        b, m, n, d = len(slots), self.m, self.n, self.d
+        dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
+        mask = np.asarray(mask, bool).reshape(b, d)
+        mf = mask.astype(float)
+        z = np.where(mask, np.asarray(z, float).reshape(b, d), 0.0)
+        cbar, x0, xp, pp, fm = self._interact_predict(slots, dt)
+        x_prior, p_prior = combine(xp, pp, cbar)
+        extra: dict = {"x_prior": x_prior, "p_prior": p_prior}
+
+        if self.vb is not None:
+            r_var, vb_extra = self._variational_noise(slots, x_prior, p_prior, z, mask)
+            extra.update(vb_extra)
+        r_var = np.where(mask, np.asarray(r_var, float).reshape(b, d), 1.0)
+
+        # Mode-matched update (Dai eqs 30-36), masked components: zero residual, unit variance, no gain.
+        eye_d = np.eye(d)
+        mm = mf[:, :, None] * mf[:, None, :]  # (B, d, d)
+        s = pp[:, :, :d, :d] * mm[:, None] + (r_var[:, None, :, None] * eye_d)  # eq 32 (masked: 1 on diag)
+        r = (z[:, None, :] - xp[:, :, :d]) * mf[:, None, :]  # eq 30
+        chol = np.linalg.cholesky(s)
+        logdet = 2.0 * np.log(np.diagonal(chol, axis1=-2, axis2=-1)).sum(axis=-1)  # (B, M)
+        s_inv = np.linalg.inv(s)
+        pht = pp[:, :, :, :d] * mf[:, None, None, :]  # P H^T with masked columns zeroed
+        k = pht @ s_inv  # eq 33, (B, M, n, d)
+        w = np.einsum("bjde,bje->bjd", s_inv, r)  # S^-1 r
+        maha = np.einsum("bjd,bjd->bj", r, w)
+        x_upd = xp + np.einsum("bjnd,bjd->bjn", k, r)  # eq 35
+        # Joseph form (I - K H) P (I - K H)^T + K R K^T: symmetric positive definite by construction.
+        a = pp - k @ (pp[:, :, :d, :] * mf[:, None, :, None])
+        a = a - (a[:, :, :, :d] * mf[:, None, None, :]) @ np.swapaxes(k, -1, -2)
+        p_upd = _sym(a + (k * r_var[:, None, None, :]) @ np.swapaxes(k, -1, -2))
+        dof = mask.sum(axis=1)
+        loglik = -0.5 * (maha + logdet + dof[:, None] * LOG_2PI)  # eq 14 in the log domain
+
+        if self.likelihood == "rmimm":
+            loglik, extra["ebar"] = self._residual_mean(loglik, slots, x0, fm, k, s_inv, cbar, mf)
+
+        logw = np.log(np.maximum(cbar, TINY)) + loglik  # eq 15: mu_j = c_j Lambda_j / c
+        logw -= logw.max(axis=1, keepdims=True)
+        w_mu = np.exp(logw)
+        mu_new = w_mu / w_mu.sum(axis=1, keepdims=True)
+        return Pending(slots, dt, x_upd, p_upd, mu_new, maha.min(axis=1), dof, loglik, extra)
+
+    def _residual_mean(self, loglik, slots, x0, fm, k, s_inv, cbar, mf):
+        """RMIMM likelihood (Hwang eqs 11-14). For filter j and each hypothesis t of the true mode:
+
+            e_jt(k) = (I - K_j C) [A_t e_jt(k-1) + (A_t - A_j) x_0j]       eq 12 (mixed input x_0j)
+            m_jt(k) = C [A_t e_jt(k-1) + (A_t - A_j) x_0j]                 eq 11
+            E[r_j] = sum_t mu-hat_t m_jt                                   eq 13 (m_jj = 0: e_jj stays 0)
+            Lambda_j <- Lambda_j / ||E[r_j]||                              eq 14 (normalisation cancels in eq 15)
+
+        ||.|| is the Mahalanobis norm in S_j (positions and velocities in one norm need a common unit), floored
+        at rmimm_floor (eq 14's 'otherwise' case, E[r_j] = 0, becomes the floor)."""
+        d = self.d
+        ebar = self.ebar[slots]  # (B, j, t, n)
+        inner = np.einsum("btmn,bjtn->bjtm", fm, ebar)
+        inner += np.einsum("btmn,bjn->bjtm", fm, x0) - np.einsum("bjmn,bjn->bjm", fm, x0)[:, :, None, :]
+        m_jt = inner[..., :d] * mf[:, None, None, :]
+        er = np.einsum("bt,bjtd->bjd", cbar, m_jt)
+        norm = np.sqrt(np.maximum(np.einsum("bjd,bjde,bje->bj", er, s_inv, er), 0.0))
+        loglik = loglik - np.log(np.maximum(norm, self.rmimm_floor))
+        ebar_new = inner - np.einsum("bjnd,bjtd->bjtn", k, m_jt)
+        return loglik, ebar_new
+
+    def _variational_noise(self, slots, xm, pm, z, mask):
+        """VB adaptive measurement noise, Dai eqs 17-25, on the IMM's combined prediction (Dai runs it on a
+        separate CS-model filter, eqs 18-19; the IMM mixture already contains the manoeuvre hypotheses, so a
+        turn is not mistaken for noise). Returns the variances for the mode filters (eq 22 after N iterations)."""
+        vb = self.vb
+        d = self.d
+        nominal = self.vb_nominal[slots]
+        mf = mask.astype(float)
+        hist = self.vb_hist[slots]  # normalised sigma at k-1, k-2
+        rho = np.exp(-(vb.c1 * hist[:, 0] + vb.c2 * (hist[:, 0] - hist[:, 1]) ** 2 + vb.c3) / 1e5)  # eq 17
+        rho = np.where(mask, rho, 1.0)  # an unmeasured component keeps its statistics
+        alpha_m = rho * self.vb_alpha[slots]  # eq 20
+        beta_m = rho * self.vb_beta[slots]  # eq 21
+        alpha = alpha_m + 0.5 * mf
+        beta = beta_m.copy()
+        # xm, pm: m_k^-, P_k^- (the IMM's combined prediction)
+        hp = pm[:, :d, :d]
+        y = z - xm[:, :d]
+        floor = vb.floor_fraction * nominal
+        eye_d = np.eye(d)
+        mm = mf[:, :, None] * mf[:, None, :]
+        for _ in range(vb.iterations):  # eqs 22-25 (a fixed-point loop, vectorised over tracks)
+            sig = np.maximum(beta / alpha, floor)  # eq 22
+            s = hp * mm + np.where(mask, sig, 1.0)[:, :, None] * eye_d
+            gain = (pm[:, :, :d] * mf[:, None, :]) @ np.linalg.inv(s)
+            m_new = xm + np.einsum("bnd,bd->bn", gain, y * mf)  # eq 23
+            p_new = pm - gain @ (pm[:, :d, :] * mf[:, :, None])  # eq 24
+            resid = z - m_new[:, :d]
+            beta = beta_m + mf * (0.5 * resid**2 + 0.5 * np.diagonal(p_new[:, :d, :d], axis1=1, axis2=2))  # eq 25
+        sig = np.maximum(beta / alpha, floor)
+        new_hist = np.stack([np.where(mask, sig / nominal, hist[:, 0]), hist[:, 0]], axis=1)
+        return sig, {"vb_alpha": alpha, "vb_beta": beta, "vb_hist": new_hist}
+
+    def commit(self, pending: Pending, accept=None) -> None:
+        """Store the accepted part of a pending cycle."""
+        sel = np.ones(len(pending.slots), bool) if accept is None else np.asarray(accept, bool)
+        if not sel.any():
+            return
+        slots = pending.slots[sel]
+        self.x[slots] = pending.x[sel]
+        self.p[slots] = pending.p[sel]
+        self.mu[slots] = pending.mu[sel]
+        for name in ("ebar", "vb_alpha", "vb_beta", "vb_hist"):
+            if name in pending.extra:
+                getattr(self, name)[slots] = pending.extra[name][sel]
+        if self.horizontal:
+            state = pending.x[sel, self._turn_mode] if self._turn_mode is not None else \
+                combine(pending.x[sel], pending.p[sel], pending.mu[sel])[0]
+            self.yaw[slots] = models.smooth_yaw_rate(self.yaw[slots], models.yaw_rate(state), pending.dt[sel],
+                                                     self.yaw_time_constant_s)
+
+
+def combine(x: np.ndarray, p: np.ndarray, mu: np.ndarray):
+    """Combination, Baek & Bang eqs 16-17: x = sum mu_j x_j, P = sum mu_j (P_j + (x_j - x)(x_j - x)^T)."""
+    xc = np.einsum("bj,bjn->bn", mu, x)
+    dx = x - xc[:, None, :]
+    pc = np.einsum("bj,bjmn->bmn", mu, p) + np.einsum("bj,bjm,bjn->bmn", mu, dx, dx)
+    return xc, _sym(pc)

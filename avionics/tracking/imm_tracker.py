@@ -1,0 +1,396 @@
+"""IMM intruder tracker: the IntruderTracker interface over two vectorised IMM banks (horizontal, vertical).
+
+Each intruder key owns one slot in a horizontal bank ([x, y, vx, vy, ax, ay], modes from
+tracking.imm_horizontal_modes) and in a vertical bank ([z, vz], CH/CAD), Baek & Bang's decoupled structure
+(their Fig. 2). A report updates only its track's slot; `ingest_many` applies a batch of reports with one
+vectorised IMM cycle per bank (at most one report per track per cycle, in time order).
+
+Lifecycle:
+- **Initiation** from the first report: measured components at their measurement variance, unmeasured ones at
+  honest priors (horizontal velocity 150 m/s, vertical rate 15 m/s, acceleration imm_initial_accel_sigma_mps2).
+- **Ordering:** a report not newer than the track's last is counted (report.duplicate / report.out_of_order)
+  and dropped; reports are applied at their time of applicability (receipt time back-dated by tslc).
+- **Validation gate** (Radosavljevic eq 17): d^2 = r^T S^-1 r of the report against the track's prediction,
+  taken for the most permissive mode hypothesis of each bank and summed over the banks, against the chi-square
+  quantile for gate_probability and the number of measured components. Before that, a physical test: a
+  position further than max_innovation_speed_mps x dt (+5 sigma) from the prediction is counted
+  track.implausible_jump; one inside that but outside the chi-square gate is counted track.gate_miss. Either way
+  the report is not merged: it starts (or updates) a competing track for the same key, kept out of `tracks`.
+  When the main track has missed REJECTS_BEFORE_RESTART reports in a row and its competitor took them, the
+  competitor replaces it (track.restarted). Two aircraft under one address are never averaged.
+- **Coasting:** between reports nothing changes; predictions use the Markov chain alone for the modes.
+- **Deletion** after delete_after_s without an accepted report (competitors after max_coast_s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import numpy as np
+from scipy.stats import chi2
+
+from avionics.config import TrackingConfig
+from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.tracking import models
+from avionics.tracking.imm import ImmBank, ModeSpec, VbParams
+
+UNKNOWN_SPEED_SIGMA_MPS = 150.0
+UNKNOWN_VRATE_SIGMA_MPS = 15.0
+UNKNOWN_ALT_SIGMA_M = 1.0e4
+REJECTS_BEFORE_RESTART = 3
+DUPLICATE_WINDOW_S = 1e-6
+H_MEAS = 4  # [x, y, vx, vy]
+V_MEAS = 2  # [z, vz]
+# state index maps between the pipeline's [e, n, alt, ve, vn, vu] and the banks
+PIPE_FROM_H = np.array([0, 1, 3, 4])  # pipeline indices of bank-H [x, y, vx, vy]
+PIPE_FROM_V = np.array([2, 5])  # pipeline indices of bank-V [z, vz]
+
+
+@dataclass
+class ImmTrack:
+    key: IntruderKey
+    slot: int
+    datum: AltitudeDatum | None
+    first_report_s: float
+    last_report_s: float
+    last_altitude_s: float | None
+    n_updates: int = 1
+    consecutive_misses: int = 0
+    callsign: str | None = None
+    squawk: int | None = None
+    emitter_type: int = 0
+    simulated: bool = False
+    last_received_s: float = 0.0
+    meta: dict = field(default_factory=dict)
+    tracker: "ImmTracker | None" = field(default=None, repr=False, compare=False)
+
+    def altitude_valid(self, t_s: float, max_coast_s: float) -> bool:
+        return self.last_altitude_s is not None and t_s - self.last_altitude_s <= max_coast_s
+
+    def mode_info(self, t_s: float | None = None) -> dict:
+        return self.tracker.mode_info(self.key, t_s)
+
+    @property
+    def kf(self) -> SimpleNamespace:
+        """The combined posterior at the last accepted report, as x [e, n, alt, ve, vn, vu], p, t_s (the
+        attributes of the CV tracker's filter that callers read)."""
+        x, p = self.tracker._posterior(np.array([self.slot]))
+        return SimpleNamespace(x=x[0], p=p[0], t_s=self.last_report_s)
+
+
+class ImmTracker:
+    """Same public interface as IntruderTracker: ingest, prune, predict, tracks; plus mode_info and
+    ingest_many (a batch of reports, vectorised)."""
+
+    def __init__(self, config: TrackingConfig, counters: Counter | None = None, capacity: int = 16):
+        self.config = config
+        self.counters = counters if counters is not None else Counter()
+        self.tracks: dict[IntruderKey, ImmTrack] = {}
+        self.competitors: dict[IntruderKey, ImmTrack] = {}
+        self.model = config.filter if config.filter != "cv" else "imm"
+        likelihood = "rmimm" if "rmimm" in self.model else "standard"
+        vb = VbParams(config.vb_iterations, config.vb_c1, config.vb_c2, config.vb_c3) \
+            if self.model.startswith("vb-") else None
+        self.h_modes = [self._mode(k) for k in config.imm_horizontal_modes]
+        self.v_modes = [self._mode(k) for k in config.imm_vertical_modes]
+        p = config.imm_switch_probability
+        kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=config.rmimm_floor, capacity=capacity,
+                  yaw_time_constant_s=config.yaw_rate_time_constant_s)
+        self.bank_h = ImmBank(self.h_modes, H_MEAS, models.switching_matrix(len(self.h_modes), p), **kw)
+        self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
+        self._t = np.zeros(capacity)  # time of each slot's last accepted report
+        self._free = list(range(capacity - 1, -1, -1))
+        self._gate = np.array([0.0] + [chi2.ppf(config.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
+
+    def _mode(self, kind: str) -> ModeSpec:
+        c = self.config
+        sigma = {"cv": c.imm_cv_sigma_mps2, "ca": c.imm_ca_sigma_mps2, "ct": c.imm_ct_sigma_mps2,
+                 "cs": 1.0, "ch": c.imm_ch_sigma_mps, "cad": c.imm_cad_sigma_mps2}[kind]
+        return ModeSpec(kind, sigma, alpha=c.imm_cs_alpha_per_s, a_max=c.imm_cs_max_accel_mps2)
+
+    # -- slots -------------------------------------------------------------------------------------------
+    def _take_slots(self, n: int) -> np.ndarray:
+        if len(self._free) < n:
+            old = self.bank_h.capacity
+            new = max(2 * old, old + n)
+            self.bank_h.grow(new)
+            self.bank_v.grow(new)
+            self._t = np.concatenate([self._t, np.zeros(new - old)])
+            self._free = list(range(new - 1, old - 1, -1)) + self._free
+        return np.array([self._free.pop() for _ in range(n)], int)
+
+    def _release(self, track: ImmTrack) -> None:
+        self._free.append(track.slot)
+
+    # -- measurement model -------------------------------------------------------------------------------
+    def _measure(self, reports: list[IntruderReport], easts, norths):
+        """Measurement arrays of a batch: (z_h, mask_h, r_h) (B, 4) and (z_v, mask_v, r_v) (B, 2)."""
+        cfg = self.config
+        b = len(reports)
+        z_h = np.zeros((b, H_MEAS))
+        z_h[:, 0] = easts
+        z_h[:, 1] = norths
+        m_h = np.zeros((b, H_MEAS), bool)
+        m_h[:, :2] = True
+        z_v = np.zeros((b, V_MEAS))
+        m_v = np.zeros((b, V_MEAS), bool)
+        pos_sigma = np.empty(b)
+        for i, rep in enumerate(reports):  # field extraction from the report objects
+            pos_sigma[i] = cfg.position_sigma_uat_m if rep.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
+            if rep.velocity_en_mps is not None:
+                z_h[i, 2:4] = rep.velocity_en_mps
+                m_h[i, 2:4] = True
+            if rep.altitude_m is not None:
+                z_v[i, 0] = rep.altitude_m
+                m_v[i, 0] = True
+            if rep.vertical_rate_mps is not None:
+                z_v[i, 1] = rep.vertical_rate_mps
+                m_v[i, 1] = True
+        r_h = np.empty((b, H_MEAS))
+        r_h[:, :2] = (pos_sigma**2)[:, None]
+        r_h[:, 2:] = cfg.velocity_sigma_mps**2
+        r_v = np.empty((b, V_MEAS))
+        r_v[:, 0] = cfg.altitude_sigma_m**2
+        r_v[:, 1] = cfg.vertical_rate_sigma_mps**2
+        return (z_h, m_h, r_h), (z_v, m_v, r_v)
+
+    def _init_slots(self, slots: np.ndarray, meas_h, meas_v, vertical_only: bool = False) -> None:
+        """Initial state from one report: measured components at their noise, the rest at honest priors."""
+        z_h, m_h, r_h = meas_h
+        z_v, m_v, r_v = meas_v
+        b = len(slots)
+        if not vertical_only:
+            x = np.zeros((b, 6))
+            x[:, :4] = z_h
+            var = np.empty((b, 6))
+            var[:, :4] = np.where(m_h, r_h, UNKNOWN_SPEED_SIGMA_MPS**2)
+            var[:, 4:] = self.config.imm_initial_accel_sigma_mps2**2
+            self.bank_h.init(slots, x, var[:, :, None] * np.eye(6), nominal_var=r_h)
+        var_v = np.where(m_v, r_v, np.array([UNKNOWN_ALT_SIGMA_M, UNKNOWN_VRATE_SIGMA_MPS]) ** 2)
+        self.bank_v.init(slots, z_v, var_v[:, :, None] * np.eye(2), nominal_var=r_v)
+
+    # -- lifecycle ---------------------------------------------------------------------------------------
+    def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
+        """Apply one report; True when it updated or started a track, False when it was counted and dropped."""
+        return bool(self.ingest_many([report], [east], [north])[0])
+
+    def ingest_many(self, reports: list[IntruderReport], easts, norths) -> np.ndarray:
+        """Apply a batch of reports (any order, any keys). Returns, per report, whether it updated or started a
+        published track. Reports of one key are applied in time order, one vectorised cycle per round."""
+        easts = np.asarray(easts, float)
+        norths = np.asarray(norths, float)
+        out = np.zeros(len(reports), bool)
+        order = sorted(range(len(reports)), key=lambda i: reports[i].time_s)
+        rounds: list[list[int]] = []
+        seen: Counter = Counter()
+        for i in order:
+            r = seen[reports[i].key]
+            seen[reports[i].key] += 1
+            if r == len(rounds):
+                rounds.append([])
+            rounds[r].append(i)
+        for idx in rounds:
+            self._ingest_round(idx, reports, easts, norths, out)
+        return out
+
+    def _ingest_round(self, idx: list[int], reports, easts, norths, out: np.ndarray) -> None:
+        new, upd = [], []
+        for i in idx:
+            rep = reports[i]
+            track = self.tracks.get(rep.key)
+            if track is None:
+                new.append(i)
+                continue
+            dt = rep.time_s - track.last_report_s
+            if abs(dt) <= DUPLICATE_WINDOW_S:
+                self.counters["report.duplicate"] += 1
+                continue
+            if dt < 0:
+                self.counters["report.out_of_order"] += 1
+                continue
+            upd.append(i)
+        if new:
+            self._initiate([reports[i] for i in new], easts[new], norths[new], self.tracks)
+            out[new] = True
+        if not upd:
+            return
+        reps = [reports[i] for i in upd]
+        tracks = [self.tracks[r.key] for r in reps]
+        for rep, track in zip(reps, tracks):
+            if rep.altitude_m is not None and rep.altitude_datum is not track.datum:
+                # The sender switched altitude source: the old vertical state is in another datum.
+                self.counters["track.datum_change"] += 1
+                self._reset_vertical(track)
+                track.datum = rep.altitude_datum
+        accepted = self._update(tracks, reps, easts[upd], norths[upd])
+        for k, (i, rep, track) in enumerate(zip(upd, reps, tracks)):
+            if accepted[k]:
+                track.consecutive_misses = 0
+                out[i] = True
+            else:
+                out[i] = self._handle_miss(track, rep, easts[i], norths[i])
+
+    def _initiate(self, reps: list[IntruderReport], easts, norths, into: dict) -> list[ImmTrack]:
+        meas_h, meas_v = self._measure(reps, easts, norths)
+        slots = self._take_slots(len(reps))
+        self._init_slots(slots, meas_h, meas_v)
+        out = []
+        for rep, slot in zip(reps, slots):
+            self._t[slot] = rep.time_s
+            track = ImmTrack(rep.key, int(slot), rep.altitude_datum, rep.time_s, rep.time_s,
+                             rep.time_s if rep.altitude_m is not None else None, tracker=self)
+            self._copy_identity(track, rep)
+            old = into.get(rep.key)
+            if old is not None:
+                self._release(old)
+            into[rep.key] = track
+            out.append(track)
+        if into is self.tracks:
+            self.counters["track.initiated"] += len(reps)
+        return out
+
+    def _reset_vertical(self, track: ImmTrack) -> None:
+        slot = np.array([track.slot])
+        self.bank_v.init(slot, np.zeros((1, 2)), np.diag([UNKNOWN_ALT_SIGMA_M, UNKNOWN_VRATE_SIGMA_MPS]) ** 2,
+                         nominal_var=np.array([[self.config.altitude_sigma_m**2, self.config.vertical_rate_sigma_mps**2]]))
+
+    @staticmethod
+    def _copy_identity(track: ImmTrack, report: IntruderReport) -> None:
+        track.callsign = report.callsign or track.callsign
+        track.squawk = report.squawk if report.squawk is not None else track.squawk
+        track.emitter_type = report.emitter_type
+        track.simulated = report.simulated
+        track.last_received_s = report.received_s
+
+    def _update(self, tracks: list[ImmTrack], reps: list[IntruderReport], easts, norths,
+                count: bool = True) -> np.ndarray:
+        """One vectorised IMM cycle for these tracks (distinct), gated; accepted ones are stored."""
+        slots = np.fromiter((t.slot for t in tracks), int, len(tracks))
+        times = np.fromiter((r.time_s for r in reps), float, len(reps))
+        dt = times - self._t[slots]
+        (z_h, m_h, r_h), (z_v, m_v, r_v) = self._measure(reps, easts, norths)
+        pend_h = self.bank_h.update(slots, dt, z_h, m_h, r_h)
+        pend_v = self.bank_v.update(slots, dt, z_v, m_v, r_v)
+        # physical plausibility: could the tracked aircraft be where this report says?
+        xp, pp = pend_h.extra["x_prior"], pend_h.extra["p_prior"]
+        jump = np.hypot(z_h[:, 0] - xp[:, 0], z_h[:, 1] - xp[:, 1])
+        allowed = self.config.max_innovation_speed_mps * np.maximum(dt, 1.0) + 5.0 * np.sqrt(
+            pp[:, 0, 0] + pp[:, 1, 1] + r_h[:, 0] + r_h[:, 1])
+        plausible = jump <= allowed
+        d2 = pend_h.d2 + pend_v.d2
+        in_gate = plausible & (d2 <= self._gate[pend_h.dof + pend_v.dof])
+        self.bank_h.commit(pend_h, in_gate)
+        self.bank_v.commit(pend_v, in_gate)
+        self._t[slots[in_gate]] = times[in_gate]
+        for k in np.flatnonzero(in_gate):
+            track, rep = tracks[k], reps[k]
+            track.last_report_s = rep.time_s
+            track.n_updates += 1
+            if rep.altitude_m is not None:
+                track.last_altitude_s = rep.time_s
+            self._copy_identity(track, rep)
+        for k in np.flatnonzero(~in_gate) if count else ():
+            self.counters["track.implausible_jump" if not plausible[k] else "track.gate_miss"] += 1
+        return in_gate
+
+    def _handle_miss(self, track: ImmTrack, rep: IntruderReport, east: float, north: float) -> bool:
+        """A report outside the track's gate: it goes to the key's competing track (started if needed); the
+        competitor replaces the track after REJECTS_BEFORE_RESTART misses in a row that it took."""
+        track.consecutive_misses += 1
+        comp = self.competitors.get(rep.key)
+        took = False
+        if comp is not None and rep.time_s > comp.last_report_s + DUPLICATE_WINDOW_S:
+            took = bool(self._update([comp], [rep], np.array([east]), np.array([north]), count=False)[0])
+        if not took:
+            if comp is not None:
+                self._release(comp)
+                self.counters["track.competitor_replaced"] += 1
+            comp = self._initiate([rep], np.array([east]), np.array([north]), self.competitors)[0]
+            self.counters["track.competitor_started"] += 1
+        if track.consecutive_misses >= REJECTS_BEFORE_RESTART and comp.n_updates >= REJECTS_BEFORE_RESTART:
+            del self.competitors[rep.key]
+            self._release(track)
+            self.tracks[rep.key] = comp
+            self.counters["track.restarted"] += 1
+            return True
+        return False
+
+    def prune(self, now_s: float) -> list[IntruderKey]:
+        """Delete tracks silent for longer than delete_after_s (competitors: max_coast_s)."""
+        dead = [k for k, t in self.tracks.items() if now_s - t.last_report_s > self.config.delete_after_s]
+        for key in dead:
+            self._release(self.tracks.pop(key))
+            self.counters["track.deleted"] += 1
+            comp = self.competitors.pop(key, None)
+            if comp is not None:
+                self._release(comp)
+        for key in [k for k, t in self.competitors.items() if now_s - t.last_report_s > self.config.max_coast_s]:
+            self._release(self.competitors.pop(key))
+        return dead
+
+    # -- outputs -----------------------------------------------------------------------------------------
+    def _assemble(self, xh, ph, xv, pv):
+        n = len(xh)
+        xs = np.empty((n, 6))
+        xs[:, PIPE_FROM_H] = xh[:, :4]
+        xs[:, PIPE_FROM_V] = xv
+        ps = np.zeros((n, 6, 6))
+        ps[:, PIPE_FROM_H[:, None], PIPE_FROM_H[None, :]] = ph[:, :4, :4]
+        ps[:, PIPE_FROM_V[:, None], PIPE_FROM_V[None, :]] = pv
+        return xs, ps
+
+    def _posterior(self, slots: np.ndarray):
+        xh, ph = self.bank_h.posterior(slots)
+        xv, pv = self.bank_v.posterior(slots)
+        return self._assemble(xh, ph, xv, pv)
+
+    def predict(self, keys: list[IntruderKey], t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """States (N, 6) [east, north, alt, v_east, v_north, v_up] and covariances (N, 6, 6) at t_s: the IMM
+        trajectory prediction (interaction, mode-matched prediction, Markov modes, combination)."""
+        if not keys:
+            return np.empty((0, 6)), np.empty((0, 6, 6))
+        slots = np.fromiter((self.tracks[k].slot for k in keys), int, len(keys))
+        dt = t_s - self._t[slots]
+        xh, ph, _ = self.bank_h.predict(slots, dt)
+        xv, pv, _ = self.bank_v.predict(slots, dt)
+        return self._assemble(xh, ph, xv, pv)
+
+    def mode_info(self, key: IntruderKey, t_s: float | None = None) -> dict:
+        """Mode probabilities by name (Markov-propagated to t_s if given), most likely modes, smoothed turn rate
+        (Hwang eq 20 through 1/(11.9 s + 1); degrees per second, positive = right turn, clockwise), VB noise."""
+        track = self.tracks[key]
+        slot = np.array([track.slot])
+        if t_s is None:
+            mu_h, mu_v = self.bank_h.mu[track.slot], self.bank_v.mu[track.slot]
+        else:
+            dt = t_s - self._t[slot]
+            mu_h = self.bank_h.predict(slot, dt)[2][0]
+            mu_v = self.bank_v.predict(slot, dt)[2][0]
+        info = {
+            "model": self.model,
+            "mode_probabilities": {n: float(p) for n, p in zip(self.bank_h.names, mu_h)},
+            "most_likely_mode": self.bank_h.names[int(np.argmax(mu_h))],
+            "turn_rate_dps": -math.degrees(float(self.bank_h.yaw[track.slot])),
+            "vertical_mode_probabilities": {n: float(p) for n, p in zip(self.bank_v.names, mu_v)},
+            "vertical_mode": self.bank_v.names[int(np.argmax(mu_v))],
+            "vb_noise": None,
+        }
+        if self.bank_h.vb is not None:
+            h = self.bank_h.noise_estimate(slot)[0]
+            v = self.bank_v.noise_estimate(slot)[0]
+            info["vb_noise"] = {"position_sigma_m": math.sqrt(0.5 * (h[0] + h[1])),
+                                "velocity_sigma_mps": math.sqrt(0.5 * (h[2] + h[3])),
+                                "altitude_sigma_m": math.sqrt(v[0]), "vertical_rate_sigma_mps": math.sqrt(v[1])}
+        return info
+
+
+def make_tracker(config: TrackingConfig, counters: Counter):
+    """The tracker tracking.filter selects: the CV Kalman tracker or the IMM tracker."""
+    if config.filter == "cv":
+        from avionics.tracking.tracker import IntruderTracker
+
+        return IntruderTracker(config, counters)
+    return ImmTracker(config, counters)

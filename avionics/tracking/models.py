@@ -1,0 +1,269 @@
+"""Motion models of the IMM mode filters: transition F and process noise Q for any step dt, vectorised over dt.
+
+State layouts (Baek & Bang eq 1):
+
+    horizontal  X_H = [x, y, vx, vy, ax, ay]      x = east, y = north (m, m/s, m/s^2)
+    vertical    X_V = [z, vz]                     z = altitude in the intruder's datum
+
+Every builder takes `dt` as a scalar or an array of shape (B,) and returns arrays of shape (B, n, n), so one call
+serves all tracks of a batch whatever their report intervals. The papers define the discrete models for a
+sampling period T; here T = dt of each step (an irregular ADS-B interval or a prediction horizon).
+
+| mode | source | F | Q |
+| --- | --- | --- | --- |
+| CV  | Baek & Bang eq 5, Hwang eq 16 | position += T v; acceleration states zeroed | B Q_CV B^T, B = [T^2/2, T, 0] |
+| CA  | Baek & Bang eq 6 with eq 31 | constant acceleration | B Q_CA(psi) B^T, B = [T^2/2, T, 1], eq 31 heading-rotated |
+| CT  | Hwang eq 18 (Wiener-sequence acceleration) | constant acceleration | G G^T sigma^2, G = [T^2/2, T, 1] |
+| CS  | Dai eqs 8-12 (Zhou's current statistical model) | eq 10 | 2 alpha sigma_a^2 q(T), eq 11-12 |
+| CH  | Baek & Bang eq 7 | [[1, T], [0, 1]] | sigma^2 [T, 1][T, 1]^T |
+| CAD | Baek & Bang eq 8 | [[1, T], [0, 1]] | sigma^2 [T^2, T][T^2, T]^T |
+
+Each model is returned as (F_mean, F_cov, Q): the mean is propagated with F_mean, the covariance with F_cov.
+They differ only for CS, whose mean acceleration a-bar is an input (Dai eq 8, 29), not a state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+H_DIM = 6  # [x, y, vx, vy, ax, ay]
+V_DIM = 2  # [z, vz]
+HORIZONTAL_MODES = ("cv", "ca", "ct", "cs")
+VERTICAL_MODES = ("ch", "cad")
+CV_ACCEL_FLOOR_MPS2 = 1e-3  # CV zeroes the acceleration states; this floor keeps the covariance positive definite
+
+# Gauss-Legendre nodes on [0, 1] for the CS process-noise integral (exact to degree 15; the integrand is smooth)
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_X = 0.5 * (_GL_X + 1.0)
+_GL_W = 0.5 * _GL_W
+
+
+def _dt(dt) -> np.ndarray:
+    return np.atleast_1d(np.asarray(dt, float))
+
+
+def per_axis_to_horizontal(m3: np.ndarray) -> np.ndarray:
+    """(B, 3, 3) per-axis [p, v, a] matrix -> (B, 6, 6) block on [x, y, vx, vy, ax, ay], same for x and y."""
+    out = np.zeros(m3.shape[:-2] + (6, 6))
+    out[..., 0::2, 0::2] = m3
+    out[..., 1::2, 1::2] = m3
+    return out
+
+
+def _axis_gain(dt: np.ndarray, g: tuple) -> np.ndarray:
+    """(B, 3) per-axis noise gain [g_p, g_v, g_a] with each entry a function of dt."""
+    return np.stack([np.broadcast_to(c, dt.shape) for c in g], axis=-1)
+
+
+def _outer_axis(gx: np.ndarray, gy: np.ndarray, var_x, var_y) -> np.ndarray:
+    """Q = B diag(var_x, var_y) B^T for a horizontal gain B = [[gx, 0], [0, gy]] interleaved on [x, y, ...]."""
+    b = gx.shape[0]
+    q = np.zeros((b, 6, 6))
+    q[:, 0::2, 0::2] = gx[:, :, None] * gx[:, None, :] * np.reshape(var_x, (-1, 1, 1))
+    q[:, 1::2, 1::2] = gy[:, :, None] * gy[:, None, :] * np.reshape(var_y, (-1, 1, 1))
+    return q
+
+
+def constant_acceleration_f(dt) -> np.ndarray:
+    """Baek & Bang eq 6 A_CA (= Hwang eq 18 transition): [[I, T I, T^2/2 I], [0, I, T I], [0, 0, I]]."""
+    t = _dt(dt)
+    f3 = np.zeros(t.shape + (3, 3))
+    f3[:, 0, 0] = f3[:, 1, 1] = f3[:, 2, 2] = 1.0
+    f3[:, 0, 1] = f3[:, 1, 2] = t
+    f3[:, 0, 2] = 0.5 * t * t
+    return per_axis_to_horizontal(f3)
+
+
+def cv(dt, sigma_mps2: float):
+    """Constant velocity. Baek & Bang eq 5 (A_CV, B_CV = [Omega_2; Omega_1; 0], Q_CV = sigma^2 I), the same as
+    Hwang eq 16: the acceleration states are zeroed by F and get no noise (beyond a numerical floor)."""
+    t = _dt(dt)
+    f3 = np.zeros(t.shape + (3, 3))
+    f3[:, 0, 0] = f3[:, 1, 1] = 1.0
+    f3[:, 0, 1] = t
+    f = per_axis_to_horizontal(f3)
+    g = _axis_gain(t, (0.5 * t * t, t, 0.0))
+    var = sigma_mps2**2
+    q = _outer_axis(g, g, var, var)
+    q[:, 4, 4] = q[:, 5, 5] = CV_ACCEL_FLOOR_MPS2**2  # numerical floor: P stays positive definite
+    return f, f, q
+
+
+def ca(dt, sigma_mps2: float, heading_rad=None):
+    """Constant acceleration, Baek & Bang eq 6 (B_CA = [Omega_2; Omega_1; I]) with the process noise of eq 31:
+    Q_CA(k) = diag(sigma^2 cos^2 psi, sigma^2 sin^2 psi), psi the heading (clockwise from north, so that a
+    flight along +x, psi = 90 deg, gets its acceleration noise across track, along y). heading None: eq 6's
+    isotropic sigma^2 I."""
+    t = _dt(dt)
+    f = constant_acceleration_f(t)
+    g = _axis_gain(t, (0.5 * t * t, t, 1.0))
+    var = sigma_mps2**2
+    if heading_rad is None:
+        var_x = var_y = np.full(t.shape, var)
+    else:
+        psi = np.broadcast_to(np.asarray(heading_rad, float), t.shape)
+        var_x, var_y = var * np.cos(psi) ** 2, var * np.sin(psi) ** 2  # Baek & Bang eq 31
+    return f, f, _outer_axis(g, g, var_x, var_y)
+
+
+def ct(dt, sigma_mps2: float):
+    """Coordinated turn as the Wiener-sequence acceleration model, Hwang eq 18: a(k) - a(k-1) = w(k),
+    G = [T^2/2, T, 1] per axis, Q = G G^T sigma^2 (sigma: acceleration increment per step, m/s^2)."""
+    t = _dt(dt)
+    f = constant_acceleration_f(t)
+    g = _axis_gain(t, (0.5 * t * t, t, 1.0))
+    return f, f, _outer_axis(g, g, sigma_mps2**2, sigma_mps2**2)
+
+
+def _cs_phi_column(s: np.ndarray, alpha: float) -> np.ndarray:
+    """Third column of Dai eq 10 Phi at time s: [(-1 + a s + e^-as)/a^2, (1 - e^-as)/a, e^-as] (cancellation-safe)."""
+    u = alpha * s
+    em1 = np.expm1(-u)  # e^-u - 1
+    return np.stack([(u + em1) / alpha**2, -em1 / alpha, em1 + 1.0], axis=-1)
+
+
+def cs_transition(dt, alpha: float) -> np.ndarray:
+    """Dai eq 10: Phi(k) of the current statistical model, per axis, interleaved on [x, y, vx, vy, ax, ay]."""
+    t = _dt(dt)
+    f3 = np.zeros(t.shape + (3, 3))
+    f3[:, 0, 0] = f3[:, 1, 1] = 1.0
+    f3[:, 0, 1] = t
+    f3[:, :, 2] = _cs_phi_column(t, alpha)
+    return per_axis_to_horizontal(f3)
+
+
+def cs_q_unit(dt, alpha: float) -> np.ndarray:
+    """Dai eq 11 Q matrix q_ij(T) (Singer 1970): q = int_0^T phi(s) phi(s)^T ds with phi the third column of
+    Phi(s); the process noise is 2 alpha sigma_a^2 q. Gauss-Legendre, robust for any alpha T (no cancellation)."""
+    t = _dt(dt)
+    s = np.abs(t)[:, None] * _GL_X[None, :]  # (B, 8)
+    phi = _cs_phi_column(s, alpha)  # (B, 8, 3)
+    return np.einsum("k,bki,bkj->bij", _GL_W, phi, phi) * np.abs(t)[:, None, None]
+
+
+def cs_accel_variance(a_hat: np.ndarray, a_max: float) -> np.ndarray:
+    """Dai eq 12 (Zhou 1991): sigma_a^2 = (4 - pi)/pi (a_max - a_hat)^2 for a_hat >= 0, (4 - pi)/pi (a_hat - a_min)^2
+    below, with a_min = -a_max. Dai prints the bracket without the square; Zhou's Rayleigh variance has it (the
+    units demand it). The gap to the bound is floored at 5 % of a_max so that Q never vanishes."""
+    gap = np.maximum(a_max - np.abs(a_hat), 0.05 * a_max)
+    return (4.0 - math.pi) / math.pi * gap**2
+
+
+def cs(dt, alpha: float, a_max: float, a_hat: np.ndarray):
+    """Current statistical model, Dai eqs 8-12. a_hat (B, 2): the mode's current acceleration estimate [ax, ay],
+    used as the mean acceleration a-bar of eq 8 (Dai eq 29: a_j(k-1) of the CS filter).
+
+    Mean: X(k+1) = Phi X + Gamma a-bar with a-bar = X's own acceleration; Phi + Gamma e_a^T is exactly the CA
+    transition (eq 10: Phi_13 + Gamma_1 = T^2/2, Phi_23 + Gamma_2 = T, Phi_33 + Gamma_3 = 1), so F_mean = A_CA.
+    Covariance: a-bar is an input, so P propagates with Phi alone plus Q = 2 alpha sigma_a^2 q (eqs 10-12),
+    sigma_a^2 per axis from eq 12."""
+    t = _dt(dt)
+    f_mean = constant_acceleration_f(t)
+    f_cov = cs_transition(t, alpha)
+    q3 = cs_q_unit(t, alpha)  # (B, 3, 3)
+    a_hat = np.reshape(np.asarray(a_hat, float), (-1, 2))
+    var = cs_accel_variance(a_hat, a_max)  # (B, 2)
+    q = np.zeros(t.shape + (6, 6))
+    q[:, 0::2, 0::2] = q3 * (2.0 * alpha * var[:, 0])[:, None, None]
+    q[:, 1::2, 1::2] = q3 * (2.0 * alpha * var[:, 1])[:, None, None]
+    return f_mean, f_cov, q
+
+
+def _vertical_f(t: np.ndarray) -> np.ndarray:
+    f = np.zeros(t.shape + (2, 2))
+    f[:, 0, 0] = f[:, 1, 1] = 1.0
+    f[:, 0, 1] = t
+    return f
+
+
+def ch(dt, sigma_mps: float):
+    """Constant altitude (level), Baek & Bang eq 7: A = [[1, T], [0, 1]], B = [T, 1], Q = sigma_CH^2
+    (sigma in m/s: a vertical-speed increment per step)."""
+    t = _dt(dt)
+    g = np.stack([t, np.ones_like(t)], axis=-1)
+    return _vertical_f(t), _vertical_f(t), sigma_mps**2 * g[:, :, None] * g[:, None, :]
+
+
+def cad(dt, sigma_mps2: float):
+    """Constant altitude change (climb/descent), Baek & Bang eq 8: A = [[1, T], [0, 1]], B = [T^2, T] as printed
+    (the white-acceleration gain is usually [T^2/2, T]; ADS-B measures both altitude and rate, so the factor on
+    the position term changes little), Q = sigma_CAD^2."""
+    t = _dt(dt)
+    g = np.stack([t * t, t], axis=-1)
+    return _vertical_f(t), _vertical_f(t), sigma_mps2**2 * g[:, :, None] * g[:, None, :]
+
+
+# --- derived quantities ------------------------------------------------------------------------------------
+
+
+def heading_rad(ve, vn) -> np.ndarray:
+    """Heading clockwise from north (the psi of Baek & Bang eq 31)."""
+    return np.arctan2(ve, vn)
+
+
+def yaw_rate(state: np.ndarray) -> np.ndarray:
+    """Hwang eq 20 from a CT-mode state [x, y, vx, vy, ax, ay]:
+    omega = sign(vx ay - ax vy) sqrt((ax^2 + ay^2) / (vx^2 + vy^2)), rad/s, positive counter-clockwise.
+    (|a|/|v| includes any along-track acceleration, as in the paper.)"""
+    vx, vy, ax, ay = state[..., 2], state[..., 3], state[..., 4], state[..., 5]
+    speed2 = np.maximum(vx * vx + vy * vy, 1.0)  # below 1 m/s the turn rate means nothing
+    return np.sign(vx * ay - ax * vy) * np.sqrt((ax * ax + ay * ay) / speed2)
+
+
+def smooth_yaw_rate(previous: np.ndarray, new: np.ndarray, dt, time_constant_s: float) -> np.ndarray:
+    """Hwang's low-pass G(s) = 1 / (11.9 s + 1) on the eq 20 estimate, exact discretisation for any dt."""
+    k = -np.expm1(-np.abs(np.asarray(dt, float)) / time_constant_s)
+    return previous + k * (new - previous)
+
+
+# --- mode transition probabilities ----------------------------------------------------------------------
+
+
+def switching_matrix(n_modes: int, switch_probability: float) -> np.ndarray:
+    """M[from, to] for one reference period: stay with 1 - p, switch to each other mode with p / (n - 1).
+    (Hwang eq 21 and Baek & Bang eq 30 are this with n = 2, p = 0.05. Baek & Bang write pi_ij = P{to i | from j},
+    the transpose; for these symmetric matrices it is the same.)"""
+    if n_modes == 1:
+        return np.ones((1, 1))
+    m = np.full((n_modes, n_modes), switch_probability / (n_modes - 1))
+    np.fill_diagonal(m, 1.0 - switch_probability)
+    return m
+
+
+class MarkovChain:
+    """Mode transition matrix M[from, to] for any interval dt, from the matrix M1 of one reference period T0:
+    M(dt) = expm(dt / T0 * logm(M1)), the continuous-time chain that M1 samples (so coasting over 3 s is three
+    steps of M1, exactly, and an irregular 1.3 s interval is consistent with it). Vectorised over dt through
+    one eigendecomposition of the generator."""
+
+    def __init__(self, m1: np.ndarray, period_s: float = 1.0):
+        m1 = np.asarray(m1, float)
+        if m1.ndim != 2 or m1.shape[0] != m1.shape[1] or not np.allclose(m1.sum(axis=1), 1.0) or (m1 < 0).any():
+            raise ValueError("mode transition matrix must be square, non-negative, rows summing to 1 (M[from, to])")
+        self.m1 = m1
+        self.period_s = period_s
+        n = m1.shape[0]
+        if n == 1:
+            self._v = self._vinv = np.ones((1, 1))
+            self._lam = np.zeros(1)
+            return
+        w, v = np.linalg.eig(m1)
+        if np.iscomplexobj(w) and np.abs(w.imag).max() > 1e-12 or (w.real <= 0).any():
+            raise ValueError("mode transition matrix has no real logarithm (make it diagonally dominant)")
+        self._v = v.real
+        self._vinv = np.linalg.inv(self._v)
+        self._lam = np.log(w.real) / period_s  # eigenvalues of the generator
+        generator = self._v @ np.diag(self._lam) @ self._vinv
+        off = generator - np.diag(np.diag(generator))
+        if (off < -1e-12).any():
+            raise ValueError("mode transition matrix is not embeddable in a continuous-time chain")
+
+    def at(self, dt) -> np.ndarray:
+        """(B, n, n) transition matrices M(dt)[from, to]."""
+        t = np.abs(_dt(dt))
+        e = np.exp(self._lam[None, :] * t[:, None])  # (B, n)
+        m = np.einsum("ik,bk,kj->bij", self._v, e, self._vinv)
+        m = np.clip(m, 0.0, 1.0)
+        return m / m.sum(axis=2, keepdims=True)

@@ -1,0 +1,68 @@
+import math
+
+import pytest
+
+from avionics.advisory.tables import LevelSelector, ProfileError, load_profile
+from avionics.config import ConfigError, load_config
+from avionics.core.units import FPM, FT, G0, NM
+
+
+def test_builtin_profiles_load_with_their_documented_values():
+    tcas, small, do365 = load_profile("tcas2"), load_profile("small-uas"), load_profile("do365")
+    assert [lvl.sl for lvl in tcas.levels] == [2, 3, 4, 5, 6, 7, 7]
+    assert tcas.response.delay_s == 5.0 and tcas.response.accel_mps2 == pytest.approx(0.25 * G0)
+    assert tcas.response.rate_mps == pytest.approx(1500 * FPM)
+    assert tcas.ra_inhibit_below_agl_m == pytest.approx(1000 * FT)
+    assert tcas.descend_inhibit_below_agl_m == pytest.approx(1100 * FT)
+    assert tcas.increase_descent_inhibit_below_agl_m == pytest.approx(1450 * FT)
+    (s,) = small.levels
+    assert (s.ra_dmod_m, s.ra_zthr_m) == pytest.approx((2000 * FT, 250 * FT))  # ASTM F3442 well clear
+    (d,) = do365.levels
+    assert (d.ra_tau_s, d.ra_dmod_m, d.ra_zthr_m) == pytest.approx((35.0, 4000 * FT, 450 * FT))
+    assert math.isinf(s.ceiling_m) and math.isinf(d.ceiling_m)
+
+
+def test_any_value_can_be_overridden_in_any_unit():
+    p = load_profile("tcas2", ["sl4.ra_tau_s=25", "sl4.ra_dmod_ft=2500", "response.delay_s=3",
+                               "descend_inhibit_below_agl_ft=1200"])
+    sl4 = next(lvl for lvl in p.levels if lvl.sl == 4)
+    assert sl4.ra_tau_s == 25 and sl4.ra_dmod_m == pytest.approx(2500 * FT)
+    assert sl4.ta_dmod_m == pytest.approx(0.48 * NM)  # untouched
+    assert p.response.delay_s == 3 and p.descend_inhibit_below_agl_m == pytest.approx(1200 * FT)
+    cfg = load_config(overrides=['advisory.profile_overrides=["sl4.ra_tau_s=25"]'])
+    assert cfg.advisory.profile_overrides == ("sl4.ra_tau_s=25",)
+
+
+@pytest.mark.parametrize("override, message", [
+    ("sl9.ra_tau_s=25", "no sl9"), ("response.nope=1", "unknown response key"), ("bogus=1", "unknown key"),
+    ("sl4.ra_tau_s=fast", "key=number"),
+])
+def test_bad_overrides_are_clear_errors(override, message):
+    with pytest.raises(ProfileError, match=message):
+        load_profile("tcas2", [override])
+
+
+def test_unknown_profile_is_a_configuration_error(tmp_path):
+    with pytest.raises(ConfigError, match="unknown profile"):
+        load_config(overrides=['advisory.profile="tcas3"'])
+    bad = tmp_path / "bad.toml"
+    bad.write_text((load_profile.__globals__["profile_text"]("tcas2")[1]).replace("ta_tau_s = 30", "ta_tau_s = -1"))
+    with pytest.raises(ConfigError, match="ta_tau_s"):
+        load_config(overrides=[f'advisory.profile="{bad}"'])
+
+
+def test_a_profile_file_by_path(tmp_path):
+    text = load_profile.__globals__["profile_text"]("small-uas")[1].replace('name = "small-uas"', 'name = "mine"')
+    path = tmp_path / "mine.toml"
+    path.write_text(text)
+    assert load_profile(str(path)).name == "mine"
+
+
+def test_sensitivity_level_hysteresis_at_a_band_boundary():
+    sel = LevelSelector(load_profile("tcas2"))  # 100 ft hysteresis; SL 4/5 boundary at 5000 ft
+    assert sel.select(4900 * FT, 4900 * FT).sl == 4
+    assert sel.select(5050 * FT, 5050 * FT).sl == 4  # within 100 ft above the boundary: stays
+    assert sel.select(5150 * FT, 5150 * FT).sl == 5
+    assert sel.select(4950 * FT, 4950 * FT).sl == 5  # within 100 ft below: stays
+    assert sel.select(4850 * FT, 4850 * FT).sl == 4
+    assert sel.select(800 * FT, 800 * FT).sl == 2  # a big step is taken at once
