@@ -108,7 +108,36 @@ class AdvisoryConfig:
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
     profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
     profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")
+    criterion: str = "tcas"  # tcas | tcas+pc | pc (docs/advisories.md, "Probabilistic gating")
+    pc_ta_threshold: float = 0.1  # Pc of the TA volume needed by tcas+pc and pc
+    pc_ra_threshold: float = 0.3  # Pc of the RA volume needed by tcas+pc and pc
+    persistence: str = "none"  # none | m-of-n | binomial (Radosavljevic eqs 19-24)
+    persistence_m: int = 2
+    persistence_n: int = 3
+    persistence_confidence: float = 0.5  # binomial: P(at least m of n in conflict) needed
     ground_elevation_m: float | None = None  # AGL = MSL - this; None: AGL from height above home
+
+
+@dataclass(frozen=True)
+class ConflictConfig:
+    """Conflict prediction and probability (avionics/conflict/assess.py, docs/conflict.md)."""
+
+    method: str = "exact"  # exact | one_block | blocks | pe | mc
+    n_blocks: int = 10  # blocks: number of blocks (Baek & Bang eq 29)
+    zone_radius_m: float = 1219.2  # conflict disk radius R: 4000 ft (DO-365 well clear, HMD*)
+    zone_half_height_m: float = 137.16  # conflict slab half-height H: 450 ft (DO-365 h*)
+    lookahead_s: float = 60.0  # prediction horizon
+    step_s: float = 1.0  # prediction step
+    accel_sigma_h_mps2: float = 2.0  # relative white acceleration (intruder and ownship) of the prediction
+    accel_sigma_v_mps2: float = 1.0
+    mc_samples: int = 10000  # method mc: samples per pair and time
+    within_samples: int = 500  # trajectories per pair for P(conflict within lookahead); 0: not computed
+    seed: int = 0  # Monte Carlo seed (reproducible runs)
+    prefilter: str = "min_distance"  # min_distance | hwang | none (Hwang condition 2)
+    prefilter_alpha: float = 1.5  # test safety distance alpha R (Hwang: 1.5)
+    schedule_period_s: float = 1.0  # Hwang tau: every pair at least this often
+    schedule_fast_period_s: float = 0.2  # Hwang tau_c: pairs with Pc >= schedule_threshold this often
+    schedule_threshold: float = 0.1  # Hwang P-bar
 
 
 @dataclass(frozen=True)
@@ -120,6 +149,7 @@ class Config:
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
     altitude: AltitudeConfig = field(default_factory=AltitudeConfig)
     advisory: AdvisoryConfig = field(default_factory=AdvisoryConfig)
+    conflict: ConflictConfig = field(default_factory=ConflictConfig)
 
 
 def _coerce(value, annotation, where: str):
@@ -222,6 +252,33 @@ def _validate_tracking_filter(t: TrackingConfig) -> None:
         raise ConfigError(f"tracking.vb_iterations: must be in [1, 100], got {t.vb_iterations}")
 
 
+def _validate_conflict(c: ConflictConfig) -> None:
+    methods = ("exact", "one_block", "blocks", "pe", "mc")
+    if c.method not in methods:
+        raise ConfigError(f"conflict.method: {c.method!r} is not one of {', '.join(methods)}")
+    if c.prefilter not in ("min_distance", "hwang", "none"):
+        raise ConfigError(f"conflict.prefilter: {c.prefilter!r} is not min_distance, hwang or none")
+    for name in ("zone_radius_m", "zone_half_height_m", "step_s", "schedule_period_s", "schedule_fast_period_s"):
+        if getattr(c, name) <= 0:
+            raise ConfigError(f"conflict.{name}: must be > 0, got {getattr(c, name)}")
+    if c.lookahead_s < 0 or abs(c.lookahead_s / c.step_s - round(c.lookahead_s / c.step_s)) > 1e-9:
+        raise ConfigError("conflict.lookahead_s: must be a non-negative multiple of conflict.step_s")
+    if c.lookahead_s / c.step_s > 3600:
+        raise ConfigError("conflict.lookahead_s / step_s: at most 3600 steps")
+    if c.accel_sigma_h_mps2 < 0 or c.accel_sigma_v_mps2 < 0:
+        raise ConfigError("conflict.accel_sigma_*: must be >= 0")
+    if not 1 <= c.n_blocks <= 1000:
+        raise ConfigError("conflict.n_blocks: need 1 <= n_blocks <= 1000")
+    if c.mc_samples < 1 or c.within_samples < 0:
+        raise ConfigError("conflict.mc_samples must be >= 1 and conflict.within_samples >= 0")
+    if c.prefilter_alpha < 1.0:
+        raise ConfigError("conflict.prefilter_alpha: must be >= 1 (Hwang's alpha)")
+    if c.schedule_fast_period_s > c.schedule_period_s:
+        raise ConfigError("conflict.schedule_fast_period_s must be <= conflict.schedule_period_s")
+    if not 0.0 <= c.schedule_threshold <= 1.0:
+        raise ConfigError("conflict.schedule_threshold: must be a probability in [0, 1]")
+
+
 def validate(config: Config) -> Config:
     if config.zenoh.mode not in ("peer", "client", "router"):
         raise ConfigError(f"zenoh.mode: {config.zenoh.mode!r} is not peer, client or router")
@@ -245,6 +302,17 @@ def validate(config: Config) -> Config:
     if config.tracking.delete_after_s < config.tracking.max_coast_s:
         raise ConfigError("tracking.delete_after_s must be >= tracking.max_coast_s")
     _validate_tracking_filter(config.tracking)
+    _validate_conflict(config.conflict)
+    a = config.advisory
+    if a.criterion not in ("tcas", "tcas+pc", "pc"):
+        raise ConfigError(f"advisory.criterion: {a.criterion!r} is not tcas, tcas+pc or pc")
+    if a.persistence not in ("none", "m-of-n", "binomial"):
+        raise ConfigError(f"advisory.persistence: {a.persistence!r} is not none, m-of-n or binomial")
+    if not 1 <= a.persistence_m <= a.persistence_n <= 50:
+        raise ConfigError("advisory.persistence_m and persistence_n: need 1 <= m <= n <= 50")
+    for name in ("pc_ta_threshold", "pc_ra_threshold", "persistence_confidence"):
+        if not 0.0 <= getattr(a, name) <= 1.0:
+            raise ConfigError(f"advisory.{name}: must be a probability in [0, 1]")
     from avionics.advisory.tables import ProfileError, load_profile
 
     try:

@@ -17,11 +17,13 @@ from typing import Iterable
 
 import numpy as np
 
+from avionics.advisory.gating import AlertGate
 from avionics.advisory.logic import AdvisoryState, detect
 from avionics.advisory.resolution import ResolutionLogic, Threat
 from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
 from avionics.config import Config
 from avionics.conflict.cpa import pair_geometry
+from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
@@ -54,6 +56,7 @@ class DaaCore:
         self.levels = LevelSelector(self.profile)
         self.resolution = ResolutionLogic(self.profile)
         self._ra_threats: dict[IntruderKey, Threat] = {}
+        self.gate = AlertGate(config.advisory)
         self.plane: LocalTangentPlane | None = None
         self.ownship = OwnshipFilter(config.altitude, config.input)
         self.tracker = make_tracker(config.tracking, self.counters)  # tracking.filter: cv or an IMM
@@ -93,13 +96,14 @@ class DaaCore:
             self._last_full_assessment_s = now_s
             for key in self.tracker.prune(now_s):
                 self._ra_threats.pop(key, None)
+                self.gate.forget(key)
                 gone = self.assessments.pop(key, None)
                 if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
                     changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
             keys = sorted(self.tracker.tracks)
         else:
             keys = sorted(dirty)
-        assessed = self._assess(now_s, keys, changes) if keys else []
+        assessed = self._assess(now_s, keys, changes, dirty) if keys else []
         return StepResult(now_s, changes, assessed)
 
     def _ownship_altitudes(self, own: OwnshipState, datum: AltitudeDatum | None) -> tuple[float, bool]:
@@ -110,7 +114,8 @@ class DaaCore:
             return float(own.x[2]), True
         return float(own.x[2]), False
 
-    def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory]) -> list[Advisory]:
+    def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
+                updated: set[IntruderKey] = frozenset()) -> list[Advisory]:
         own = self.ownship.state_at(now_s)
         self._last_ownship = own
         if own is None:
@@ -122,7 +127,7 @@ class DaaCore:
         self.level = level = self.levels.select(agl, sl_altitude)
         ra_allowed = cfg.advisory.ra_enabled and not (agl is not None and agl < self.profile.ra_inhibit_below_agl_m)
 
-        xs, _ = self.tracker.predict(keys, now_s)
+        xs, ps = self.tracker.predict(keys, now_s)
         tracks = [self.tracker.tracks[k] for k in keys]
         own_alt = np.empty(len(keys))
         mismatch = np.zeros(len(keys), bool)
@@ -136,6 +141,9 @@ class DaaCore:
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter)
+        pc_ta, pc_ra = self._conflict_probabilities(xs, ps, own, own_alt, geometry, level, has_alt, margin)
+        candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
+        candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
 
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
@@ -168,6 +176,7 @@ class DaaCore:
                 range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
                 vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
                 altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
+                pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
                 **(_ra_fields(resolution) if state.level is AdvisoryLevel.RA and resolution else {}),
             )
             self.assessments[key] = _Assessment(advisory, state)
@@ -176,6 +185,21 @@ class DaaCore:
                 changes.append(advisory)
             out.append(advisory)
         return out
+
+    def _conflict_probabilities(self, xs, ps, own, own_alt, geometry, level, has_alt, margin):
+        """Pc of the TA and RA volumes at the predicted CPA (advisory/gating.py), for gating and outputs."""
+        rel_x = xs - own.x
+        rel_x[:, 2] = geometry.sz_m  # the datum-matched relative altitude
+        rel_p = ps + own.p
+        # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
+        rel_p[:, 2, 2] += margin**2
+        t = geometry.t_cpa_s
+        sigma_h, sigma_v = self.config.tracking.horizontal_accel_sigma_mps2, self.config.tracking.vertical_accel_sigma_mps2
+        pc_ta = pc_at_cpa(rel_x, rel_p, t, level.ta_dmod_m, level.ta_zthr_m, sigma_h, sigma_v, has_alt)
+        if level.ra_tau_s is None:
+            return pc_ta, np.zeros_like(pc_ta)
+        radius = level.ra_hmd_m if level.ra_hmd_m is not None else level.ra_dmod_m
+        return pc_ta, pc_at_cpa(rel_x, rel_p, t, radius, level.alim_m, sigma_h, sigma_v, has_alt) * has_alt
 
     @staticmethod
     def _reason(level: AdvisoryLevel, candidate: AdvisoryLevel, stale: bool, s_dot_v: float, range_m: float,

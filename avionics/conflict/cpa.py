@@ -7,6 +7,11 @@ s = intruder - ownship horizontal position, v = relative velocity, sz/vz the ver
   range tau    = -r / r_dot = -|s|^2 / (s.v)    when closing (s.v < 0), else inf
   modified tau = (DMOD^2 - r^2) / (s.v)         TCAS II (Muñoz et al. 2013, 'tau_mod'); 0 inside DMOD
   vertical tau = -sz / vz                       time to co-altitude when converging, else inf
+
+Also (issue 4): the relative position at horizontal CPA, the 3D CPA (time, relative position, slant miss
+distance; 3D CPA time = max(0, -(s.v + sz vz) / (|v|^2 + vz^2))), and the intervals during which a pair is
+inside a disk |s + v t| <= R, a slab |sz + vz t| <= H, and both (the deterministic loss-of-separation window).
+Degenerate cases: zero relative velocity -> CPA now; co-located -> range and taus 0; diverging -> CPA now.
 """
 
 from __future__ import annotations
@@ -31,10 +36,41 @@ class PairGeometry:
     vz_mps: np.ndarray
     vmd_m: np.ndarray
     range_tau_s: np.ndarray
-    vertical_tau_s: np.ndarray
+    vertical_tau_s: np.ndarray  # = time to co-altitude (-sz/vz when converging, 0 at co-altitude, else inf)
+    # Added for issue 4 (defaults keep any keyword construction of the fields above valid):
+    s_xy_m: np.ndarray | None = None  # (N, 2) relative horizontal position
+    v_xy_mps: np.ndarray | None = None  # (N, 2) relative horizontal velocity
+    cpa_xy_m: np.ndarray | None = None  # (N, 2) relative horizontal position at the horizontal CPA
+    t_cpa3d_s: np.ndarray | None = None  # 3D CPA time (>= 0)
+    cpa3d_xyz_m: np.ndarray | None = None  # (N, 3) relative position at the 3D CPA
+    miss3d_m: np.ndarray | None = None  # slant distance at the 3D CPA
 
     def mod_tau(self, dmod_m) -> np.ndarray:
         return modified_tau(self.range_m, self.s_dot_v, dmod_m)
+
+    @property
+    def time_to_coaltitude_s(self) -> np.ndarray:
+        return self.vertical_tau_s
+
+    def horizontal_interval(self, radius_m) -> tuple[np.ndarray, np.ndarray]:
+        """(t_in, t_out) with |s + v t| <= R exactly for t_in <= t <= t_out (any sign; NaN when never)."""
+        return disk_interval(self.s_xy_m, self.v_xy_mps, radius_m)
+
+    def vertical_interval(self, half_height_m) -> tuple[np.ndarray, np.ndarray]:
+        """(t_in, t_out) with |sz + vz t| <= H (+-inf for a level pair inside the slab; NaN when never)."""
+        return slab_interval(self.sz_m, self.vz_mps, half_height_m)
+
+    def conflict_interval(self, radius_m, half_height_m=None, lookahead_s=INF) -> tuple[np.ndarray, np.ndarray]:
+        """Deterministic loss-of-separation window within [0, lookahead]: (t_in, t_out) of being inside the disk
+        (and the slab, if half_height_m is given) at once; t_in is the time to loss of separation (0 when
+        already inside). NaN, NaN when there is none in the window."""
+        a, b = self.horizontal_interval(radius_m)
+        if half_height_m is not None:
+            c, d = self.vertical_interval(half_height_m)
+            a, b = np.maximum(a, c), np.minimum(b, d)  # NaN (never) on either axis propagates
+        a, b = np.maximum(a, 0.0), np.minimum(b, lookahead_s)
+        none = ~(a <= b)
+        return np.where(none, np.nan, a), np.where(none, np.nan, b)
 
 
 def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
@@ -52,10 +88,15 @@ def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
         vtau = np.where(converging, -sz / np.where(converging, vz, 1.0), INF)
         vtau = np.where(sz == 0.0, 0.0, vtau)
     miss = s_xy + v_xy * t_cpa[:, None]
+    v3 = v2 + vz * vz
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t3 = np.where(v3 > 0.0, np.maximum(0.0, -(sv + sz * vz) / np.where(v3 > 0.0, v3, 1.0)), 0.0)
+    cpa3 = np.column_stack([s_xy + v_xy * t3[:, None], sz + vz * t3])
     return PairGeometry(
         range_m=r, s_dot_v=sv, closure_rate_mps=closure, t_cpa_s=t_cpa,
         hmd_m=np.hypot(miss[:, 0], miss[:, 1]), sz_m=sz, vz_mps=vz, vmd_m=sz + vz * t_cpa,
         range_tau_s=range_tau, vertical_tau_s=vtau,
+        s_xy_m=s_xy, v_xy_mps=v_xy, cpa_xy_m=miss, t_cpa3d_s=t3, cpa3d_xyz_m=cpa3, miss3d_m=np.linalg.norm(cpa3, axis=1),
     )
 
 
@@ -68,3 +109,39 @@ def modified_tau(range_m, s_dot_v, dmod_m) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         tau = np.where(closing, (dmod_m**2 - range_m**2) / np.where(closing, s_dot_v, -1.0), INF)
     return np.where(inside, 0.0, tau)
+
+
+def disk_interval(s_xy, v_xy, radius_m) -> tuple[np.ndarray, np.ndarray]:
+    """Times (t_in, t_out), any sign, between which |s + v t| <= R; (-inf, inf) for v = 0 inside the disk,
+    NaN when the line misses the disk. Roots of |v|^2 t^2 + 2 (s.v) t + |s|^2 - R^2 = 0 in the cancellation-free
+    form q = -(b + sign(b) sqrt(b^2 - ac)), t = q/a and c/q."""
+    s_xy, v_xy = np.atleast_2d(s_xy).astype(float), np.atleast_2d(v_xy).astype(float)
+    r2 = np.broadcast_to(np.asarray(radius_m, float), s_xy.shape[:1]) ** 2
+    a = np.einsum("ij,ij->i", v_xy, v_xy)
+    b = np.einsum("ij,ij->i", s_xy, v_xy)
+    c = np.einsum("ij,ij->i", s_xy, s_xy) - r2
+    disc = b * b - a * c
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        q = -(b + np.copysign(np.sqrt(np.maximum(disc, 0.0)), b))
+        t1 = q / np.where(a > 0.0, a, 1.0)
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), 0.0)
+    t_in, t_out = np.minimum(t1, t2), np.maximum(t1, t2)
+    still = a == 0.0
+    t_in = np.where(still, np.where(c <= 0.0, -INF, np.nan), np.where(disc >= 0.0, t_in, np.nan))
+    t_out = np.where(still, np.where(c <= 0.0, INF, np.nan), np.where(disc >= 0.0, t_out, np.nan))
+    return t_in, t_out
+
+
+def slab_interval(sz, vz, half_height_m) -> tuple[np.ndarray, np.ndarray]:
+    """Times (t_in, t_out), any sign, between which |sz + vz t| <= H; (-inf, inf) when level inside, NaN when
+    level outside."""
+    sz, vz = np.atleast_1d(sz).astype(float), np.atleast_1d(vz).astype(float)
+    h = np.broadcast_to(np.asarray(half_height_m, float), sz.shape)
+    level = vz == 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        safe = np.where(level, 1.0, vz)
+        t1, t2 = (-h - sz) / safe, (h - sz) / safe
+    inside = np.abs(sz) <= h
+    t_in = np.where(level, np.where(inside, -INF, np.nan), np.minimum(t1, t2))
+    t_out = np.where(level, np.where(inside, INF, np.nan), np.maximum(t1, t2))
+    return t_in, t_out

@@ -105,6 +105,8 @@ class Advisory:
     vertical_tau_s: float  # time to co-altitude; inf when not converging
     altitude_datum: AltitudeDatum | None
     datum_mismatch: bool  # relative altitude formed across datums, with widened uncertainty
+    pc_ta: float | None = None  # conflict probability of the TA volume at CPA (advisory/gating.py)
+    pc_ra: float | None = None  # ... of the RA volume (None where the level has no RA)
     # The resolution advisory (level RA only): one ownship manoeuvre shared by every RA threat.
     ra_sense: str | None = None  # "climb" | "descend"
     ra_strength: str | None = None  # "preventive" | "level_off" | "corrective" | "increase"

@@ -67,7 +67,10 @@ def _nan_if_none_or_inf(value: float | None) -> float:
 
 
 def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | None = None):
-    """The project's DAA_ADVISORY (avionics/io/dialect/daa.xml): the whole advisory for an autopilot."""
+    """The project's DAA_ADVISORY (avionics/io/dialect/daa.xml): the whole advisory for an autopilot.
+    pc defaults to the conflict probability of the advisory's own volume (RA volume for an RA)."""
+    if pc is None:
+        pc = advisory.pc_ra if advisory.level is AdvisoryLevel.RA else advisory.pc_ta
     flags = ((mavlink2.DAA_ADVISORY_FLAGS_REVERSED if advisory.ra_reversed else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_CROSSING if advisory.ra_crossing else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_DATUM_MISMATCH if advisory.datum_mismatch else 0)

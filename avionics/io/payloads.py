@@ -10,7 +10,7 @@ from avionics import __version__
 from avionics.core.types import Advisory, AdvisoryLevel
 from avionics.tracking.tracker import IntruderTrack
 
-SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate
+SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate, conflict probabilities
 
 
 def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = None) -> dict:
@@ -35,6 +35,8 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "vertical_tau_s": advisory.vertical_tau_s,
         "altitude_datum": advisory.altitude_datum.value if advisory.altitude_datum else None,
         "datum_mismatch": advisory.datum_mismatch,
+        "pc_ta": advisory.pc_ta,
+        "pc_ra": advisory.pc_ra,
         "ra_sense": advisory.ra_sense,
         "ra_strength": advisory.ra_strength,
         "ra_words": advisory.ra_words,
@@ -80,6 +82,8 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "vmd_m": advisory.vmd_m if advisory else None,
         "range_tau_s": advisory.range_tau_s if advisory else None,
         "mod_tau_s": advisory.mod_tau_s if advisory else None,
+        "pc_ta": advisory.pc_ta if advisory else None,
+        "pc_ra": advisory.pc_ra if advisory else None,
     }
 
 

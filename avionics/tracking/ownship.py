@@ -27,6 +27,7 @@ class OwnshipState:
     x: np.ndarray  # [east, north, alt_msl (geometric), v_east, v_north, v_up]
     pressure_altitude_m: float | None  # None: no recent SCALED_PRESSURE
     height_above_home_m: float
+    p: np.ndarray  # covariance of x
 
 
 class OwnshipFilter:
@@ -73,9 +74,9 @@ class OwnshipFilter:
         """Ownship at t_s, or None without a fix in the last ownship_timeout_s."""
         if self.kf is None or self.last_fix is None or t_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
             return None
-        x, _ = self.kf.predict_to(t_s)
+        x, p = self.kf.predict_to(t_s)
         pressure_alt = None
         if self.last_pressure_s is not None and t_s - self.last_pressure_s <= self.input_cfg.pressure_timeout_s:
             pressure_alt = x[2] + self.baro_offset_m
         hah = self.last_fix.height_above_home_m + (x[2] - self.last_fix.alt_msl_m)
-        return OwnshipState(t_s, x, pressure_alt, hah)
+        return OwnshipState(t_s, x, pressure_alt, hah, p)

@@ -1,0 +1,34 @@
+"""Probability that a pair's miss at the predicted CPA falls inside a protected volume (for alert gating).
+
+The relative state r = intruder - ownship ~ N(m, P) with P = P_intruder + P_ownship (independent filters,
+Baek & Bang eq 23) is propagated in straight lines to the horizontal CPA time t of the mean, with the
+intruder's white-acceleration process noise over t (the same CV model as its track):
+
+    m(t) = m_pos + t m_vel,   P_pos(t) = P_pp + t (P_pv + P_vp) + t^2 P_vv + Q_pos(t)
+
+and Pc = P(|x_h(t)| <= R) * P(|z(t)| <= H), the disk computed exactly (conflict.probability.pc_exact) and
+the vertical slab in closed form; horizontal and vertical are independent in every tracker here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from avionics.conflict.probability import conflict_probability, vertical_probability
+
+
+def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, radius_m: float, half_height_m: float | None,
+              accel_sigma_h_mps2: float, accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
+    """rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; (N,) probabilities.
+    Without altitude (has_altitude False) or without a half height the vertical factor is 1."""
+    t = np.asarray(t_s, float)
+    mean = rel_x[:, 0:3] + t[:, None] * rel_x[:, 3:6]
+    pp, pv, vv = rel_p[:, 0:3, 0:3], rel_p[:, 0:3, 3:6], rel_p[:, 3:6, 3:6]
+    cov = pp + t[:, None, None] * (pv + np.swapaxes(pv, 1, 2)) + (t * t)[:, None, None] * vv
+    q = (t**4 / 4.0)[:, None] * np.array([accel_sigma_h_mps2**2] * 2 + [accel_sigma_v_mps2**2])
+    cov = cov + q[:, :, None] * np.eye(3)[None]
+    horizontal = conflict_probability(mean[:, 0:2], cov[:, 0:2, 0:2], radius_m)
+    if half_height_m is None:
+        return horizontal
+    vertical = vertical_probability(mean[:, 2], cov[:, 2, 2], half_height_m)
+    return horizontal * np.where(has_altitude, vertical, 1.0)
