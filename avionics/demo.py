@@ -47,12 +47,15 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     def on_advisory(sample) -> None:
         payload = json.loads(sample.payload.to_bytes())
         with lock:
-            if not zenoh_advisories or zenoh_advisories[-1]["level"] != payload["level"]:
+            previous = zenoh_advisories[-1] if zenoh_advisories else {}
+            if (previous.get("level"), previous.get("ra_words")) != (payload["level"], payload.get("ra_words")):
                 tau = "--" if payload["mod_tau_s"] is None else f"{payload['mod_tau_s']:4.1f} s"
                 vmd = "?" if payload["vmd_m"] is None else f"{payload['vmd_m'] / FT:+5.0f} ft"
-                print(f"  zenoh      {payload['level']:4s} {payload['intruder']}  reason {payload['reason']:9s} "
+                ra = f" {payload['ra_words']}" if payload.get("ra_words") else ""
+                pc = "" if payload.get("pc_ra") is None else f"  Pc(RA) {payload['pc_ra']:.2f}"
+                print(f"  zenoh      {payload['level']:4s}{ra} {payload['intruder']}  reason {payload['reason']:9s} "
                       f"mod tau {tau}  range {payload['range_m']:6.0f} m  CPA in {payload['t_cpa_s']:5.1f} s  "
-                      f"HMD {payload['hmd_m']:5.0f} m  VMD {vmd}", flush=True)
+                      f"HMD {payload['hmd_m']:5.0f} m  VMD {vmd}{pc}", flush=True)
             zenoh_advisories.append(payload)
 
     subscriber = session.declare_subscriber("daa/*/advisories/**", on_advisory)
