@@ -38,7 +38,7 @@ TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-
 @dataclass(frozen=True, slots=True)
 class StepResult:
     time_s: float
-    changes: list[Advisory]  # advisories whose level changed in this step, in intruder order
+    changes: list[Advisory]  # advisories whose level, RA sense or RA strength changed in this step
     assessed: list[Advisory]  # the advisory of every intruder assessed in this step
 
 
@@ -119,6 +119,7 @@ class DaaCore:
         own = self.ownship.state_at(now_s)
         self._last_ownship = own
         if own is None:
+            self.level = None  # no ownship altitude: no sensitivity level either
             return self._drop_all(now_s, keys, "no_ownship", changes)
         cfg = self.config
         agl = (float(own.x[2]) - cfg.advisory.ground_elevation_m if cfg.advisory.ground_elevation_m is not None

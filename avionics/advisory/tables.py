@@ -185,7 +185,7 @@ TCAS_II_V71: tuple[SensitivityLevel, ...] = load_profile("tcas2").levels
 
 def select_level(agl_m: float | None, altitude_m: float, table=TCAS_II_V71) -> SensitivityLevel:
     """The row whose band holds ownship: AGL for the AGL bands (TCAS SL 2, 3), pressure altitude above.
-    Without AGL the AGL bands are skipped (the altitude bands are more conservative)."""
+    Without AGL the AGL bands are skipped (docs/advisories.md, low-altitude inhibits)."""
     return table[level_index(agl_m, altitude_m, table)]
 
 

@@ -11,7 +11,13 @@ from __future__ import annotations
 from collections import Counter
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
+from pymavlink.dialects.v20 import ardupilotmega
+
 from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
+
+# Frames we can check: ours, and ArduPilot's own messages, which share real links with them (decoded and
+# then ignored, instead of being counted as garbage).
+KNOWN_MESSAGES = {**ardupilotmega.mavlink_map, **mavlink2.mavlink_map}
 
 V1_MARKER = 0xFE
 V2_MARKER = 0xFD
@@ -41,7 +47,7 @@ def header_verdict(buf: bytes | bytearray, i: int) -> bool | str | None:
     if not v1 and buf[i + 2] & ~mavlink2.MAVLINK_IFLAG_SIGNED:
         return "frame.bad_header"  # an incompatibility flag we do not know: MAVLink 2 says drop the frame
     msgid = buf[i + 5] if v1 else buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
-    msgtype = mavlink2.mavlink_map.get(msgid)
+    msgtype = KNOWN_MESSAGES.get(msgid)
     if msgtype is None:
         return "frame.unknown_msgid"  # no CRC_EXTRA: it could never be checked
     if v1 and buf[i + 1] > msgtype.unpacker.size:
@@ -56,6 +62,8 @@ class FrameScanner:
         self.counters = counters
         self.mav = mavlink2.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
         self.mav.robust_parsing = True
+        self._ardupilot = ardupilotmega.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
+        self._ardupilot.robust_parsing = True
         self._buf = bytearray()
         self._signature_left = 0  # bytes at the buffer head that are the signature of a frame already decoded
 
@@ -148,14 +156,19 @@ class FrameScanner:
         if length is None or len(buf) - j < length:
             return False if end_of_datagram else None
         try:
-            msg = self.mav.decode(bytearray(buf[j:j + length]))
+            msg = self._decoder(buf, j).decode(bytearray(buf[j:j + length]))
         except Exception:  # noqa: BLE001
             return False
         return not isinstance(msg, (mavlink2.MAVLink_unknown, mavlink2.MAVLink_bad_data))
 
+    def _decoder(self, buf, i: int):
+        """Our dialect for its messages, pymavlink's ArduPilot dialect for the rest."""
+        msgid = buf[i + 5] if buf[i] == V1_MARKER else buf[i + 7] | buf[i + 8] << 8 | buf[i + 9] << 16
+        return self.mav if msgid in mavlink2.mavlink_map else self._ardupilot
+
     def _decode(self, frame: bytes):
         try:
-            msg = self.mav.decode(bytearray(frame))
+            msg = self._decoder(frame, 0).decode(bytearray(frame))
         except mavlink2.MAVError as exc:
             reason = "frame.bad_crc" if "invalid MAVLink CRC" in str(exc) else "frame.undecodable"
             self.counters[reason] += 1

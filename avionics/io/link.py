@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import select
 import socket
+import socket
 import struct
 import time
 from collections import Counter
@@ -26,6 +27,22 @@ class LinkError(RuntimeError):
     """The connection string cannot be opened, with pymavlink's reason."""
 
 
+def _check_udp_port_free(connection: str) -> None:
+    """pymavlink binds udpin with SO_REUSEADDR, so a second process on the same port starts silently and the
+    two split the datagrams. Bind it once without that option first: a port in use is then a clear error."""
+    kind, _, address = connection.partition(":")
+    if kind not in ("udpin", "udp"):
+        return
+    host, _, port = address.rpartition(":")
+    if not port.isdigit():
+        return  # pymavlink will report the malformed string
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.bind((host or "0.0.0.0", int(port)))
+        except OSError as exc:
+            raise LinkError(f"cannot open MAVLink connection {connection!r}: UDP port {port} is in use ({exc})") from exc
+
+
 class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None):
@@ -33,6 +50,7 @@ class MavlinkLink:
         self.counters = counters
         self.is_log = connection.lower().endswith((".tlog", ".raw", ".mavlink")) and \
             not connection.startswith(("udp", "tcp"))
+        _check_udp_port_free(connection)
         try:
             self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
                                                    source_component=source_component, autoreconnect=True)
@@ -119,6 +137,8 @@ class MavlinkLink:
         self._tlog.flush()  # a crash must not lose what was received
 
     def send(self, msg) -> None:
+        if self.is_log:
+            return  # a log being replayed is read-only: outputs go to the tlog record and zenoh only
         buf = msg.pack(self.mav)
         self.conn.write(buf)
         if self._tlog is not None:

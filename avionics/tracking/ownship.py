@@ -49,8 +49,8 @@ class OwnshipFilter:
         if self.kf is None or fix.time_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
             self.kf = CvKalman(fix.time_s, z.value, np.diag(z.sigma**2), OWNSHIP_ACCEL_SIGMA_MPS2,
                                OWNSHIP_ACCEL_SIGMA_MPS2)
-        elif fix.time_s <= self.kf.t_s:
-            return False  # out of order or duplicate: counted by the caller
+        elif fix.time_s < self.kf.t_s:
+            return False  # out of order: counted by the caller (two fixes read together share a time: both used)
         else:
             self.kf.update(fix.time_s, z)
         self.last_fix = fix
