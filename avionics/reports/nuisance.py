@@ -11,6 +11,7 @@ per alert criterion (advisory.criterion tcas, tcas+pc, pc), open loop.
             and no RA was issued
   nuisance  an RA was issued although the true miss was outside the RA's protection (HMD > RA HMD filter or
             |VMD| > ALIM)
+  missed_within_protection  missed, and the true miss was inside the protection (the dangerous misses)
 """
 
 from __future__ import annotations
@@ -109,7 +110,8 @@ def study(n: int = 500, seed: int = 1, overrides=()) -> dict:
     rng = np.random.default_rng(seed)
     level = next(lvl for lvl in load_profile("tcas2").levels if lvl.sl == 4)
     configs = {c: load_config(overrides=[f'advisory.criterion="{c}"', *overrides]) for c in CRITERIA}
-    counts = {c: {"issued": 0, "missed": 0, "nuisance": 0, "ta_issued": 0} for c in CRITERIA}
+    counts = {c: {"issued": 0, "missed": 0, "nuisance": 0, "missed_within_protection": 0, "ta_issued": 0}
+              for c in CRITERIA}
     entered_total = protected_outside = 0
     for _ in range(n):
         e = _encounter(rng, 2 * level.ra_hmd_m)
@@ -130,6 +132,7 @@ def study(n: int = 500, seed: int = 1, overrides=()) -> dict:
             c["ta_issued"] += AdvisoryLevel.TA in levels or ra
             c["missed"] += entered and not ra
             c["nuisance"] += ra and outside
+            c["missed_within_protection"] += entered and not ra and not outside
     return {
         "report": "nuisance RAs under ADS-B noise", "encounters": n, "seed": seed,
         "sensitivity_level": 4, "ra_hmd_m": round(level.ra_hmd_m, 1), "alim_m": round(level.alim_m, 2),
