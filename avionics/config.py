@@ -43,6 +43,46 @@ class ZenohConfig:
     key_prefix: str = "daa"
     tracks_hz: float = 2.0
     status_hz: float = 1.0
+    # Publishing off the loop (docs/zenoh.md, "Queues, snapshot and liveliness"): advisories are never dropped;
+    # tracks, ownship and status wait in a FIFO of this many samples that drops its oldest when full.
+    queue_size: int = 4096
+    snapshot_changes: int = 256  # advisory changes kept for the snapshot queryable (late join, reconnection)
+    reconnect_max_s: float = 1.0  # lost connect endpoints are re-dialled from 0.25 s, doubling up to this
+    # TLS (endpoints tls/HOST:PORT): PEM file paths, passed to zenoh's transport/link/tls; "" = not set.
+    tls_root_ca_certificate: str = ""  # CA that signed the other side's certificate (needed to connect)
+    tls_listen_certificate: str = ""  # our certificate and key on tls/ listen endpoints
+    tls_listen_private_key: str = ""
+    tls_connect_certificate: str = ""  # our client certificate and key, for mutual TLS
+    tls_connect_private_key: str = ""
+    tls_enable_mtls: bool = False
+    tls_verify_name_on_connect: bool = True
+
+
+def _validate_zenoh(z: ZenohConfig) -> None:
+    if z.queue_size < 1:
+        raise ConfigError(f"zenoh.queue_size: must be >= 1, got {z.queue_size}")
+    if z.snapshot_changes < 0:
+        raise ConfigError(f"zenoh.snapshot_changes: must be >= 0, got {z.snapshot_changes}")
+    if not 0.0 < z.reconnect_max_s <= 60.0:
+        raise ConfigError(f"zenoh.reconnect_max_s: must be in (0, 60], got {z.reconnect_max_s}")
+    files = ("tls_root_ca_certificate", "tls_listen_certificate", "tls_listen_private_key",
+             "tls_connect_certificate", "tls_connect_private_key")
+    for name in files:
+        path = getattr(z, name)
+        if path and not Path(path).is_file():
+            raise ConfigError(f"zenoh.{name}: no such file {path!r}")
+    if bool(z.tls_listen_certificate) != bool(z.tls_listen_private_key):
+        raise ConfigError("zenoh.tls_listen_certificate and tls_listen_private_key go together")
+    if bool(z.tls_connect_certificate) != bool(z.tls_connect_private_key):
+        raise ConfigError("zenoh.tls_connect_certificate and tls_connect_private_key go together")
+    if any(e.startswith("tls/") for e in z.listen) and not z.tls_listen_certificate:
+        raise ConfigError("zenoh.listen has a tls/ endpoint: set zenoh.tls_listen_certificate and "
+                          "zenoh.tls_listen_private_key")
+    if any(e.startswith("tls/") for e in z.connect) and not z.tls_root_ca_certificate:
+        raise ConfigError("zenoh.connect has a tls/ endpoint: set zenoh.tls_root_ca_certificate")
+    if z.tls_enable_mtls and not (z.tls_root_ca_certificate and (z.tls_connect_certificate
+                                                                 or z.tls_listen_certificate)):
+        raise ConfigError("zenoh.tls_enable_mtls needs tls_root_ca_certificate and our own certificate and key")
 
 
 @dataclass(frozen=True)
@@ -84,12 +124,12 @@ class TrackingConfig:
     imm_cad_sigma_mps2: float = 1.0  # CAD vertical acceleration (Baek & Bang eq 8)
     imm_initial_accel_sigma_mps2: float = 3.0  # prior on an intruder's acceleration at track initiation
     gate_probability: float = 0.9999  # chi-square validation gate (Radosavljevic eq 17)
-    rmimm_floor: float = 0.05  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
+    rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
     yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
     vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
-    vb_c1: float = 500.0  # VB forgetting factor constants (Dai eq 17)
-    vb_c2: float = 5000.0
-    vb_c3: float = 2000.0
+    vb_c1: float = 1000.0  # VB forgetting factor constants (Dai eq 17), on the estimate / nominal variance
+    vb_c2: float = 500.0
+    vb_c3: float = 5000.0
 
 
 @dataclass(frozen=True)
@@ -196,7 +236,7 @@ def _build(cls, table, where: str):
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = set(table) - names
     if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {sorted(unknown)}; known: {sorted(names)}")
+        raise ConfigError(f"{where or 'configuration'}: unknown key(s) {sorted(unknown)}; known: {sorted(names)}")
     kwargs = {k: _coerce(v, hints[k], f"{where}.{k}" if where else k) for k, v in table.items()}
     return cls(**kwargs)
 
@@ -282,6 +322,7 @@ def _validate_conflict(c: ConflictConfig) -> None:
 def validate(config: Config) -> Config:
     if config.zenoh.mode not in ("peer", "client", "router"):
         raise ConfigError(f"zenoh.mode: {config.zenoh.mode!r} is not peer, client or router")
+    _validate_zenoh(config.zenoh)
     positive = [
         ("mavlink.heartbeat_hz", config.mavlink.heartbeat_hz),
         ("mavlink.collision_refresh_s", config.mavlink.collision_refresh_s),
@@ -319,6 +360,13 @@ def validate(config: Config) -> Config:
         load_profile(config.advisory.profile, config.advisory.profile_overrides)
     except ProfileError as exc:
         raise ConfigError(f"advisory.profile: {exc}") from exc
+    if not config.vehicle.id or any(c in config.vehicle.id for c in "/*$?#"):
+        raise ConfigError(f"vehicle.id: {config.vehicle.id!r} must be a non-empty zenoh key chunk "
+                          "(no '/', '*', '$', '?', '#')")
+    if not 1 <= config.mavlink.source_system <= 255 or not 0 <= config.mavlink.source_component <= 255:
+        raise ConfigError("mavlink.source_system must be in 1..255 and mavlink.source_component in 0..255")
+    if config.altitude.baro_offset_smoothing_s <= 0:
+        raise ConfigError("altitude.baro_offset_smoothing_s: must be > 0")
     if not 0 <= config.vehicle.own_icao <= 0xFFFFFF:
         raise ConfigError(f"vehicle.own_icao: {config.vehicle.own_icao:#x} is not a 24-bit address")
     return config

@@ -22,6 +22,7 @@ from avionics.advisory.logic import AdvisoryState, detect
 from avionics.advisory.resolution import ResolutionLogic, Threat
 from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
 from avionics.config import Config
+from avionics.conflict.assess import ConflictAssessor
 from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.geodesy import LocalTangentPlane
@@ -57,6 +58,7 @@ class DaaCore:
         self.resolution = ResolutionLogic(self.profile)
         self._ra_threats: dict[IntruderKey, Threat] = {}
         self.gate = AlertGate(config.advisory)
+        self.conflict = ConflictAssessor(config.conflict)
         self.plane: LocalTangentPlane | None = None
         self.ownship = OwnshipFilter(config.altitude, config.input)
         self.tracker = make_tracker(config.tracking, self.counters)  # tracking.filter: cv or an IMM
@@ -97,6 +99,7 @@ class DaaCore:
             for key in self.tracker.prune(now_s):
                 self._ra_threats.pop(key, None)
                 self.gate.forget(key)
+                self.conflict.forget(key)
                 gone = self.assessments.pop(key, None)
                 if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
                     changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
@@ -142,7 +145,7 @@ class DaaCore:
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter)
-        pc_ta, pc_ra = self._conflict_probabilities(xs, ps, own, own_alt, geometry, level, has_alt, margin)
+        pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin)
         candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
         candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
@@ -178,6 +181,8 @@ class DaaCore:
                 vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
                 altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
                 pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
+                pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
+                t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
                 **(_ra_fields(resolution) if state.level is AdvisoryLevel.RA and resolution else {}),
             )
             self.assessments[key] = _Assessment(advisory, state)
@@ -187,20 +192,30 @@ class DaaCore:
             out.append(advisory)
         return out
 
-    def _conflict_probabilities(self, xs, ps, own, own_alt, geometry, level, has_alt, margin):
-        """Pc of the TA and RA volumes at the predicted CPA (advisory/gating.py), for gating and outputs."""
+    def _conflict_probabilities(self, now_s, keys, xs, ps, own, geometry, level, has_alt, margin):
+        """Pc of the TA and RA volumes at the predicted CPA (advisory/gating.py), for gating; and the conflict
+        stage's probabilities of the [conflict] zone (conflict/assess.py: now, max over the lookahead and
+        its time, within the lookahead) for the outputs, under Hwang's scheduling conditions."""
         rel_x = xs - own.x
         rel_x[:, 2] = geometry.sz_m  # the datum-matched relative altitude
         rel_p = ps + own.p
+        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin)
         # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
         sigma_h, sigma_v = self.config.tracking.horizontal_accel_sigma_mps2, self.config.tracking.vertical_accel_sigma_mps2
         pc_ta = pc_at_cpa(rel_x, rel_p, t, level.ta_dmod_m, level.ta_zthr_m, sigma_h, sigma_v, has_alt)
         if level.ra_tau_s is None:
-            return pc_ta, np.zeros_like(pc_ta)
+            return pc_ta, np.zeros_like(pc_ta), zone
         radius = level.ra_hmd_m if level.ra_hmd_m is not None else level.ra_dmod_m
-        return pc_ta, pc_at_cpa(rel_x, rel_p, t, radius, level.alim_m, sigma_h, sigma_v, has_alt) * has_alt
+        return pc_ta, pc_at_cpa(rel_x, rel_p, t, radius, level.alim_m, sigma_h, sigma_v, has_alt) * has_alt, zone
+
+    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin) -> dict:
+        """The conflict stage runs on the full-assessment ticks only (its scheduler then decides which pairs
+        are due); an assessment between ticks, for a fresh report, reuses the intruder's last values."""
+        if len(keys) == len(self.tracker.tracks) and now_s == self._last_full_assessment_s:
+            return self.conflict.assess(now_s, keys, rel_x, rel_p, has_alt, margin)
+        return self.conflict.last(keys)
 
     @staticmethod
     def _reason(level: AdvisoryLevel, candidate: AdvisoryLevel, stale: bool, s_dot_v: float, range_m: float,
@@ -242,6 +257,10 @@ def _ra_fields(r) -> dict:
     return dict(ra_sense=r.sense.value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
                 ra_separation_m=r.separation_m)
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
 
 
 def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:

@@ -60,3 +60,46 @@ def test_degenerate_pairs():
     # vertical: converging pair -> time to co-altitude; diverging -> inf
     assert g.vertical_tau_s[0] == 10.0 and g.vertical_tau_s[2] == math.inf
     assert np.all(np.isfinite(g.hmd_m))
+
+
+# --- issue 4: CPA position, 3D CPA, entry/exit intervals ----------------------------------------------------
+
+
+@settings(max_examples=150, deadline=None)
+@given(sx=coord, sy=coord, vx=speed, vy=speed, sz=st.floats(-1000, 1000), vz=st.floats(-50, 50))
+def test_3d_cpa_is_the_minimum_of_the_sampled_slant_range(sx, sy, vx, vy, sz, vz):
+    g = pair_geometry([[sx, sy]], [[vx, vy]], [sz], [vz])
+    t = np.linspace(0.0, 2000.0, 200001)
+    d = np.sqrt((sx + vx * t) ** 2 + (sy + vy * t) ** 2 + (sz + vz * t) ** 2)
+    assert g.t_cpa3d_s[0] >= 0.0
+    assert g.miss3d_m[0] <= d.min() + 1e-6
+    assert np.allclose(g.cpa3d_xyz_m[0], [sx + vx * g.t_cpa3d_s[0], sy + vy * g.t_cpa3d_s[0], sz + vz * g.t_cpa3d_s[0]])
+    assert np.allclose(g.cpa_xy_m[0], [sx + vx * g.t_cpa_s[0], sy + vy * g.t_cpa_s[0]])
+
+
+def test_intervals_and_loss_of_separation():
+    from avionics.conflict.cpa import disk_interval, slab_interval
+
+    # head-on 10 km, 200 m/s closing, 500 m radius: inside from 47.5 s to 52.5 s
+    g = pair_geometry([[0.0, 10000.0]], [[0.0, -200.0]], [300.0], [-10.0])
+    a, b = g.horizontal_interval(500.0)
+    assert math.isclose(a[0], 47.5) and math.isclose(b[0], 52.5)
+    # slab |z| <= 100 m: 300 - 10 t in [-100, 100] for t in [20, 40] -> no overlap with [47.5, 52.5]
+    c, d = g.vertical_interval(100.0)
+    assert math.isclose(c[0], 20.0) and math.isclose(d[0], 40.0)
+    lo, hi = g.conflict_interval(500.0, 100.0, 120.0)
+    assert np.isnan(lo[0]) and np.isnan(hi[0])
+    lo, hi = g.conflict_interval(500.0, 200.0, 120.0)  # |z| <= 200: t in [10, 50] -> [47.5, 50]
+    assert math.isclose(lo[0], 47.5) and math.isclose(hi[0], 50.0)
+    lo, hi = g.conflict_interval(500.0, 200.0, 48.0)  # clipped to the lookahead
+    assert math.isclose(hi[0], 48.0)
+    # already inside: time to loss of separation 0; never (miss 1000 m): NaN; no motion inside: all time
+    a, b = disk_interval([[100.0, 0.0], [0.0, 1000.0], [10.0, 0.0]], [[5.0, 0.0], [100.0, 0.0], [0.0, 0.0]], 500.0)
+    assert a[0] < 0.0 < b[0] and np.isnan(a[1]) and a[2] == -math.inf and b[2] == math.inf
+    lo, _ = pair_geometry([[100.0, 0.0]], [[5.0, 0.0]], [0.0], [0.0]).conflict_interval(500.0)
+    assert lo[0] == 0.0
+    c, d = slab_interval([50.0, 500.0], [0.0, 0.0], 100.0)
+    assert c[0] == -math.inf and d[0] == math.inf and np.isnan(c[1])
+    # co-located, no relative motion: CPA now in 3D too
+    g = pair_geometry([[0.0, 0.0]], [[0.0, 0.0]], [0.0], [0.0])
+    assert g.t_cpa3d_s[0] == 0.0 and g.miss3d_m[0] == 0.0 and g.time_to_coaltitude_s[0] == 0.0

@@ -96,7 +96,8 @@ def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
         range_m=r, s_dot_v=sv, closure_rate_mps=closure, t_cpa_s=t_cpa,
         hmd_m=np.hypot(miss[:, 0], miss[:, 1]), sz_m=sz, vz_mps=vz, vmd_m=sz + vz * t_cpa,
         range_tau_s=range_tau, vertical_tau_s=vtau,
-        s_xy_m=s_xy, v_xy_mps=v_xy, cpa_xy_m=miss, t_cpa3d_s=t3, cpa3d_xyz_m=cpa3, miss3d_m=np.linalg.norm(cpa3, axis=1),
+        s_xy_m=s_xy, v_xy_mps=v_xy, cpa_xy_m=miss, t_cpa3d_s=t3, cpa3d_xyz_m=cpa3,
+        miss3d_m=np.linalg.norm(cpa3, axis=1),
     )
 
 

@@ -46,8 +46,13 @@ METHODS = ("exact", "one_block", "blocks", "pe", "mc")
 
 SQRT_2PI = math.sqrt(2.0 * math.pi)
 K_SIGMA = 7.5  # Gaussian mass beyond 7.5 sigma: 3.2e-14 per side
-N_GL = 32  # Gauss-Legendre nodes per panel: a full 2 x 7.5 sigma Gaussian to ~1e-13
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(N_GL)
+# Gauss-Legendre rules by how many sigmas (of either factor's own argument) a panel spans: 32 nodes integrate a
+# Gaussian or a CDF ramp over 15 sigmas to ~1e-13, 24 nodes over 6.5 sigmas and 16 nodes over 4 to ~1e-13.
+GL_RULES = ((4.0, 16), (6.5, 24), (np.inf, 32))
+_GL = {n: np.polynomial.legendre.leggauss(n) for _, n in GL_RULES}
+TAU_WIDTH_FEW_NODES = 0.5  # 16 nodes only on panels at most this wide in tau (of 2)
+TAU_SPLIT = 1.0  # zone panels wider than this in tau (of 2) are integrated as two halves
+CHUNK = 1024  # pairs per block in pc_exact
 GAUSS_CORE = 3.0  # extra break points at m_u +- 3 s_a
 
 ndtr = special.ndtr
@@ -121,12 +126,6 @@ def _tau_of_u(u, r):
     return w / (1.0 + np.sqrt(np.maximum(1.0 - w * w, 0.0)))
 
 
-def _tau_of_h(h, r):
-    """|tau| at which the disk's half-chord sqrt(R^2 - u^2) equals h (0 <= h <= R)."""
-    h = np.clip(h, 0.0, r)
-    return np.sqrt((r - h) / (r + h))
-
-
 def pc_exact(mean, cov, radius) -> np.ndarray:
     """Exact Pc over the disk |x| <= R for N pairs: mean (N, 2), cov (N, 2, 2), radius scalar or (N,).
 
@@ -139,12 +138,13 @@ def pc_exact(mean, cov, radius) -> np.ndarray:
     substitution u = 2R tau / (1 + tau^2) (tau = tan(t/2), u = R sin t): the square-root edge of h(u) at u = +-R
     becomes a rational, analytic integrand, with no trigonometric calls. The bracket is exactly 0 or 1 (to
     1e-14) except where h(u) is within 7.5 s_b of +-m_v; those 'zones' end at tau = sqrt((R - h)/(R + h)),
-    which split the window into panels. On a panel without a zone the bracket is a constant and the integral
-    is the closed-form Gaussian mass of the panel; on a panel inside a zone both factors span at most 15
-    sigmas of their own argument, and 32-point Gauss-Legendre is exact to ~1e-13. Along the minor axis the
+    which split the window into panels, as do m_u +- 3 s_a. On a panel without a zone the bracket is a constant
+    and the integral is the closed-form Gaussian mass of the panel; on a panel inside a zone both factors span
+    at most 15 sigmas of their own argument, and 16-, 24- or 32-point Gauss-Legendre (by the span) is exact to
+    ~1e-13. Knots are chained by exact differences of u (no digits lost when s_a << |m_u|). Along the minor axis the
     bracket never varies faster than the Gaussian factor except near u = +-R, exactly where the zone panels
-    put the break points, so no adaptive refinement is needed: cost is fixed per pair (plus 32 nodes per
-    zone panel, typically 0-2). Degenerate covariances are exact too: s_a = 0 (a line) and P = 0 (a point).
+    put the break points, so no adaptive refinement is needed: cost is fixed per pair (plus 16-32 nodes per
+    zone panel, typically 1-3). Degenerate covariances are exact too: s_a = 0 (a line) and P = 0 (a point).
     """
     mean, cov, radius = _as_pairs(mean, cov, radius)
     n = mean.shape[0]
@@ -165,8 +165,10 @@ def pc_exact(mean, cov, radius) -> np.ndarray:
         out[i] = np.where(inside, _interval_mass(-h, h, m_v[i], s_b[i]), 0.0)
 
     if gen.any():
-        i = np.flatnonzero(gen)
-        out[i] = _exact_general(m_u[i], m_v[i], s_a[i], s_b[i], r[i])
+        idx = np.flatnonzero(gen)
+        for k in range(0, idx.size, CHUNK):  # blocks that keep the temporaries in cache (2-3x faster)
+            i = idx[k:k + CHUNK]
+            out[i] = _exact_general(m_u[i], m_v[i], s_a[i], s_b[i], r[i])
     out[~finite] = np.nan
     return out
 
@@ -187,7 +189,8 @@ def _exact_general(m_u, m_v, s_a, s_b, r):
     k = 0
     for c in (m_v, -m_v):
         for h_end in (c + kb, c - kb):
-            tb = np.sqrt(np.abs((r - h_end) / (r + h_end)))  # NaN-free; used only where 0 < h_end < r
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tb = np.sqrt(np.abs((r - h_end) / (r + h_end)))  # used only where 0 < h_end < r
             inner = (h_end > 0.0) & (h_end < r)
             cand[:, k] = np.where(inner, tb, t_lo)
             cand[:, k + 1] = np.where(inner, -tb, t_lo)
@@ -212,59 +215,92 @@ def _exact_general(m_u, m_v, s_a, s_b, r):
     inside = (h_mid > mv + kb2) & (h_mid > -mv + kb2)
 
     # Panels outside every zone: bracket 0 or 1, Gaussian mass of the panel in closed form (absolute error
-    # 1e-16 per panel is all that is needed).
-    u_knots = 2.0 * r[:, None] * knots / (1.0 + knots * knots)
-    cdf = ndtr((u_knots - m_u[:, None]) / s_a[:, None])
+    # 1e-16 per panel is all that is needed), from the standardised u of every knot, chained from the window
+    # start by exact differences u(b) - u(a) = 2R (b - a)(1 - ab) / ((1 + a^2)(1 + b^2)): knots never lose
+    # digits to u - m_u even when s_a << |m_u| (absolute positions near R carry only 1e-16 R), and the
+    # closed-form and Gauss-Legendre panels see the same knot positions, so their masses add up exactly.
+    z0 = np.maximum((-r - m_u) / s_a, -K_SIGMA)
+    dz = 2.0 * r[:, None] * width * (1.0 - ta * tb) / ((1.0 + ta * ta) * (1.0 + tb * tb)) / s_a[:, None]
+    z_knots = np.concatenate([z0[:, None], z0[:, None] + np.cumsum(dz, axis=1)], axis=1)
+    cdf = ndtr(z_knots)
     mass = cdf[:, 1:] - cdf[:, :-1]
     total = np.where(inside & ~in_zone, mass, 0.0).sum(axis=1)
 
-    # Zone panels: Gauss-Legendre in tau. Where only one bracket term varies on a panel (the usual case) the
-    # other is the constant 0 or 1 and one CDF per node is enough: bracket = a + b Phi(s h/s_b - m_v/s_b).
+    # Zone panels: Gauss-Legendre in tau, 16, 24 or 32 nodes by the sigmas the panel spans (GL_RULES). Where only
+    # one bracket term varies on a panel (the usual case) the other is the constant 0 or 1 and one CDF per
+    # node is enough: bracket = offset + sign Phi(sign h/s_b - m_v/s_b).
     pi_, pj = np.nonzero(in_zone)
     if pi_.size:
+        a, b = ta[pi_, pj], tb[pi_, pj]
+        za = z_knots[pi_, pj]
         hm = h_mid[pi_, pj]
+        wide = np.flatnonzero(b - a > TAU_SPLIT)  # a zone panel covering most of the disk: two halves
+        if wide.size:
+            aw, bw = a[wide], b[wide]
+            mid = 0.5 * (aw + bw)
+            z_mid = za[wide] + 2.0 * r[pi_[wide]] * (mid - aw) * (1.0 - aw * mid) / (
+                (1.0 + aw * aw) * (1.0 + mid * mid)) / s_a[pi_[wide]]
+            b = b.copy()
+            b[wide] = mid  # first halves in place, second halves appended
+            pi_ = np.concatenate([pi_, pi_[wide]])
+            a = np.concatenate([a, mid])
+            b = np.concatenate([b, bw])
+            za = np.concatenate([za, z_mid])
+            hm = np.concatenate([hm, hm[wide]])  # the zone flags hold on the whole panel
         mvp, kbp = m_v[pi_], kb[pi_]
         act1 = np.abs(hm - mvp) < kbp  # upper term Phi((h - m_v)/s_b) varies
         act2 = np.abs(hm + mvp) < kbp  # lower term Phi((-h - m_v)/s_b) varies
         c1 = (hm > mvp).astype(float)  # constant value of a term that does not vary
         c2 = (-hm - mvp > 0.0).astype(float)
-        a, b = ta[pi_, pj], tb[pi_, pj]
-        rp, sap, sbp, mup = r[pi_], s_a[pi_], s_b[pi_], m_u[pi_]
-        half = 0.5 * (b - a)
+        rp, sap, sbp = r[pi_], s_a[pi_], s_b[pi_]
+        # sigmas spanned on the panel by the Gaussian factor (u monotone in tau) and by the bracket (h is
+        # monotone on either side of tau = 0, maximal there)
+        dzp = 2.0 * rp * (b - a) * (1.0 - a * b) / ((1.0 + a * a) * (1.0 + b * b)) / sap
+        ha, hb = rp * (1 - a * a) / (1 + a * a), rp * (1 - b * b) / (1 + b * b)
+        hmax = np.where((a < 0.0) & (b > 0.0), rp, np.maximum(ha, hb))
+        span = np.maximum(dzp, (hmax - np.minimum(ha, hb)) / sbp)
+        # the rational tau map needs more nodes on wide panels: 24 at most up to 1 wide (after TAU_SPLIT)
+        span = np.where(b - a > TAU_WIDTH_FEW_NODES, np.where(span <= GL_RULES[0][0], GL_RULES[1][0], np.inf), span)
         both = act1 & act2
+        sign = np.where(act1, 1.0, -1.0)
+        offset = np.where(both, 0.0, np.where(act1, -c2, c1))
         vals = np.empty(pi_.size)
-        one = ~both
-        if one.any():
-            sign = np.where(act1[one], 1.0, -1.0)
-            vals[one] = _gl_panels(a[one], b[one], rp[one], mup[one], sap[one], sbp[one], mvp[one],
-                                   offset=np.where(act1[one], -c2[one], c1[one]), scale=sign, sign=sign)
-        if both.any():
-            vals[both] = _gl_panels(a[both], b[both], rp[both], mup[both], sap[both], sbp[both], mvp[both])
+        lo_span = 0.0
+        for hi_span, nodes in GL_RULES:
+            grp = (span > lo_span) & (span <= hi_span) if lo_span > 0.0 else span <= hi_span
+            lo_span = hi_span
+            for two in (False, True):
+                sel = np.flatnonzero(grp & (both == two))
+                if sel.size:
+                    vals[sel] = _gl_panels(a[sel], b[sel], rp[sel], za[sel], sap[sel], sbp[sel], mvp[sel], nodes,
+                                           None if two else offset[sel], None if two else sign[sel])
         total += np.bincount(pi_, weights=vals, minlength=n)
     total = np.where(empty, 0.0, total)
     return np.clip(total, 0.0, 1.0)
 
 
-def _gl_panels(a, b, r, m_u, s_a, s_b, m_v, offset=None, scale=None, sign=None):
-    """32-point Gauss-Legendre over tau in [a, b] of the exact integrand, one row per panel. With offset, scale
-    and sign: bracket = offset + scale Phi(sign h/s_b - m_v/s_b) (one bracket term constant on the panel);
-    without: both terms."""
+def _gl_panels(a, b, r, z_a, s_a, s_b, m_v, nodes, offset=None, sign=None):
+    """Gauss-Legendre (nodes points) over tau in [a, b] of the exact integrand, one row per panel; z_a is the
+    standardised u at tau = a. With offset and sign: bracket = offset + sign Phi(sign h/s_b - m_v/s_b) (one
+    bracket term constant on the panel); without: both terms."""
+    gx, gw = _GL[nodes]
     half = 0.5 * (b - a)
-    t = (0.5 * (a + b))[:, None] + half[:, None] * _GL_X[None, :]
+    d = half[:, None] * (1.0 + gx[None, :])  # t - a, without cancellation
+    t = a[:, None] + d
     t2 = t * t
     den = 1.0 / (1.0 + t2)
     q = (1.0 - t2) * den  # h / R
-    zu = (t * den) * (2.0 * r / s_a)[:, None] - (m_u / s_a)[:, None]
+    zu = z_a[:, None] + (2.0 * r / s_a)[:, None] * d * (1.0 - t * a[:, None]) * den / (1.0 + a * a)[:, None]
     f = np.exp(-0.5 * zu * zu)
     hz = q * (r / s_b)[:, None]
     mvz = (m_v / s_b)[:, None]
     if offset is None:
         brk = ndtr(hz - mvz) - ndtr(-hz - mvz)
     else:
-        brk = offset[:, None] + scale[:, None] * ndtr(sign[:, None] * hz - mvz)
+        brk = offset[:, None] + sign[:, None] * ndtr(sign[:, None] * hz - mvz)
     f *= brk
     f *= q * den  # du/dtau = 2 R (1 - t^2) / (1 + t^2)^2
-    return (f @ _GL_W) * half * (2.0 / SQRT_2PI) * r / s_a
+    return (f @ gw) * half * (2.0 / SQRT_2PI) * r / s_a
 
 
 # --- approximations ------------------------------------------------------------------------------------
@@ -334,6 +370,17 @@ def pc_monte_carlo(means, covs, radius, weights=None, samples: int = 10000, rng=
     n, m = means.shape[:2]
     w = np.full((n, m), 1.0 / m) if weights is None else np.asarray(weights, float).reshape(n, m)
     w = w / w.sum(axis=1, keepdims=True)
+    radius = np.broadcast_to(np.asarray(radius, float), (n,))
+    step = max(1, 200_000 // max(samples, 1))  # pairs per block: bounded memory
+    if n > step:
+        hh = None if half_height is None else np.broadcast_to(np.asarray(half_height, float), (n,))
+        mz = None if mean_z is None else np.broadcast_to(np.asarray(mean_z, float).reshape(n, -1), (n, m))
+        vz = None if var_z is None else np.broadcast_to(np.asarray(var_z, float).reshape(n, -1), (n, m))
+        return np.concatenate([
+            pc_monte_carlo(means[k:k + step], covs[k:k + step], radius[k:k + step], w[k:k + step], samples, rng,
+                           None if hh is None else hh[k:k + step], None if mz is None else mz[k:k + step],
+                           None if vz is None else vz[k:k + step])
+            for k in range(0, n, step)])
     cdf = np.cumsum(w, axis=1)
     mode = (rng.random((n, samples))[:, :, None] > cdf[:, None, :]).sum(axis=2)
     mode = np.minimum(mode, m - 1)  # (n, S)
@@ -343,7 +390,7 @@ def pc_monte_carlo(means, covs, radius, weights=None, samples: int = 10000, rng=
     mu = means[rows, mode]  # (n, S, 2)
     lc = chol[rows, mode]  # (n, S, 2, 2)
     x = mu + np.einsum("nsij,nsj->nsi", lc, z)
-    hit = np.einsum("nsi,nsi->ns", x, x) <= np.broadcast_to(np.asarray(radius, float), (n,))[:, None] ** 2
+    hit = np.einsum("nsi,nsi->ns", x, x) <= radius[:, None] ** 2
     if half_height is not None:
         mz = np.broadcast_to(np.asarray(mean_z, float).reshape(n, -1), (n, m))[rows, mode]
         vz = np.broadcast_to(np.asarray(var_z, float).reshape(n, -1), (n, m))[rows, mode]

@@ -107,6 +107,11 @@ class Advisory:
     datum_mismatch: bool  # relative altitude formed across datums, with widened uncertainty
     pc_ta: float | None = None  # conflict probability of the TA volume at CPA (advisory/gating.py)
     pc_ra: float | None = None  # ... of the RA volume (None where the level has no RA)
+    # The conflict stage's probabilities for the [conflict] zone (conflict/assess.py, docs/conflict.md):
+    pc_now: float | None = None  # instantaneous
+    pc_max: float | None = None  # maximum predicted over the lookahead ...
+    t_pc_max_s: float | None = None  # ... and when (from now)
+    pc_within: float | None = None  # probability of a conflict at any time within the lookahead
     # The resolution advisory (level RA only): one ownship manoeuvre shared by every RA threat.
     ra_sense: str | None = None  # "climb" | "descend"
     ra_strength: str | None = None  # "preventive" | "level_off" | "corrective" | "increase"

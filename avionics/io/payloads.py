@@ -37,6 +37,10 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "datum_mismatch": advisory.datum_mismatch,
         "pc_ta": advisory.pc_ta,
         "pc_ra": advisory.pc_ra,
+        "pc_now": advisory.pc_now,
+        "pc_max": advisory.pc_max,
+        "t_pc_max_s": advisory.t_pc_max_s,
+        "pc_within": advisory.pc_within,
         "ra_sense": advisory.ra_sense,
         "ra_strength": advisory.ra_strength,
         "ra_words": advisory.ra_words,
@@ -60,7 +64,7 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "squawk": track.squawk,
         "emitter_type": track.emitter_type,
         "simulated": track.simulated,
-        "model": "cv-kalman",
+        "model": "cv-kalman",  # the IMM tracker's tracks overwrite this with their filter (imm_fields below)
         "time_s": now_s,
         "last_report_s": track.last_report_s,
         "age_s": now_s - track.last_report_s,
@@ -84,9 +88,36 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "mod_tau_s": advisory.mod_tau_s if advisory else None,
         "pc_ta": advisory.pc_ta if advisory else None,
         "pc_ra": advisory.pc_ra if advisory else None,
+        "pc_now": advisory.pc_now if advisory else None,
+        "pc_max": advisory.pc_max if advisory else None,
+        "t_pc_max_s": advisory.t_pc_max_s if advisory else None,
+        "pc_within": advisory.pc_within if advisory else None,
+        **imm_fields(track, now_s),
     }
+
+
+def imm_fields(track, now_s: float) -> dict:
+    """IMM outputs when the tracker provides them (docs/tracking.md): filter name, mode probabilities (Markov-
+    propagated to now), most likely mode, turn rate (deg/s, positive right), vertical mode, VB noise estimate."""
+    if not hasattr(track, "mode_info"):
+        return {}
+    info = track.mode_info(now_s)
+    return {"model": info["model"], "mode_probabilities": info["mode_probabilities"],
+            "most_likely_mode": info["most_likely_mode"], "turn_rate_dps": info["turn_rate_dps"],
+            "vertical_mode_probabilities": info["vertical_mode_probabilities"],
+            "vertical_mode": info["vertical_mode"], "vb_noise": info["vb_noise"]}
 
 
 def status_payload(vehicle: str, now_s: float, status: dict, counters: dict) -> dict:
     return {"schema": SCHEMA_VERSION, "vehicle": vehicle, "version": __version__, "time_s": now_s, **status,
             "counters": dict(sorted(counters.items()))}
+
+
+def ownship_payload(vehicle: str, now_s: float, ownship: dict | None) -> dict:
+    """Topic ownship: the filtered ownship state (status's `ownship`), with course and speed for displays."""
+    out = {"schema": SCHEMA_VERSION, "vehicle": vehicle, "time_s": now_s, "valid": ownship is not None}
+    if ownship is None:
+        return out
+    ve, vn, vu = ownship["velocity_enu_mps"]
+    return {**out, **ownship, "ground_speed_mps": math.hypot(ve, vn),
+            "track_deg": math.degrees(math.atan2(ve, vn)) % 360.0, "vertical_rate_mps": vu}

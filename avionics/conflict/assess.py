@@ -1,0 +1,181 @@
+"""The conflict-probability stage the pipeline calls: one function, N pairs in, (N,) arrays out.
+
+    conflict_probabilities(rel_x, rel_p, config=None, *, has_alt=None, z_margin_m=None, rng=None,
+                           return_curve=False) -> dict[str, np.ndarray]
+
+Inputs (SI units, the pipeline's state layout; intruder minus ownship, altitudes already in a common datum):
+    rel_x       (N, 6)    [d_east m, d_north m, d_alt m, d_v_east m/s, d_v_north m/s, d_v_up m/s]
+    rel_p       (N, 6, 6) covariance of rel_x: P_intruder + P_ownship (independent filters, Baek & Bang eq 23);
+                          horizontal-vertical cross terms are ignored (no tracker here couples them)
+    config      ConflictConfig (avionics/config.py [conflict]); None: the defaults
+    has_alt     (N,) bool: False where the intruder altitude is unknown -> horizontal-only probability
+    z_margin_m  (N,) m >= 0: widening of the slab half-height (the datum-mismatch margin), default 0
+    rng         seed or numpy Generator for the Monte Carlo parts (default config.seed: reproducible)
+
+Output dict, every entry (N,) float:
+    pc_now          instantaneous Pc: P(|x_h| <= R and |z| <= H) now, by config.method
+    pc_max          maximum predicted Pc over [0, lookahead] (CV prediction, step config.step_s)
+    t_pc_max_s      time of pc_max (s from now; the earliest on ties)
+    pc_within       P(conflict at any time within the lookahead), Monte Carlo over config.within_samples
+                    trajectories per pair (NaN when within_samples = 0); >= pc_max up to MC noise
+    pc_pe           Paielli-Erzberger / Hwang eq 24 encounter probability with the covariance predicted to
+                    the CPA time (clamped to the lookahead), times the slab probability at that time; 0 for
+                    pairs failing Hwang's condition 2(b) (eq 24 alone cannot tell receding from approaching)
+  and with return_curve=True also t_s (K,) and pc_curve (N, K).
+
+Prediction: the CV model of the tracks in closed form (prediction.cv_relative_prediction) with relative
+white acceleration config.accel_sigma_h_mps2 / accel_sigma_v_mps2. For IMM tracks use
+prediction.imm_predict and prediction.pc_curve directly with the tracker's per-mode estimates.
+
+`ConflictAssessor` wraps the function with Hwang's conditions (scheduling.py): pairs failing the pre-filter
+get zeros without computation ('filtered'), pairs not due keep their last values ('computed' False).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from avionics.config import ConflictConfig
+from avionics.conflict.prediction import (
+    cv_relative_prediction, lookahead_times, max_over_lookahead, pc_curve, pc_within_cv_mc,
+)
+from avionics.conflict.probability import pc_paielli_erzberger, vertical_probability
+from avionics.conflict.scheduling import (
+    ConflictScheduler, hwang_geometric_filter, min_distance_filter, predicted_min_vertical,
+)
+
+KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
+
+
+def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *, has_alt=None, z_margin_m=None,
+                           rng=None, return_curve: bool = False) -> dict[str, np.ndarray]:
+    cfg = config or ConflictConfig()
+    rel_x = np.asarray(rel_x, float).reshape(-1, 6)
+    rel_p = np.asarray(rel_p, float).reshape(-1, 6, 6)
+    n = rel_x.shape[0]
+    has_alt = np.ones(n, bool) if has_alt is None else np.asarray(has_alt, bool)
+    margin = np.zeros(n) if z_margin_m is None else np.broadcast_to(np.asarray(z_margin_m, float), (n,))
+    t = lookahead_times(cfg.lookahead_s, cfg.step_s)
+    if n == 0:
+        out = {k: np.zeros(0) for k in KEYS}
+        if return_curve:
+            out.update(t_s=t, pc_curve=np.zeros((0, t.size)))
+        return out
+    rng = np.random.default_rng(cfg.seed if rng is None else rng)
+    mean_xy, cov_xy, mean_z, var_z = cv_relative_prediction(rel_x, rel_p, t, cfg.step_s, cfg.accel_sigma_h_mps2,
+                                                            cfg.accel_sigma_v_mps2)
+    half = cfg.zone_half_height_m + margin
+    vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
+    curve = pc_curve(mean_xy, cov_xy, cfg.zone_radius_m, cfg.method, rel_vel=vel, n_blocks=cfg.n_blocks,
+                     samples=cfg.mc_samples, rng=rng)
+    pv = vertical_probability(mean_z, var_z, half[:, None])
+    curve = curve * np.where(has_alt[:, None], pv, 1.0)
+    pc_max, t_max = max_over_lookahead(curve, t)
+    out = {"pc_now": curve[:, 0], "pc_max": pc_max, "t_pc_max_s": t_max}
+
+    if cfg.within_samples > 0:
+        hh = np.where(has_alt, half, np.inf)
+        out["pc_within"] = pc_within_cv_mc(rel_x, rel_p, cfg.zone_radius_m, cfg.lookahead_s, cfg.step_s,
+                                           cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2, hh, cfg.within_samples,
+                                           rng)
+    else:
+        out["pc_within"] = np.full(n, np.nan)
+
+    # Hwang eq 24 at the (clamped) CPA time of the mean.
+    v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
+    k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
+    rows = np.arange(n)
+    pe = pc_paielli_erzberger(mean_xy[rows, k], cov_xy[rows, k], cfg.zone_radius_m, rel_x[:, 3:5])
+    # eq 24 is blind to the direction of motion (a receding pair gets the Pc of an approaching one): Hwang's
+    # condition 2(b) - only pairs whose predicted minimum distance within the lookahead is below alpha R (plus
+    # 3 sigma of the predicted position) - removes that.
+    near = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], cfg.zone_radius_m, cfg.lookahead_s,
+                               cfg.prefilter_alpha, 3.0 * np.sqrt(np.trace(cov_xy[rows, k], axis1=1, axis2=2)))
+    out["pc_pe"] = np.where(near, pe * np.where(has_alt, pv[rows, k], 1.0), 0.0)
+    if return_curve:
+        out.update(t_s=t, pc_curve=curve)
+    return out
+
+
+class ConflictAssessor:
+    """conflict_probabilities behind Hwang's conditions for conflict-detection computation.
+
+    assess(now_s, keys, rel_x, rel_p, has_alt=None, z_margin_m=None, modes=None, own_vel=None) -> dict with the
+    KEYS of conflict_probabilities plus the (N,) bool arrays 'computed' (recomputed now) and 'filtered'
+    (skipped by the pre-filter: all probabilities 0). modes: per-pair hashable flight-mode token (condition
+    1(b)); own_vel (N, 2) or (2,): ownship horizontal velocity, needed by the 'hwang' pre-filter only
+    (intruder velocity = own + relative)."""
+
+    def __init__(self, config: ConflictConfig | None = None):
+        self.config = config or ConflictConfig()
+        c = self.config
+        self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
+        self._cache: dict = {}
+        self._rng = np.random.default_rng(c.seed)
+
+    def forget(self, key) -> None:
+        self.scheduler.forget(key)
+        self._cache.pop(key, None)
+
+    def last(self, keys) -> dict[str, np.ndarray]:
+        """The values last assessed for these pairs (0, and NaN for pc_within, where none are known)."""
+        empty = {k: (np.nan if k == "pc_within" else 0.0) for k in KEYS}
+        rows = [self._cache.get(key, empty) for key in keys]
+        return {k: np.array([row[k] for row in rows], float) for k in KEYS}
+
+    def prefilter(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
+        c = self.config
+        n = rel_x.shape[0]
+        if c.prefilter == "none":
+            return np.ones(n, bool)
+        t_end = np.array([c.lookahead_s])
+        _, cov_xy, _, var_z = cv_relative_prediction(rel_x, rel_p, t_end, c.step_s, c.accel_sigma_h_mps2,
+                                                     c.accel_sigma_v_mps2)
+        extra = 3.0 * np.sqrt(np.trace(cov_xy[:, 0], axis1=1, axis2=2))  # 3 sigma (upper bound) at the horizon
+        keep = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], c.zone_radius_m, c.lookahead_s, c.prefilter_alpha,
+                                   extra)
+        zmax = c.prefilter_alpha * (c.zone_half_height_m + z_margin_m) + 3.0 * np.sqrt(var_z[:, 0])
+        keep &= ~has_alt | (predicted_min_vertical(rel_x[:, 2], rel_x[:, 5], c.lookahead_s) < zmax)
+        if c.prefilter == "hwang":
+            if own_vel is None:
+                raise ValueError("the hwang pre-filter needs own_vel")
+            v_own = np.broadcast_to(np.asarray(own_vel, float), (n, 2))
+            keep &= hwang_geometric_filter(rel_x[:, 0:2], v_own, v_own + rel_x[:, 3:5])
+        return keep
+
+    def assess(self, now_s: float, keys, rel_x, rel_p, has_alt=None, z_margin_m=None, modes=None,
+               own_vel=None) -> dict[str, np.ndarray]:
+        rel_x = np.asarray(rel_x, float).reshape(-1, 6)
+        rel_p = np.asarray(rel_p, float).reshape(-1, 6, 6)
+        n = rel_x.shape[0]
+        has_alt = np.ones(n, bool) if has_alt is None else np.asarray(has_alt, bool)
+        margin = np.zeros(n) if z_margin_m is None else np.broadcast_to(np.asarray(z_margin_m, float), (n,))
+        keep = self.prefilter(rel_x, rel_p, has_alt, margin, own_vel)
+        due = self.scheduler.due(now_s, keys, modes)
+        stale = np.array([k not in self._cache for k in keys], bool)
+        compute = keep & (due | stale)
+        out = {k: np.zeros(n) for k in KEYS}
+        out["t_pc_max_s"][:] = 0.0
+        if compute.any():
+            i = np.flatnonzero(compute)
+            res = conflict_probabilities(rel_x[i], rel_p[i], self.config, has_alt=has_alt[i], z_margin_m=margin[i],
+                                         rng=self._rng)
+            for k in KEYS:
+                out[k][i] = res[k]
+            for j, idx in enumerate(i):
+                self._cache[keys[idx]] = {k: float(res[k][j]) for k in KEYS}
+        reuse = keep & ~compute
+        for idx in np.flatnonzero(reuse):
+            for k, v in self._cache[keys[idx]].items():
+                out[k][idx] = v
+        for idx in np.flatnonzero(~keep):  # Pc 0 now; computed at once when the pre-filter next lets it pass
+            self.forget(keys[idx])
+        if compute.any():
+            i = np.flatnonzero(compute)
+            self.scheduler.record(now_s, [keys[j] for j in i], out["pc_max"][i],
+                                  None if modes is None else [modes[j] for j in i])
+        out["computed"] = compute
+        out["filtered"] = ~keep
+        return out
