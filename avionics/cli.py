@@ -1,4 +1,4 @@
-"""`avionics` command line: run, demo, bench, config."""
+"""`avionics` command line: run, demo, bench, config, monitor, router."""
 
 from __future__ import annotations
 
@@ -58,6 +58,38 @@ def cmd_config(args) -> int:
     return 0
 
 
+def _tls_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--tls-root-ca", metavar="PEM", default="", help="CA certificate for tls/ connect endpoints")
+    parser.add_argument("--tls-cert", metavar="PEM", default="", help="our certificate (tls/ listen; mutual TLS)")
+    parser.add_argument("--tls-key", metavar="PEM", default="", help="our private key (with --tls-cert)")
+
+
+def _tls(args, listening: bool) -> dict:
+    side = "listen" if listening else "connect"
+    return {"tls_root_ca_certificate": args.tls_root_ca, f"tls_{side}_certificate": args.tls_cert,
+            f"tls_{side}_private_key": args.tls_key}
+
+
+def cmd_monitor(args) -> int:
+    from avionics.config import validate, Config
+    from avionics.monitor.app import run_monitor
+    from avionics.monitor.feed import monitor_zenoh_config
+
+    cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen, **_tls(args, False))
+    validate(Config(zenoh=cfg))
+    return run_monitor(cfg, prefix=args.prefix, http=args.http, tui=args.tui, vehicle=args.vehicle,
+                       duration_s=args.duration)
+
+
+def cmd_router(args) -> int:
+    from avionics.config import validate, Config
+    from avionics.monitor.router import router_config, run_router
+
+    cfg = router_config(args.listen or ["tcp/127.0.0.1:7447"], args.connect, **_tls(args, True))
+    validate(Config(zenoh=cfg))
+    return run_router(cfg)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="avionics", description="Onboard detect-and-avoid for UAVs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -89,6 +121,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("config", help="print the effective configuration as JSON")
     _config_args(p)
     p.set_defaults(func=cmd_config)
+
+    p = sub.add_parser("monitor", help="ground monitor: live traffic display in the browser (or --tui) from zenoh")
+    p.add_argument("--connect", action="append", metavar="ENDPOINT",
+                   help="zenoh endpoint of a router or onboard process (repeatable; default tcp/127.0.0.1:7447)")
+    p.add_argument("--mode", choices=("client", "peer"), default="client", help="zenoh session mode (default client)")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="zenoh listen endpoint (peer)")
+    p.add_argument("--prefix", default="daa", help="zenoh key prefix (zenoh.key_prefix of the vehicles)")
+    p.add_argument("--http", default="127.0.0.1:8047", metavar="HOST:PORT", help="where the page is served")
+    p.add_argument("--tui", action="store_true", help="terminal view instead of the web page")
+    p.add_argument("--vehicle", help="vehicle shown first (default: the first online)")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    _tls_args(p)
+    p.set_defaults(func=cmd_monitor)
+
+    p = sub.add_parser("router", help="a zenoh router in Python (stand-in for zenohd) for monitors and vehicles")
+    p.add_argument("--listen", action="append", metavar="ENDPOINT",
+                   help="endpoint to listen on (repeatable; default tcp/127.0.0.1:7447)")
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="another router to join")
+    _tls_args(p)
+    p.set_defaults(func=cmd_router)
     return parser
 
 

@@ -12,7 +12,7 @@ from avionics.config import Config
 from avionics.core.types import Advisory, AdvisoryLevel, AltitudeDatum
 from avionics.io import encode
 from avionics.io.decode import MessageDecoder
-from avionics.io.payloads import advisory_payload, status_payload, track_payload
+from avionics.io.payloads import advisory_payload, ownship_payload, status_payload, track_payload
 from avionics.pipeline import DaaCore, StepResult
 
 
@@ -74,8 +74,9 @@ class DaaNode:
         if cfg.zenoh.enabled and self._tracks.due(now_s):
             self.zenoh_out.extend(self.track_messages(now_s))
         if cfg.zenoh.enabled and self._status.due(now_s):
-            self.zenoh_out.append(("status", status_payload(self.vehicle, now_s, self.status(now_s),
-                                                            self.counters)))
+            status = self.status(now_s)
+            self.zenoh_out.append(("ownship", ownship_payload(self.vehicle, now_s, status["ownship"])))
+            self.zenoh_out.append(("status", status_payload(self.vehicle, now_s, status, self.counters)))
 
     def _callsign(self, advisory: Advisory) -> str | None:
         track = self.core.tracker.tracks.get(advisory.intruder)

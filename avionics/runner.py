@@ -30,7 +30,7 @@ class Runner:
         if self.bus is None and config.zenoh.enabled:
             from avionics.io.zenoh_bus import ZenohBus
 
-            self.bus = ZenohBus(config.zenoh, config.vehicle.id)
+            self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters)  # queued, never blocks
         self.stop = threading.Event()
 
     def _flush(self) -> None:

@@ -1,20 +1,47 @@
-"""zenoh publishing of advisories, tracks and status as JSON (encoding application/json).
+"""zenoh publishing of the onboard picture as JSON (encoding application/json), off the onboard loop.
 
 Key expressions (vehicle = config vehicle.id, intruder = "<source>-<ICAO hex>", e.g. 1090es-A1B2C3):
-  <prefix>/<vehicle>/advisories/<intruder>   on every level change and each collision_refresh_s while active
+  <prefix>/<vehicle>/advisories/<intruder>   on every change and each collision_refresh_s while active
   <prefix>/<vehicle>/tracks/<intruder>       at zenoh.tracks_hz
+  <prefix>/<vehicle>/ownship                 at zenoh.status_hz
   <prefix>/<vehicle>/status                  at zenoh.status_hz, with the rejection counters
-Peer mode on loopback with multicast and gossip scouting off unless configured otherwise.
+  <prefix>/<vehicle>/snapshot                queryable: the current picture and the recent advisory changes
+  <prefix>/<vehicle>/alive                   liveliness token, held while the process runs
+
+`ZenohBus.publish()` never blocks and never talks to zenoh: it files the sample (a few microseconds) and a
+publisher thread puts it. Advisories wait in an unbounded FIFO that is always drained first (an advisory
+change is never dropped); every other sample waits in one bounded FIFO that drops its oldest entry when full.
+A router or peer that goes away costs nothing on the loop: zenoh keeps retrying the connect endpoints, the
+token and the queryable come back with the link, and a monitor that lost samples meanwhile asks the snapshot.
+Peer mode on loopback with multicast and gossip scouting off unless configured otherwise; TLS from config.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import threading
+import time
+from collections import Counter, deque
 
 import zenoh
 
 from avionics.config import ZenohConfig
+
+SNAPSHOT_SCHEMA = 1
+# The publisher thread is Python too, so it must not take the interpreter lock or a CPU from the onboard
+# loop in the middle of a tick (on a loaded machine a thread hand-off costs the loop milliseconds):
+# - publish() never wakes it: it polls the queues every POLL_S;
+# - it starts once publish() calls have paused for SETTLE_S and a short sleep shows the interpreter free (the
+#   loop is blocked on its link), works for at most SLICE_S, and looks again;
+# - after SETTLE_MAX_S of a loop that is never idle it works anyway (bounded latency for advisories).
+POLL_S = 0.002
+SETTLE_S = 0.002
+SETTLE_MAX_S = 0.020
+SLICE_S = 0.0005
+PROBE_S = 0.0002
+# What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
+ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed")
 
 
 class ZenohBusError(RuntimeError):
@@ -28,6 +55,24 @@ def session_config(cfg: ZenohConfig) -> zenoh.Config:
     config.insert_json5("scouting/gossip/enabled", json.dumps(cfg.scouting))
     config.insert_json5("listen/endpoints", json.dumps(list(cfg.listen)))
     config.insert_json5("connect/endpoints", json.dumps(list(cfg.connect)))
+    # Re-dial a lost router or peer quickly (zenoh's default backs off to 4 s).
+    max_ms = max(1, int(round(cfg.reconnect_max_s * 1000)))
+    config.insert_json5("connect/retry", json.dumps({"period_init_ms": min(250, max_ms), "period_max_ms": max_ms,
+                                                     "period_increase_factor": 2}))
+    tls = {
+        "root_ca_certificate": cfg.tls_root_ca_certificate,
+        "listen_certificate": cfg.tls_listen_certificate,
+        "listen_private_key": cfg.tls_listen_private_key,
+        "connect_certificate": cfg.tls_connect_certificate,
+        "connect_private_key": cfg.tls_connect_private_key,
+    }
+    for key, value in tls.items():
+        if value:
+            config.insert_json5(f"transport/link/tls/{key}", json.dumps(value))
+    if cfg.tls_enable_mtls:
+        config.insert_json5("transport/link/tls/enable_mtls", "true")
+    if not cfg.tls_verify_name_on_connect:
+        config.insert_json5("transport/link/tls/verify_name_on_connect", "false")
     return config
 
 
@@ -51,36 +96,244 @@ def _finite(value):
 
 
 def to_json(payload: dict) -> bytes:
-    return json.dumps(_finite(payload), separators=(",", ":"), allow_nan=False).encode()
+    try:  # the C encoder alone when every float is finite (most samples)
+        return json.dumps(payload, separators=(",", ":"), allow_nan=False).encode()
+    except ValueError:
+        return json.dumps(_finite(payload), separators=(",", ":"), allow_nan=False).encode()
+
+
+def advisory_state(payload: dict) -> tuple:
+    """The part of an advisory payload whose change is an advisory change (level, RA sense/strength/...)."""
+    return tuple(payload.get(k) for k in ADVISORY_STATE_FIELDS)
 
 
 class ZenohBus:
-    def __init__(self, cfg: ZenohConfig, vehicle_id: str, session: zenoh.Session | None = None):
+    """One vehicle's zenoh outputs: queued publishing, liveliness token, snapshot queryable.
+
+    publish(suffix, payload) is called by the onboard loop with a fresh dict it will not touch again.
+    counters (the node's Counter, optional) gets `zenoh.dropped_updates`; it is only touched on the
+    caller's thread. stats (a Counter) has the publisher thread's view: published, put_errors, ...
+    """
+
+    def __init__(self, cfg: ZenohConfig, vehicle_id: str, session: zenoh.Session | None = None,
+                 counters: Counter | None = None):
         self.cfg = cfg
+        self.vehicle = vehicle_id
         self.prefix = f"{cfg.key_prefix}/{vehicle_id}"
+        self.counters = counters
+        self.stats: Counter = Counter()
         self._own_session = session is None
         self.session = session if session is not None else open_session(cfg)
         self._publishers: dict[str, zenoh.Publisher] = {}
+        self._cond = threading.Condition(threading.Lock())
+        self._advisories: deque = deque()  # never dropped
+        self._updates: deque = deque(maxlen=cfg.queue_size)  # tracks, ownship, status: oldest dropped
+        self._forget: set[str] = set()  # publishers to undeclare (tracks gone from the picture)
+        self._busy = False  # the publisher thread holds samples it has not put yet
+        self._closing = False
+        # The current picture, for the snapshot queryable (payload dicts are never mutated once published).
+        self._ownship: dict | None = None
+        self._status: dict | None = None
+        self._tracks: dict[str, dict] = {}
+        self._active: dict[str, dict] = {}  # intruder -> latest advisory, while TA or RA
+        self._state: dict[str, tuple] = {}  # intruder -> advisory_state of its latest advisory
+        self._changes: deque = deque(maxlen=cfg.snapshot_changes)  # recent advisory changes, oldest first
+        self.changes_published = 0
+        self._last_time_s: float | None = None
+        self._last_publish = 0.0
+        self._thread = threading.Thread(target=self._drain, name=f"zenoh-publisher-{vehicle_id}", daemon=True)
+        self._thread.start()
+        try:
+            self._queryable = self.session.declare_queryable(f"{self.prefix}/snapshot", self._on_query)
+            self._token = self.session.liveliness().declare_token(f"{self.prefix}/alive")
+        except Exception:
+            self.close()
+            raise
 
-    def _publisher(self, key: str) -> zenoh.Publisher:
-        pub = self._publishers.get(key)
-        if pub is None:
-            pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON)
-            self._publishers[key] = pub
-        return pub
-
+    # -- the onboard loop's side -------------------------------------------------------------------------------
     def publish(self, suffix: str, payload: dict) -> None:
-        self._publisher(f"{self.prefix}/{suffix}").put(to_json(payload))
+        """File one sample for publication: never blocks on zenoh, O(1) except once per status."""
+        kind, _, name = suffix.partition("/")
+        with self._cond:
+            if self._closing:
+                return
+            if kind == "advisories":
+                self._advisories.append((suffix, payload))
+                self._note_advisory(name, payload)
+            else:
+                if len(self._updates) == self._updates.maxlen:
+                    self.stats["dropped_updates"] += 1
+                    if self.counters is not None:
+                        self.counters["zenoh.dropped_updates"] += 1
+                self._updates.append((suffix, payload))
+                if kind == "tracks":
+                    self._tracks[name] = payload
+                elif kind == "ownship":
+                    self._ownship = payload
+                elif kind == "status":
+                    self._status = payload
+                    self._prune(payload.get("time_s"))
+            t = payload.get("time_s")
+            if isinstance(t, (int, float)):
+                self._last_time_s = t if self._last_time_s is None else max(self._last_time_s, t)
+            self._last_publish = time.perf_counter()  # no notify(): see POLL_S
+
+    def _note_advisory(self, intruder: str, payload: dict) -> None:
+        state = advisory_state(payload)
+        previous = self._state.get(intruder)
+        if (previous != state) if previous is not None else payload.get("level") != "NONE":
+            self._changes.append(payload)
+            self.changes_published += 1
+        self._state[intruder] = state
+        if payload.get("level") in ("TA", "RA"):
+            self._active[intruder] = payload
+        else:
+            self._active.pop(intruder, None)
+
+    def _prune(self, now_s) -> None:
+        """Tracks not republished for two track periods are gone: out of the picture, publisher undeclared."""
+        if not isinstance(now_s, (int, float)):
+            return
+        horizon = now_s - 2.0 / self.cfg.tracks_hz - 0.05
+        for name in [n for n, p in self._tracks.items() if p.get("time_s", now_s) < horizon]:
+            del self._tracks[name]
+            self._forget.add(f"tracks/{name}")
+            if self._state.get(name, ("NONE",))[0] == "NONE":  # no alert left to end
+                self._state.pop(name, None)
+                self._forget.add(f"advisories/{name}")
+
+    def flush(self, timeout_s: float = 2.0) -> bool:
+        """Wait until every queued sample has been put (for tests and shutdown). True if the queues emptied."""
+        deadline = time.monotonic() + timeout_s
+        with self._cond:
+            while self._advisories or self._updates or self._busy:
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._thread.is_alive():
+                    return False
+                self._cond.wait(min(left, 0.05))
+        return True
 
     def forget(self, suffix: str) -> None:
-        """Undeclare the publisher of a deleted track so that 1000 intruders a day do not pile up."""
-        pub = self._publishers.pop(f"{self.prefix}/{suffix}", None)
-        if pub is not None:
-            pub.undeclare()
+        """Undeclare the publisher of a deleted track (done on the publisher thread)."""
+        with self._cond:
+            self._forget.add(suffix)
 
-    def close(self) -> None:
+    def queue_depths(self) -> dict:
+        with self._cond:
+            return {"advisories": len(self._advisories), "updates": len(self._updates)}
+
+    # -- the publisher thread ----------------------------------------------------------------------------------
+    def _drain(self) -> None:
+        while True:
+            with self._cond:
+                self._busy = False
+                self._cond.notify_all()  # flush() waiters
+            while not (self._advisories or self._updates or self._forget or self._closing):
+                time.sleep(POLL_S)
+            if self._closing and not (self._advisories or self._updates):
+                return
+            self._await_idle()
+            with self._cond:
+                batch = [(s, p, True) for s, p in self._advisories]
+                self._advisories.clear()
+                for _ in range(min(len(self._updates), 64)):  # come back for advisories every 64 updates
+                    s, p = self._updates.popleft()
+                    batch.append((s, p, False))
+                forget = list(self._forget)
+                self._forget.clear()
+                self._busy = bool(batch or forget)
+            slice_start = time.perf_counter()
+            for suffix, payload, is_advisory in batch:
+                self._put(suffix, payload, is_advisory)
+                if time.perf_counter() - slice_start > SLICE_S:
+                    self._await_idle()
+                    slice_start = time.perf_counter()
+            for suffix in forget:
+                pub = self._publishers.pop(f"{self.prefix}/{suffix}", None)
+                if pub is not None:
+                    try:
+                        pub.undeclare()
+                    except zenoh.ZError:
+                        pass
+
+    def _await_idle(self) -> None:
+        """Return when the caller looks idle (see SLICE_S), or after SETTLE_MAX_S."""
+        deadline = time.perf_counter() + SETTLE_MAX_S
+        while not self._closing:
+            t0 = time.perf_counter()
+            time.sleep(PROBE_S)  # gives the interpreter lock away; late back = someone else was running
+            now = time.perf_counter()
+            if (now - t0 < PROBE_S + 0.001 and now - self._last_publish >= SETTLE_S) or now >= deadline:
+                return
+
+    def _put(self, suffix: str, payload: dict, is_advisory: bool) -> None:
+        key = f"{self.prefix}/{suffix}"
+        try:
+            pub = self._publishers.get(key)
+            if pub is None:
+                if is_advisory:  # reliable, never dropped by zenoh's congestion control, ahead of data
+                    pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON,
+                                                         congestion_control=zenoh.CongestionControl.BLOCK,
+                                                         priority=zenoh.Priority.INTERACTIVE_HIGH)
+                else:
+                    pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON,
+                                                         congestion_control=zenoh.CongestionControl.DROP,
+                                                         priority=zenoh.Priority.DATA)
+                self._publishers[key] = pub
+            pub.put(to_json(payload))
+            self.stats["published_advisories" if is_advisory else "published_updates"] += 1
+        except Exception:  # noqa: BLE001  (a closed session must not kill the thread)
+            self.stats["put_errors"] += 1
+
+    # -- the snapshot queryable (zenoh's thread) ---------------------------------------------------------------
+    def snapshot(self) -> dict:
+        """The current picture: latest ownship and status, live tracks, active advisories, recent changes."""
+        with self._cond:
+            picture = {
+                "schema": SNAPSHOT_SCHEMA,
+                "vehicle": self.vehicle,
+                "time_s": self._last_time_s,
+                "ownship": self._ownship,
+                "status": self._status,
+                "tracks": list(self._tracks.values()),
+                "advisories": list(self._active.values()),
+                "advisory_changes": list(self._changes),
+                "advisory_changes_total": self.changes_published,
+                "queue": {"advisories": len(self._advisories), "updates": len(self._updates),
+                          "updates_max": self.cfg.queue_size, "dropped_updates": self.stats["dropped_updates"]},
+            }
+        return picture
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        try:
+            query.reply(f"{self.prefix}/snapshot", to_json(self.snapshot()),
+                        encoding=zenoh.Encoding.APPLICATION_JSON)
+        except Exception:  # noqa: BLE001
+            self.stats["query_errors"] += 1
+
+    # -- lifecycle ---------------------------------------------------------------------------------------------
+    def close(self, flush_timeout_s: float = 1.0) -> None:
+        """Put what is queued (up to flush_timeout_s), withdraw the token and queryable, close the session."""
+        self.flush(flush_timeout_s)
+        with self._cond:
+            self._closing = True
+            self._advisories.clear()
+            self._updates.clear()
+            self._cond.notify_all()
+        self._thread.join(timeout=2.0)
+        for name in ("_token", "_queryable"):
+            entity = getattr(self, name, None)
+            if entity is not None:
+                try:
+                    entity.undeclare()
+                except zenoh.ZError:
+                    pass
+                setattr(self, name, None)
         for pub in self._publishers.values():
-            pub.undeclare()
+            try:
+                pub.undeclare()
+            except zenoh.ZError:
+                pass
         self._publishers.clear()
         if self._own_session:
             self.session.close()

@@ -1,0 +1,122 @@
+"""The monitor's zenoh side: one session, one subscriber for every vehicle's samples, a liveliness subscriber,
+and a worker that asks a vehicle's snapshot whenever it appears (start-up, late join, reconnection)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import threading
+import time
+
+import zenoh
+
+from avionics.config import ZenohConfig
+from avionics.io.zenoh_bus import open_session
+from avionics.monitor.state import FleetState
+
+log = logging.getLogger("avionics.monitor")
+KINDS = ("ownship", "status", "tracks", "advisories")
+INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pushed back on)
+
+
+def monitor_zenoh_config(connect: list[str] | tuple[str, ...] = ("tcp/127.0.0.1:7447",), mode: str = "client",
+                         listen: list[str] | tuple[str, ...] = (), **tls) -> ZenohConfig:
+    """A monitor's session: client of a router (or of the onboard peer) by default, scouting off.
+    tls: ZenohConfig's tls_* keys, e.g. tls_root_ca_certificate="ca.pem"."""
+    return ZenohConfig(mode=mode, listen=tuple(listen), connect=tuple(connect), scouting=False, **tls)
+
+
+class ZenohFeed:
+    def __init__(self, state: FleetState, cfg: ZenohConfig, prefix: str = "daa", query_timeout_s: float = 2.0,
+                 session: zenoh.Session | None = None):
+        self.state = state
+        self.prefix = prefix
+        self.query_timeout_s = query_timeout_s
+        self._own_session = session is None
+        self.session = session if session is not None else open_session(cfg)
+        self._sync_queue: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        self.errors = 0
+        state.on_new_vehicle = self.request_sync
+        self._worker = threading.Thread(target=self._sync_loop, name="monitor-snapshot", daemon=True)
+        self._worker.start()
+        # zenoh's receive thread files each sample in a channel on the Rust side, without Python's lock; a worker
+        # parses and applies them. A burst of 500 track updates then never holds up the link (zenoh would drop
+        # data samples it cannot deliver); a full channel pushes back on zenoh, where advisories block, not drop.
+        self._subscriber = self.session.declare_subscriber(f"{prefix}/*/**", zenoh.handlers.FifoChannel(INBOX_LIMIT))
+        self._applier = threading.Thread(target=self._apply_loop, name="monitor-apply", daemon=True)
+        self._applier.start()
+        self._alive = self.session.liveliness().declare_subscriber(f"{prefix}/*/alive", self._on_alive, history=True)
+
+    def _apply_loop(self) -> None:
+        try:
+            for sample in self._subscriber:  # ends when the subscriber is undeclared
+                try:
+                    if sample.kind != zenoh.SampleKind.PUT:
+                        continue
+                    parts = str(sample.key_expr).split("/")
+                    if len(parts) < 3 or parts[2] not in KINDS:
+                        continue
+                    payload = json.loads(sample.payload.to_bytes())
+                    if isinstance(payload, dict):
+                        self.state.apply(parts[1], parts[2], "/".join(parts[3:]), payload)
+                except Exception:  # noqa: BLE001  (one bad sample must not stop the feed)
+                    self.errors += 1
+        except Exception:  # noqa: BLE001  (the session closed under us)
+            pass
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        parts = str(sample.key_expr).split("/")
+        if len(parts) != 3:
+            return
+        vehicle = parts[1]
+        if sample.kind == zenoh.SampleKind.PUT:
+            self.state.set_alive(vehicle, True)
+            self.request_sync(vehicle)
+        else:
+            self.state.set_alive(vehicle, False)
+
+    def request_sync(self, vehicle: str) -> None:
+        self.state.begin_sync(vehicle)
+        self._sync_queue.put(vehicle)
+
+    def _sync_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                vehicle = self._sync_queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            snap = None
+            try:
+                for reply in self.session.get(f"{self.prefix}/{vehicle}/snapshot", timeout=self.query_timeout_s):
+                    if reply.ok is not None:
+                        snap = json.loads(reply.ok.payload.to_bytes())
+            except Exception as exc:  # noqa: BLE001
+                self.errors += 1
+                log.debug("snapshot of %s failed: %s", vehicle, exc)
+                if self._stop.is_set():
+                    return
+            self.state.apply_snapshot(vehicle, snap)
+
+    def close(self) -> None:
+        self._stop.set()
+        for entity in (self._subscriber, self._alive):
+            try:
+                entity.undeclare()
+            except zenoh.ZError:
+                pass
+        self._worker.join(timeout=self.query_timeout_s + 1.0)
+        self._applier.join(timeout=2.0)
+        if self._own_session:
+            self.session.close()
+
+
+def wait_for(predicate, timeout_s: float, period_s: float = 0.02) -> bool:
+    """Poll predicate until true or timeout (tests and tools)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period_s)
+    return bool(predicate())

@@ -1,0 +1,346 @@
+"""The ground monitor against live zenoh traffic on loopback: a real `avionics run` flying the SITL head-on with
+the page in headless Chromium (TA then RA within 1 s of publication, RA sense, screenshot, late join, exit);
+late join from the snapshot alone; a router restart mid-encounter; a fleet of three; the throughput benchmark.
+
+Artifacts (screenshots, benchmark JSON) go to $AVIONICS_ARTIFACTS or <tmp>/avionics-artifacts; paths are printed.
+Browser tests skip when Chromium is not installed on a developer machine, and fail in CI (CI set)."""
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from avionics.config import load_config
+from avionics.monitor.browser import why_unavailable
+from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
+from avionics.monitor.sim import SimVehicle, _percentiles
+from avionics.monitor.state import FleetState
+from avionics.monitor.web import MonitorServer
+from tests.conftest import free_port
+
+ARTIFACTS = Path(os.environ.get("AVIONICS_ARTIFACTS", Path(tempfile.gettempdir()) / "avionics-artifacts"))
+
+
+def report(capsys, text: str) -> None:
+    with capsys.disabled():
+        print(f"\n[monitor] {text}", flush=True)
+
+
+def browser_or_skip():
+    reason = why_unavailable()
+    if reason is not None:
+        if os.environ.get("CI"):
+            pytest.fail(f"browser test cannot run in CI: {reason}")
+        pytest.skip(reason)
+    from avionics.monitor.browser import Browser
+
+    return Browser(1600, 1000)
+
+
+def wait_listening(port: int, timeout_s: float = 15.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.05)
+    raise TimeoutError(f"nothing listening on 127.0.0.1:{port}")
+
+
+def start_router(port: int, armed: bool = False) -> subprocess.Popen:
+    """`avionics router --listen tcp/127.0.0.1:PORT`. armed: the interpreter is started and the modules imported,
+    and the router opens when a line is written to its stdin (go()), so that a restart is not a CPU burst."""
+    argv = ["router", "--listen", f"tcp/127.0.0.1:{port}"]
+    if armed:
+        code = ("import sys, zenoh, avionics.cli, avionics.monitor.router; sys.stdin.readline(); "
+                f"sys.exit(avionics.cli.main({argv!r}))")
+        return subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-m", "avionics.cli", *argv], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    assert "listening on" in proc.stderr.readline()
+    return proc
+
+
+def go(router: subprocess.Popen) -> None:
+    router.stdin.write("go\n")
+    router.stdin.flush()
+    assert "listening on" in router.stderr.readline()
+
+
+def stop(proc: subprocess.Popen | None, sig=signal.SIGTERM) -> None:
+    if proc is not None and proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+PROBE = """
+import json, sys, time
+from avionics.io.zenoh_bus import open_session
+from avionics.monitor.feed import monitor_zenoh_config
+session = open_session(monitor_zenoh_config([sys.argv[1]]))
+def seen(sample):
+    print(json.loads(sample.payload.to_bytes())["level"], time.time() * 1000.0, flush=True)
+sub = session.declare_subscriber(sys.argv[2], seen)
+time.sleep(3600)  # until the test terminates it
+"""
+
+
+def page_sym_times(browser, intruder: str) -> dict:
+    """First time (epoch ms) the page showed each symbol class for the intruder."""
+    first = {}
+    for e in browser.js("return window.daa.symLog"):
+        if e["id"] == intruder and e["sym"] not in first:
+            first[e["sym"]] = e["wall_ms"]
+    return first
+
+
+# ------------------------------------------------------------------------------------------------------------------
+def test_browser_head_on_from_the_real_onboard_process(udp_port, tcp_port, capsys):
+    """`avionics run` + SITL head-on over UDP; the monitor is a zenoh client of the onboard peer."""
+    from sitl.impairments import PRESETS
+    from sitl.live import fly
+    from sitl.scenario import load_encounter
+
+    start_s, end_s = 49.0, 70.0  # head-on: TA 54.9 s, RA (DESCEND) 65.2 s
+    endpoint = f"tcp/127.0.0.1:{tcp_port}"
+    intruder = "1090es-A10001"
+    browser = browser_or_skip()
+    onboard = subprocess.Popen(
+        [sys.executable, "-m", "avionics.cli", "--quiet", "run", "--connection", f"udpin:127.0.0.1:{udp_port}",
+         "--set", f'zenoh.listen=["{endpoint}"]', "--set", "vehicle.id=uav1", "--duration", "60"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    feed = late_feed = server = probe = None
+    published: dict = {}
+    try:
+        wait_listening(tcp_port)
+        # Publication time: receipt by a subscriber in a process of its own (no lock shared with the monitor).
+        probe = subprocess.Popen([sys.executable, "-c", PROBE, endpoint, f"daa/uav1/advisories/{intruder}"],
+                                 stdout=subprocess.PIPE, text=True)
+
+        def read_probe():
+            for line in probe.stdout:
+                level, ms = line.split()
+                published.setdefault(level, float(ms))
+
+        threading.Thread(target=read_probe, daemon=True).start()
+        state = FleetState()
+        feed = ZenohFeed(state, monitor_zenoh_config([endpoint]))
+        server = MonitorServer(state, port=0).start()
+        browser.open(server.url)
+        assert wait_for(lambda: browser.js("return window.daa.vehicle") == "uav1", 10.0)
+        recording = {}
+        flight = threading.Thread(target=lambda: recording.setdefault("r", fly(
+            load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["default"], seed=3,
+            start_s=start_s, duration_s=end_s - start_s)))
+        flight.start()
+
+        # Late join, mid-encounter (TA active): a second monitor has the tracks and the TA onset at once.
+        assert wait_for(lambda: "TA" in published, 15.0)
+        time.sleep(2.0)
+        joined = time.monotonic()
+        late = FleetState()
+        late_feed = ZenohFeed(late, monitor_zenoh_config([endpoint]))
+        assert wait_for(lambda: late.tracks("uav1") and late.advisory_log("uav1"), 2.0)
+        join_s = time.monotonic() - joined
+        late_log = late.advisory_log("uav1")
+        assert [(e["level"], e["source"]) for e in late_log] == [("TA", "snapshot")]
+        assert late.tracks("uav1")[0]["level"] == "TA"
+
+        assert wait_for(lambda: "RA" in published, 20.0)
+        assert wait_for(lambda: "RA" in page_sym_times(browser, intruder), 2.0)
+        time.sleep(1.2)
+        shot = browser.screenshot(ARTIFACTS / "monitor_head_on_ra.png")
+        page_ra = browser.js("return [...window.daa.tracks.values()].find(t => t.level === 'RA') || null")
+        table = browser.js("return document.querySelector('#tracks tbody').innerText")
+        flight.join(timeout=30)
+        syms = page_sym_times(browser, intruder)
+
+        # Vehicle exit: the onboard process stops; the page marks it offline (liveliness).
+        onboard.send_signal(signal.SIGTERM)
+        exit_ms = time.time() * 1000.0
+        assert wait_for(lambda: browser.js("return window.daa.online") is False, 3.0)
+        offline_ms = browser.js("return window.daa.offlineSince") - exit_ms
+        browser.screenshot(ARTIFACTS / "monitor_head_on_offline.png")
+    finally:
+        browser.close()
+        for closable in (late_feed, feed, server):
+            if closable is not None:
+                closable.close()
+        stop(probe)
+        stop(onboard)
+    _, err = onboard.communicate(timeout=10)
+    assert onboard.returncode in (0, -signal.SIGTERM), err
+    ta_ms, ra_ms = syms["TA"] - published["TA"], syms["RA"] - published["RA"]
+    report(capsys, f"page symbol after publication (receipt by a subscriber process): TA {ta_ms:.1f} ms, RA {ra_ms:.1f} ms; late join: tracks + TA onset "
+                   f"from the snapshot in {join_s * 1e3:.0f} ms; offline marked {offline_ms:.0f} ms after exit; "
+                   f"RA on page: {page_ra['ra_words']} (sense {page_ra['ra_sense']}, target "
+                   f"{page_ra['target_vertical_rate_mps']} m/s); screenshot {shot}")
+    assert syms["TA"] < syms["RA"]
+    assert -50 <= ta_ms < 1000 and -50 <= ra_ms < 1000
+    assert page_ra["ra_sense"] in ("climb", "descend") and page_ra["ra_words"]
+    assert page_ra["ra_words"] in table
+    assert join_s < 1.0 and offline_ms < 2000
+    assert recording["r"].of_type("COLLISION")
+
+
+def test_late_join_comes_from_the_snapshot_and_exit_is_seen_within_2_s(tcp_port, capsys):
+    """tracks_hz 0.1: tracks go out at 57 s and 67 s; joining at 58 s, tracks seen at once are the snapshot's."""
+    endpoint = f"tcp/127.0.0.1:{tcp_port}"
+    cfg = load_config(overrides=["vehicle.id=lonely", f'zenoh.listen=["{endpoint}"]', "zenoh.tracks_hz=0.1"])
+    sim = SimVehicle(cfg, "head-on", start_s=57.0, end_s=80.0).start()
+    state = FleetState()
+    feed = None
+    try:
+        assert sim.wait_until(58.0, 10.0)
+        joined = time.monotonic()
+        feed = ZenohFeed(state, monitor_zenoh_config([endpoint]))
+        assert wait_for(lambda: state.tracks("lonely"), 1.0)
+        join_ms = (time.monotonic() - joined) * 1e3
+        assert state.stats["samples.tracks"] == 0 and state.stats["snapshots"] == 1
+        assert [(e["level"], e["source"]) for e in state.advisory_log("lonely")] == [("TA", "snapshot")]
+        assert state.tracks("lonely")[0]["range_m"] > 1000 and state.vehicles["lonely"].online
+        closed = time.monotonic()
+        sim.close()
+        assert wait_for(lambda: state.vehicles["lonely"].online is False, 2.0)
+        exit_ms = (time.monotonic() - closed) * 1e3
+    finally:
+        sim.close()
+        if feed is not None:
+            feed.close()
+    report(capsys, f"late join: tracks from the snapshot {join_ms:.0f} ms after the monitor started; "
+                   f"offline {exit_ms:.0f} ms after the vehicle closed (includes flushing its queue)")
+
+
+def test_router_restart_mid_encounter_loses_no_advisory_change_and_spares_the_loop(tmp_path, capsys):
+    """Onboard (a sim process, peer) -> router stand-in <- monitor (client). The router is stopped before the RA
+    and restarted after it; the monitor's log must equal the onboard's changes, and the loop keep its timing."""
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    outage, back, out = tmp_path / "outage", tmp_path / "back", tmp_path / "sim.json"
+    router = start_router(port)
+    spare = start_router(port, armed=True)
+    sim = subprocess.Popen([sys.executable, "-m", "avionics.monitor.sim", "--vehicle", "uav1", "--scenario", "head-on",
+                            "--start", "52", "--end", "88", "--speed", "2.5", "--connect", endpoint,
+                            "--mark", f"outage={outage}", "--mark", f"back={back}", "--report", str(out)],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    state = FleetState()
+    feed = None
+    try:
+        assert json.loads(sim.stdout.readline())["ready"]
+        feed = ZenohFeed(state, monitor_zenoh_config([endpoint]))
+        assert wait_for(lambda: any(e["level"] == "TA" for e in state.advisory_log("uav1")), 15.0)
+        time.sleep(0.5)
+        outage.touch()
+        stop(router)  # the router goes away at ~scenario 58 s; the RA comes at 65.2 s
+        assert wait_for(lambda: state.vehicles["uav1"].online is False, 3.0)
+        time.sleep(3.6)
+        assert not any(e["level"] == "RA" for e in state.advisory_log("uav1"))
+        router = spare
+        restarted = time.monotonic()
+        go(router)
+        back.touch()
+        assert wait_for(lambda: state.vehicles["uav1"].online and state.vehicles["uav1"].synced, 5.0)
+        reconnect_s = time.monotonic() - restarted
+        assert sim.wait(timeout=30) == 0, sim.stderr.read()
+        time.sleep(0.5)
+    finally:
+        stop(sim)
+        if feed is not None:
+            feed.close()
+        stop(router)
+        stop(spare)
+    result = json.loads(out.read_text())
+    onboard = [(c["intruder"], c["level"], round(c["time_s"], 3)) for c in result["changes"] if c["time_s"] >= 52.0]
+    monitor = [(e["intruder"], e["level"], round(e["time_s"], 3)) for e in state.advisory_log("uav1")]
+    sources = {e["source"] for e in state.advisory_log("uav1")}
+    ticks = result["ticks_raw"]
+    t_out, t_back = result["marks_s"]["outage"], result["marks_s"]["back"]
+
+    def phase(lo, hi):
+        sel = [t for t in ticks if lo <= t[0] < hi]
+        return {"work": _percentiles([t[1] for t in sel]), "lateness": _percentiles([t[2] for t in sel])}
+
+    timing = {"before": phase(0.0, t_out), "outage": phase(t_out, t_back), "after": phase(t_back, 1e9),
+              "publish_call": result["publish_call"], "bus": result["bus"]}
+    report(capsys, f"router restart: onboard changes {onboard}; monitor log {monitor} (sources {sorted(sources)}); "
+                   f"online and resynced {reconnect_s:.2f} s after the router restarted; onboard loop timing (tick period 40 ms): {json.dumps(timing)}")
+    assert monitor == onboard and [lvl for _, lvl, _ in onboard][:2] == ["TA", "RA"]
+    assert "snapshot" in sources  # the RA onset reached the monitor only through the snapshot
+    before, during = timing["before"]["work"], timing["outage"]["work"]
+    assert during["n"] > 50 and during["p99_ms"] <= max(3 * before["p99_ms"], before["p99_ms"] + 5.0)
+    assert timing["outage"]["lateness"]["p99_ms"] < 20.0  # no tick started half a period late
+    assert result["publish_call"]["p99_ms"] < 1.0
+
+
+def test_fleet_of_three_vehicles_in_the_selector_each_with_its_own_traffic(capsys):
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    router = start_router(port)
+    fleet = {"uav1": ("head-on", 56.0, "1090es-A10001"), "uav2": ("crossing-90", 57.0, "1090es-A10002"),
+             "uav3": ("overtaking", 45.0, "1090es-A10003")}
+    sims, feed, server, browser = [], None, None, None
+    try:
+        for vid, (scenario, start, _) in fleet.items():
+            cfg = load_config(overrides=[f"vehicle.id={vid}", "zenoh.listen=[]", f'zenoh.connect=["{endpoint}"]'])
+            sims.append(SimVehicle(cfg, scenario, start_s=start, end_s=start + 30.0).start())
+        browser = browser_or_skip()
+        state = FleetState()
+        feed = ZenohFeed(state, monitor_zenoh_config([endpoint]))
+        server = MonitorServer(state, port=0).start()
+        assert wait_for(lambda: len([v for v in state.fleet() if v["online"] and v["tracks"]]) == 3, 10.0)
+        browser.open(server.url)
+        assert wait_for(lambda: browser.js("return [...document.querySelectorAll('#vehicle option')].length") == 3, 5.0)
+        seen = {}
+        for vid, (_, _, intruder) in fleet.items():
+            browser.js("const s = document.getElementById('vehicle'); s.value = arguments[0];"
+                       "s.dispatchEvent(new Event('change'));", vid)
+            assert wait_for(lambda: browser.js("return window.daa.vehicle") == vid
+                            and browser.js("return [...window.daa.tracks.keys()]") == [intruder], 5.0), vid
+            seen[vid] = browser.js("return [...window.daa.tracks.values()].map(t => [t.id, t.callsign, t.sym])")
+        options = browser.js("return [...document.querySelectorAll('#vehicle option')].map(o => o.textContent)")
+        shot = browser.screenshot(ARTIFACTS / "monitor_fleet.png")
+    finally:
+        if browser is not None:
+            browser.close()
+        for sim in sims:
+            sim.close()
+        for closable in (feed, server):
+            if closable is not None:
+                closable.close()
+        stop(router)
+    report(capsys, f"fleet selector {options}; traffic per vehicle {seen}; screenshot {shot}")
+    assert [o.split()[0] for o in options] == ["uav1", "uav2", "uav3"]
+    assert {vid: s[0][0] for vid, s in seen.items()} == {vid: f[2] for vid, f in fleet.items()}
+
+
+def test_throughput_benchmark_500_intruders(capsys):
+    from avionics.monitor.bench import run_bench
+
+    with_browser = why_unavailable() is None
+    if not with_browser and os.environ.get("CI"):
+        pytest.fail(f"browser benchmark cannot run in CI: {why_unavailable()}")
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    result = run_bench(500, nominal_s=3.0, max_s=2.0, browser=with_browser,
+                       screenshot=str(ARTIFACTS / "monitor_500_intruders.png") if with_browser else None)
+    path = ARTIFACTS / "monitor_bench.json"
+    path.write_text(json.dumps(result, indent=1))
+    report(capsys, f"benchmark ({path}): {json.dumps(result)}")
+    nominal, burst = result["phases"]["nominal"], result["phases"]["max"]
+    assert nominal["lost_tracks"] == 0 and nominal["lost_advisories"] == 0 and burst["lost_advisories"] == 0
+    assert burst["tracks_per_s"] > 2000  # at least twice 500 intruders at 2 Hz
+    assert result["advisory_changes_logged"] == result["advisories_sent_total"]
+    if with_browser:
+        assert result["browser"]["tracks_on_page"] == 500 and result["browser"]["fps"] >= 10
