@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import socket
 import subprocess
 import sys
 import threading
@@ -20,6 +21,11 @@ from avionics.core.units import FT
 
 DEMO_START_S = {"head-on": 40.0}  # skip the quiet minute of the head-on: TA ~15 s into the demo
 THREAT = {0: "NONE", 1: "TA  ", 2: "RA  "}
+
+
+def _listening(port: int) -> bool:
+    with socket.socket() as probe:
+        return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
 def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17447, noise: str = "default") -> int:
@@ -39,7 +45,13 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     print(f"avionics demo: '{scenario.name}' from t={start:.0f} s for {duration:.0f} s of real time\n"
           f"  onboard DAA process pid {onboard.pid}: MAVLink udpin:127.0.0.1:{port}, zenoh {endpoint}\n"
           f"  SITL autopilot + ADS-B receiver (this process): ownship 5 Hz, ADS-B 1 Hz, noise '{noise}'\n")
-    time.sleep(1.5)  # let the onboard process bind its sockets
+    deadline = time.monotonic() + 30.0
+    while not _listening(zenoh_port):  # the onboard process is up once its zenoh endpoint listens
+        if onboard.poll() is not None or time.monotonic() > deadline:
+            onboard.kill()
+            print(f"onboard process did not start:\n{onboard.communicate()[1]}", file=sys.stderr)
+            return 1
+        time.sleep(0.1)
     lock = threading.Lock()
     zenoh_advisories = []
     session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))

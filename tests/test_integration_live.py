@@ -20,6 +20,17 @@ from sitl.scenario import load_encounter
 START_S, END_S = 46.0, 93.0  # head-on: TA ~55 s, RA ~65 s, CPA 86.4 s
 
 
+def _wait_for_tcp(port: int, process, timeout_s: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()[1]
+        with socket.socket() as probe:
+            if probe.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"the onboard process did not listen on {port} within {timeout_s} s")
+
+
 def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_port):
     endpoint = f"tcp/127.0.0.1:{tcp_port}"
     onboard = subprocess.Popen(
@@ -38,7 +49,7 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
 
     session = None
     try:
-        time.sleep(1.5)
+        _wait_for_tcp(tcp_port, onboard)  # the onboard process is up once its zenoh endpoint listens
         session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))
         subscribers = [session.declare_subscriber("daa/testuav/advisories/*", on_sample),
                        session.declare_subscriber("daa/testuav/status", on_sample)]
