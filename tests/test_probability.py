@@ -9,30 +9,7 @@ from hypothesis import strategies as st
 from scipy import integrate, special
 
 from avionics.conflict import probability as prob
-
-
-def dblquad_pc(m, p, r, k=9.0):
-    """Reference: the bivariate normal density integrated over the disk by scipy dblquad, in the eigen-frame of
-    p from numpy eigh (outer: minor axis), both axes limited to +-k sigma around the mean (the density is below
-    1e-17 of its peak outside, so the truncation is invisible at 1e-9)."""
-    lam, vec = np.linalg.eigh(np.asarray(p, float))
-    su, sv = math.sqrt(lam[0]), math.sqrt(lam[1])
-    mu, mv = float(vec[:, 0] @ m), float(vec[:, 1] @ m)
-    norm = 1.0 / (2.0 * math.pi * su * sv)
-
-    def dens(v, u):
-        return norm * math.exp(-0.5 * (((u - mu) / su) ** 2 + ((v - mv) / sv) ** 2))
-
-    def vlo(u):
-        return max(-math.sqrt(max(r * r - u * u, 0.0)), mv - k * sv)
-
-    def vhi(u):
-        return max(vlo(u), min(math.sqrt(max(r * r - u * u, 0.0)), mv + k * sv))
-
-    ua, ub = max(-r, mu - k * su), min(r, mu + k * su)
-    if ua >= ub:
-        return 0.0
-    return integrate.dblquad(dens, ua, ub, vlo, vhi, epsabs=1e-13, epsrel=1e-12)[0]
+from avionics.reports.conflict import dblquad_pc  # the dblquad reference, shared with the report
 
 
 def covariance(sigma_major, axis_ratio, angle):

@@ -51,6 +51,11 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
     }
 
 
+# The latest assessment of a track, repeated in its track message.
+TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s", "mod_tau_s", "pc_ta", "pc_ra",
+                           "pc_now", "pc_max", "t_pc_max_s", "pc_within")
+
+
 def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
                   lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None) -> dict:
     ve, vn, vu = (float(v) for v in x[3:6])
@@ -80,18 +85,7 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
         "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
-        "range_m": advisory.range_m if advisory else None,
-        "t_cpa_s": advisory.t_cpa_s if advisory else None,
-        "hmd_m": advisory.hmd_m if advisory else None,
-        "vmd_m": advisory.vmd_m if advisory else None,
-        "range_tau_s": advisory.range_tau_s if advisory else None,
-        "mod_tau_s": advisory.mod_tau_s if advisory else None,
-        "pc_ta": advisory.pc_ta if advisory else None,
-        "pc_ra": advisory.pc_ra if advisory else None,
-        "pc_now": advisory.pc_now if advisory else None,
-        "pc_max": advisory.pc_max if advisory else None,
-        "t_pc_max_s": advisory.t_pc_max_s if advisory else None,
-        "pc_within": advisory.pc_within if advisory else None,
+        **{name: getattr(advisory, name) if advisory else None for name in TRACK_ASSESSMENT_FIELDS},
         **imm_fields(track, now_s),
     }
 
