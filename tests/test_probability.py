@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy import integrate, special
+from scipy import special
 
 from avionics.conflict import probability as prob
 from avionics.reports.conflict import dblquad_pc  # the dblquad reference, shared with the report

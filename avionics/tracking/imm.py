@@ -36,6 +36,7 @@ from avionics.tracking import models
 
 LOG_2PI = math.log(2.0 * math.pi)
 TINY = 1e-300
+LIKELIHOODS = ("standard", "rmimm", "rmimm-recursive")
 
 
 @dataclass(frozen=True)
@@ -82,9 +83,9 @@ class VbParams:
     normalised by the nominal variance, so that c1..c3 mean the same for metres and metres per second."""
 
     iterations: int = 5  # N of eqs 22-25 (Dai: 30; the fixed point converges in a few)
-    c1: float = 500.0
-    c2: float = 5000.0
-    c3: float = 2000.0
+    c1: float = 1000.0
+    c2: float = 500.0
+    c3: float = 5000.0
     prior_count: float = 5.0
     floor_fraction: float = 1e-2  # the estimate never drops below this fraction of nominal
 
@@ -104,18 +105,25 @@ class Pending:
     extra: dict = field(default_factory=dict)
 
 
+def _as_index(slots: np.ndarray):
+    """A slice for a contiguous ascending run of slots (views, no gather copies), else the index array."""
+    if len(slots) > 1 and slots[-1] - slots[0] == len(slots) - 1 and (np.diff(slots) == 1).all():
+        return slice(int(slots[0]), int(slots[-1]) + 1)
+    return slots
+
+
 def _sym(p: np.ndarray) -> np.ndarray:
     return 0.5 * (p + np.swapaxes(p, -1, -2))
 
 
 class ImmBank:
     def __init__(self, modes: list[ModeSpec], d: int, switch_matrix: np.ndarray, period_s: float = 1.0,
-                 likelihood: str = "standard", vb: VbParams | None = None, rmimm_floor: float = 0.05,
+                 likelihood: str = "standard", vb: VbParams | None = None, rmimm_floor: float = 1.0,
                  capacity: int = 16, yaw_time_constant_s: float = 11.9):
         if len(modes) < 1 or len({m.dim for m in modes}) != 1:
             raise ValueError("modes must be non-empty and share one state dimension")
-        if likelihood not in ("standard", "rmimm"):
-            raise ValueError(f"likelihood must be standard or rmimm, got {likelihood!r}")
+        if likelihood not in LIKELIHOODS:
+            raise ValueError(f"likelihood must be one of {LIKELIHOODS}, got {likelihood!r}")
         self.modes = list(modes)
         self.names = [m.kind for m in modes]
         self.m = len(modes)
@@ -158,8 +166,8 @@ class ImmBank:
         """Start the given slots: every mode at (x, p); mode probabilities mu (default uniform); VB noise at
         nominal_var (B, d)."""
         slots = np.atleast_1d(slots)
-        x = np.reshape(x, (len(slots), self.n))
-        p = np.reshape(p, (len(slots), self.n, self.n))
+        x = np.broadcast_to(np.asarray(x, float), (len(slots), self.n))
+        p = np.broadcast_to(np.asarray(p, float), (len(slots), self.n, self.n))
         self.x[slots] = x[:, None, :]
         self.p[slots] = p[:, None, :, :]
         for j in (j for j, kind in enumerate(self.names) if kind == "cv"):  # CV carries no acceleration
@@ -187,26 +195,40 @@ class ImmBank:
     # -- the IMM cycle -----------------------------------------------------------------------------------
     def _interact_predict(self, slots: np.ndarray, dt: np.ndarray):
         """Interaction (eqs 11-13) and mode-matched prediction (eqs 18-19) for a batch."""
-        mu = self.mu[slots]  # (B, M)
-        x = self.x[slots]  # (B, M, n)
-        p = self.p[slots]  # (B, M, n, n)
+        b, m, n = len(slots), self.m, self.n
+        sel = _as_index(slots)
+        mu = self.mu[sel]  # (B, M)
+        x = self.x[sel]  # (B, M, n)
+        p = self.p[sel]  # (B, M, n, n)
         trans = self.chain.at(dt)  # (B, M, M) [from, to]
-        cbar = np.einsum("bi,bij->bj", mu, trans)  # predicted mode probabilities (Hwang eq 5 mu-hat)
+        cbar = (mu[:, None, :] @ trans)[:, 0, :]  # predicted mode probabilities (Hwang eq 5 mu-hat)
         omega = trans * mu[:, :, None] / np.maximum(cbar, TINY)[:, None, :]  # Baek & Bang eq 11, mu_ij
-        x0 = np.einsum("bij,bin->bjn", omega, x)  # eq 12
-        dx = x[:, :, None, :] - x0[:, None, :, :]  # (B, i, j, n)
-        p0 = np.einsum("bij,bimn->bjmn", omega, p) + np.einsum("bij,bijm,bijn->bjmn", omega, dx, dx)  # eq 13
+        # eqs 12-13 as sums over i of omega_ij (x_i, P_i + dx dx^T), evaluated about mode 0's state (small
+        # differences, no cancellation): P_0j = sum_i omega_ij (P_i + d_i d_i^T) - d_0j d_0j^T, d = x - x_ref.
+        omega_t = np.swapaxes(omega, 1, 2)  # (B, j, i)
+        ref = x[:, :1, :]
+        dxr = x - ref
+        x0r = omega_t @ dxr  # (B, j, n)
+        second = (p + dxr[:, :, :, None] * dxr[:, :, None, :]).reshape(b, m, n * n)
+        p0 = -(x0r[:, :, :, None] * x0r[:, :, None, :]).reshape(b, m, n * n)
+        for i in range(m):
+            p0 += omega_t[:, :, i, None] * second[:, None, i, :]
+        p0 = p0.reshape(b, m, n, n)
+        x0 = x0r + ref
         heading = None
         if self.horizontal:
-            xc = np.einsum("bi,bin->bn", mu, x)
+            xc = (mu[:, None, :] @ x)[:, 0, :]
             heading = models.heading_rad(xc[:, 2], xc[:, 3])
-        fm = np.empty((len(slots), self.m, self.n, self.n))
-        fc = np.empty_like(fm)
-        q = np.empty_like(fm)
+        xp = np.empty((b, m, n))
+        pp = np.empty((b, m, n, n))
+        fms = []
         for j, mode in enumerate(self.modes):  # loop over modes (M <= 4), each vectorised over the batch
-            fm[:, j], fc[:, j], q[:, j] = mode.build(dt, x0[:, j], heading)
-        xp = np.einsum("bjmn,bjn->bjm", fm, x0)  # eq 18
-        pp = _sym(fc @ p0 @ np.swapaxes(fc, -1, -2) + q)  # eq 19
+            f_mean, f_cov, q = mode.build(dt, x0[:, j], heading)
+            xp[:, j] = (f_mean @ x0[:, j, :, None])[..., 0]  # eq 18
+            pp[:, j] = f_cov @ p0[:, j] @ np.swapaxes(f_cov, -1, -2) + q  # eq 19
+            fms.append(f_mean)
+        pp = _sym(pp)
+        fm = np.stack(fms, axis=1) if self.likelihood == "rmimm-recursive" else None
         return cbar, x0, xp, pp, fm
 
     def predict(self, slots, dt):
@@ -233,36 +255,39 @@ class ImmBank:
         mf = mask.astype(float)
         z = np.where(mask, np.asarray(z, float).reshape(b, d), 0.0)
         cbar, x0, xp, pp, fm = self._interact_predict(slots, dt)
-        x_prior, p_prior = combine(xp, pp, cbar)
-        extra: dict = {"x_prior": x_prior, "p_prior": p_prior}
+        # combined prediction (eqs 16-17 on the priors): its mean, and the variance of its first two components
+        x_prior = (cbar[:, None, :] @ xp)[:, 0, :]
+        spread = xp[:, :, :2] - x_prior[:, None, :2]
+        var2 = (cbar[:, :, None] * (np.diagonal(pp[:, :, :2, :2], axis1=2, axis2=3) + spread**2)).sum(axis=1)
+        extra: dict = {"x_prior": x_prior, "var_prior": var2}
 
         if self.vb is not None:
-            r_var, vb_extra = self._variational_noise(slots, x_prior, p_prior, z, mask)
+            r_var, vb_extra = self._variational_noise(slots, *combine(xp, pp, cbar), z, mask)
             extra.update(vb_extra)
         r_var = np.where(mask, np.asarray(r_var, float).reshape(b, d), 1.0)
 
         # Mode-matched update (Dai eqs 30-36), masked components: zero residual, unit variance, no gain.
-        eye_d = np.eye(d)
-        mm = mf[:, :, None] * mf[:, None, :]  # (B, d, d)
-        s = pp[:, :, :d, :d] * mm[:, None] + (r_var[:, None, :, None] * eye_d)  # eq 32 (masked: 1 on diag)
-        r = (z[:, None, :] - xp[:, :, :d]) * mf[:, None, :]  # eq 30
-        chol = np.linalg.cholesky(s)
-        logdet = 2.0 * np.log(np.diagonal(chol, axis1=-2, axis2=-1)).sum(axis=-1)  # (B, M)
-        s_inv = np.linalg.inv(s)
-        pht = pp[:, :, :, :d] * mf[:, None, None, :]  # P H^T with masked columns zeroed
+        full = mask.all()
+        s = pp[:, :, :d, :d] + r_var[:, None, :, None] * np.eye(d)  # eq 32 (masked: 1 on the diagonal)
+        r = z[:, None, :] - xp[:, :, :d]  # eq 30
+        pht = pp[:, :, :, :d]  # P H^T
+        if not full:
+            mm = mf[:, :, None] * mf[:, None, :]
+            s = s * mm[:, None] + (1.0 - mm[:, None]) * np.eye(d)
+            r = r * mf[:, None, :]
+            pht = pht * mf[:, None, None, :]  # masked columns zeroed: no gain
+        s_inv, logdet = spd_inverse(s)  # (B, M, d, d), (B, M); raises LinAlgError unless S is PD
         k = pht @ s_inv  # eq 33, (B, M, n, d)
-        w = np.einsum("bjde,bje->bjd", s_inv, r)  # S^-1 r
-        maha = np.einsum("bjd,bjd->bj", r, w)
-        x_upd = xp + np.einsum("bjnd,bjd->bjn", k, r)  # eq 35
-        # Joseph form (I - K H) P (I - K H)^T + K R K^T: symmetric positive definite by construction.
-        a = pp - k @ (pp[:, :, :d, :] * mf[:, None, :, None])
-        a = a - (a[:, :, :, :d] * mf[:, None, None, :]) @ np.swapaxes(k, -1, -2)
-        p_upd = _sym(a + (k * r_var[:, None, None, :]) @ np.swapaxes(k, -1, -2))
+        w = (s_inv @ r[..., None])[..., 0]  # S^-1 r
+        maha = (r * w).sum(axis=-1)
+        x_upd = xp + (k @ r[..., None])[..., 0]  # eq 35
+        p_upd = _sym(pp - k @ np.swapaxes(pht, -1, -2))  # eq 36: P - K S K^T = P - K H P, kept symmetric
         dof = mask.sum(axis=1)
         loglik = -0.5 * (maha + logdet + dof[:, None] * LOG_2PI)  # eq 14 in the log domain
 
-        if self.likelihood == "rmimm":
-            loglik, extra["ebar"] = self._residual_mean(loglik, slots, x0, fm, k, s_inv, cbar, mf)
+        if self.likelihood != "standard":
+            loglik, rm_extra = self._residual_mean(loglik, slots, x0, xp, fm, k, s_inv, cbar, mf)
+            extra.update(rm_extra)
 
         logw = np.log(np.maximum(cbar, TINY)) + loglik  # eq 15: mu_j = c_j Lambda_j / c
         logw -= logw.max(axis=1, keepdims=True)
@@ -270,26 +295,37 @@ class ImmBank:
         mu_new = w_mu / w_mu.sum(axis=1, keepdims=True)
         return Pending(slots, dt, x_upd, p_upd, mu_new, maha.min(axis=1), dof, loglik, extra)
 
-    def _residual_mean(self, loglik, slots, x0, fm, k, s_inv, cbar, mf):
-        """RMIMM likelihood (Hwang eqs 11-14). For filter j and each hypothesis t of the true mode:
+    def _residual_mean(self, loglik, slots, x0, xp, fm, k, s_inv, cbar, mf):
+        """RMIMM likelihood (Hwang eqs 11-14): Lambda_j <- Lambda_j / ||E[r_j | Z^k-1]||, with
 
-            e_jt(k) = (I - K_j C) [A_t e_jt(k-1) + (A_t - A_j) x_0j]       eq 12 (mixed input x_0j)
-            m_jt(k) = C [A_t e_jt(k-1) + (A_t - A_j) x_0j]                 eq 11
-            E[r_j] = sum_t mu-hat_t m_jt                                   eq 13 (m_jj = 0: e_jj stays 0)
-            Lambda_j <- Lambda_j / ||E[r_j]||                              eq 14 (normalisation cancels in eq 15)
+            E[r_j] = sum_t mu-hat_t E[r_j | true mode t]                                eq 13
+            E[r_j | t] = C A_t E[e_j | t] + C (A_t - A_j) x_0j                           eq 11
 
-        ||.|| is the Mahalanobis norm in S_j (positions and velocities in one norm need a common unit), floored
-        at rmimm_floor (eq 14's 'otherwise' case, E[r_j] = 0, becomes the floor)."""
+        The eq 14 normalisation over j cancels in eq 15. ||.|| is the Mahalanobis norm in S_j (positions and
+        velocities in one norm need a common unit), floored at rmimm_floor (eq 14's 'otherwise' case, E = 0).
+
+        E[e_j | t], the mean error of filter j if mode t is true, comes from one of two sources:
+        - "rmimm" (default): the IMM's own estimate, E[e_j | t] = x_0t - x_0j (mode t's filter is the best
+          estimate of the truth under hypothesis t). Then E[r_j | t] = C (A_t x_0t - A_j x_0j) and
+          E[r_j] = C (x-bar^- - x_j^-): the offset of filter j's predicted measurement from the IMM's.
+        - "rmimm-recursive": the Hanlon-Maybeck recursion of eq 12, e_jt(k) = (I - K_j C)[A_t e_jt(k-1) +
+          (A_t - A_j) x_0j], which assumes the true mode never changes. Under Markov switching it does not
+          forget: after a turn, CV's acceleration error under 'CT is true' is unobservable to CV and persists,
+          so CV stays penalised and the IMM locks into CT (see docs/tracking.md for the numbers)."""
         d = self.d
-        ebar = self.ebar[slots]  # (B, j, t, n)
-        inner = np.einsum("btmn,bjtn->bjtm", fm, ebar)
-        inner += np.einsum("btmn,bjn->bjtm", fm, x0) - np.einsum("bjmn,bjn->bjm", fm, x0)[:, :, None, :]
-        m_jt = inner[..., :d] * mf[:, None, None, :]
-        er = np.einsum("bt,bjtd->bjd", cbar, m_jt)
+        extra = {}
+        if self.likelihood == "rmimm":
+            xbar = np.einsum("bt,btn->bn", cbar, xp)
+            er = (xbar[:, None, :d] - xp[:, :, :d]) * mf[:, None, :]
+        else:
+            ebar = self.ebar[slots]  # (B, j, t, n)
+            inner = np.einsum("btmn,bjtn->bjtm", fm, ebar)
+            inner += np.einsum("btmn,bjn->bjtm", fm, x0) - np.einsum("bjmn,bjn->bjm", fm, x0)[:, :, None, :]
+            m_jt = inner[..., :d] * mf[:, None, None, :]
+            er = np.einsum("bt,bjtd->bjd", cbar, m_jt)
+            extra["ebar"] = inner - np.einsum("bjnd,bjtd->bjtn", k, m_jt)
         norm = np.sqrt(np.maximum(np.einsum("bjd,bjde,bje->bj", er, s_inv, er), 0.0))
-        loglik = loglik - np.log(np.maximum(norm, self.rmimm_floor))
-        ebar_new = inner - np.einsum("bjnd,bjtd->bjtn", k, m_jt)
-        return loglik, ebar_new
+        return loglik - np.log(np.maximum(norm, self.rmimm_floor)), extra
 
     def _variational_noise(self, slots, xm, pm, z, mask):
         """VB adaptive measurement noise, Dai eqs 17-25, on the IMM's combined prediction (Dai runs it on a
@@ -315,7 +351,7 @@ class ImmBank:
         for _ in range(vb.iterations):  # eqs 22-25 (a fixed-point loop, vectorised over tracks)
             sig = np.maximum(beta / alpha, floor)  # eq 22
             s = hp * mm + np.where(mask, sig, 1.0)[:, :, None] * eye_d
-            gain = (pm[:, :, :d] * mf[:, None, :]) @ np.linalg.inv(s)
+            gain = (pm[:, :, :d] * mf[:, None, :]) @ spd_inverse(s)[0]
             m_new = xm + np.einsum("bnd,bd->bn", gain, y * mf)  # eq 23
             p_new = pm - gain @ (pm[:, :d, :] * mf[:, :, None])  # eq 24
             resid = z - m_new[:, :d]
@@ -329,7 +365,7 @@ class ImmBank:
         sel = np.ones(len(pending.slots), bool) if accept is None else np.asarray(accept, bool)
         if not sel.any():
             return
-        slots = pending.slots[sel]
+        slots = _as_index(pending.slots[sel])
         self.x[slots] = pending.x[sel]
         self.p[slots] = pending.p[sel]
         self.mu[slots] = pending.mu[sel]
@@ -345,7 +381,43 @@ class ImmBank:
 
 def combine(x: np.ndarray, p: np.ndarray, mu: np.ndarray):
     """Combination, Baek & Bang eqs 16-17: x = sum mu_j x_j, P = sum mu_j (P_j + (x_j - x)(x_j - x)^T)."""
-    xc = np.einsum("bj,bjn->bn", mu, x)
-    dx = x - xc[:, None, :]
-    pc = np.einsum("bj,bjmn->bmn", mu, p) + np.einsum("bj,bjm,bjn->bmn", mu, dx, dx)
-    return xc, _sym(pc)
+    b, m, n = x.shape
+    ref = x[:, :1, :]
+    dxr = x - ref
+    xr = (mu[:, None, :] @ dxr)[:, 0, :]
+    second = p + dxr[:, :, :, None] * dxr[:, :, None, :]
+    pc = (mu[:, None, :] @ second.reshape(b, m, n * n)).reshape(b, n, n) - xr[:, :, None] * xr[:, None, :]
+    return xr + ref[:, 0, :], _sym(pc)
+
+
+def spd_inverse(s: np.ndarray):
+    """Inverse and log-determinant of a stack of small symmetric positive definite matrices (..., d, d), by a
+    Cholesky factorisation written out over the d x d entries and vectorised over the stack (numpy's batched
+    LAPACK calls cost about 0.3 us per 4 x 4 matrix; this costs a few numpy operations per entry).
+    Raises numpy.linalg.LinAlgError if a matrix is not positive definite."""
+    d = s.shape[-1]
+    lead = s.shape[:-2]
+    a = np.moveaxis(s.reshape(-1, d, d), 0, -1)  # (d, d, N): contiguous rows per entry
+    low = [[None] * d for _ in range(d)]
+    for j in range(d):
+        v = a[j, j] - sum(low[j][k] * low[j][k] for k in range(j)) if j else a[j, j].copy()
+        if not (v > 0.0).all():
+            raise np.linalg.LinAlgError("matrix is not positive definite")
+        low[j][j] = np.sqrt(v)
+        for i in range(j + 1, d):
+            acc = a[i, j] - sum(low[i][k] * low[j][k] for k in range(j)) if j else a[i, j]
+            low[i][j] = acc / low[j][j]
+    inv_l = [[None] * d for _ in range(d)]  # L^-1, lower triangular
+    for i in range(d):
+        inv_l[i][i] = 1.0 / low[i][i]
+        for j in range(i):
+            acc = sum(low[i][k] * inv_l[k][j] for k in range(j, i))
+            inv_l[i][j] = -acc * inv_l[i][i]
+    out = np.empty((d, d) + a.shape[2:])
+    for i in range(d):
+        for j in range(i + 1):
+            v = sum(inv_l[k][i] * inv_l[k][j] for k in range(i, d))  # (L^-T L^-1)_ij
+            out[i, j] = v
+            out[j, i] = v
+    logdet = 2.0 * sum(np.log(low[i][i]) for i in range(d))
+    return np.moveaxis(out, -1, 0).reshape(lead + (d, d)), logdet.reshape(lead)

@@ -275,10 +275,10 @@ class ImmTracker:
         pend_h = self.bank_h.update(slots, dt, z_h, m_h, r_h)
         pend_v = self.bank_v.update(slots, dt, z_v, m_v, r_v)
         # physical plausibility: could the tracked aircraft be where this report says?
-        xp, pp = pend_h.extra["x_prior"], pend_h.extra["p_prior"]
+        xp, var = pend_h.extra["x_prior"], pend_h.extra["var_prior"]
         jump = np.hypot(z_h[:, 0] - xp[:, 0], z_h[:, 1] - xp[:, 1])
         allowed = self.config.max_innovation_speed_mps * np.maximum(dt, 1.0) + 5.0 * np.sqrt(
-            pp[:, 0, 0] + pp[:, 1, 1] + r_h[:, 0] + r_h[:, 1])
+            var.sum(axis=1) + r_h[:, 0] + r_h[:, 1])
         plausible = jump <= allowed
         d2 = pend_h.d2 + pend_v.d2
         in_gate = plausible & (d2 <= self._gate[pend_h.dof + pend_v.dof])

@@ -45,49 +45,81 @@ def _dt(dt) -> np.ndarray:
 
 
 def per_axis_to_horizontal(m3: np.ndarray) -> np.ndarray:
-    """(B, 3, 3) per-axis [p, v, a] matrix -> (B, 6, 6) block on [x, y, vx, vy, ax, ay], same for x and y."""
+    """(..., 3, 3) per-axis [p, v, a] matrix -> (..., 6, 6) block on [x, y, vx, vy, ax, ay], same for x and y."""
     out = np.zeros(m3.shape[:-2] + (6, 6))
     out[..., 0::2, 0::2] = m3
     out[..., 1::2, 1::2] = m3
     return out
 
 
-def _axis_gain(dt: np.ndarray, g: tuple) -> np.ndarray:
-    """(B, 3) per-axis noise gain [g_p, g_v, g_a] with each entry a function of dt."""
-    return np.stack([np.broadcast_to(c, dt.shape) for c in g], axis=-1)
+class _Poly:
+    """A matrix whose entries are polynomials in T: M(T) = sum_p T^p C_p, evaluated for a batch of T by one
+    matrix product (B, P) @ (P, n*n). Weighted terms (eq 31's cos^2 / sin^2) stack as extra columns."""
+
+    def __init__(self, *coeffs: np.ndarray):
+        # coeffs: one (P, n, n) tensor per weight group
+        self.p = coeffs[0].shape[0]
+        self.shape = coeffs[0].shape[1:]
+        self.c = np.concatenate([c.reshape(self.p, -1) for c in coeffs], axis=0)
+
+    def __call__(self, t: np.ndarray, *weights) -> np.ndarray:
+        powers = t[:, None] ** np.arange(self.p)[None, :]
+        if weights:
+            powers = np.concatenate([powers * np.reshape(w, (-1, 1)) for w in weights], axis=1)
+        return (powers @ self.c).reshape(t.shape + self.shape)
 
 
-def _outer_axis(gx: np.ndarray, gy: np.ndarray, var_x, var_y) -> np.ndarray:
-    """Q = B diag(var_x, var_y) B^T for a horizontal gain B = [[gx, 0], [0, gy]] interleaved on [x, y, ...]."""
-    b = gx.shape[0]
-    q = np.zeros((b, 6, 6))
-    q[:, 0::2, 0::2] = gx[:, :, None] * gx[:, None, :] * np.reshape(var_x, (-1, 1, 1))
-    q[:, 1::2, 1::2] = gy[:, :, None] * gy[:, None, :] * np.reshape(var_y, (-1, 1, 1))
-    return q
+def _gain_outer(g: list, place) -> np.ndarray:
+    """Coefficients of g(T) g(T)^T for a gain polynomial g(T) = sum_p T^p g[p], placed by `place`."""
+    g = [np.asarray(v, float) for v in g]
+    out = np.zeros((2 * len(g) - 1,) + place(np.outer(g[0], g[0])).shape)
+    for i, gi in enumerate(g):
+        for j, gj in enumerate(g):
+            out[i + j] += place(np.outer(gi, gj))
+    return out
+
+
+def _x_block(m3):
+    out = np.zeros((6, 6))
+    out[0::2, 0::2] = m3
+    return out
+
+
+def _y_block(m3):
+    out = np.zeros((6, 6))
+    out[1::2, 1::2] = m3
+    return out
+
+
+_E = np.eye(3)
+# Per-axis transitions as polynomials in T (coefficients of T^0, T^1, T^2)
+_F_CV = _Poly(per_axis_to_horizontal(np.array([np.diag([1.0, 1.0, 0.0]), np.outer(_E[0], _E[1]), np.zeros((3, 3))])))
+_F_CA = _Poly(per_axis_to_horizontal(np.array([np.eye(3), np.outer(_E[0], _E[1]) + np.outer(_E[1], _E[2]),
+                                                0.5 * np.outer(_E[0], _E[2])])))
+# White-acceleration gain B = [T^2/2, T, 0] (CV) and [T^2/2, T, 1] (CA, CT), per axis: g[p] = coefficient of T^p
+_G_CV = [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.5, 0.0, 0.0]]
+_G_CA = [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.5, 0.0, 0.0]]
+_Q_CV = _Poly(_gain_outer(_G_CV, _x_block) + _gain_outer(_G_CV, _y_block))
+_Q_CA_XY = _Poly(_gain_outer(_G_CA, _x_block), _gain_outer(_G_CA, _y_block))
+_CV_FLOOR = np.zeros((6, 6))
+_CV_FLOOR[4, 4] = _CV_FLOOR[5, 5] = CV_ACCEL_FLOOR_MPS2**2
+# Vertical [z, vz]
+_F_V = _Poly(np.array([np.eye(2), [[0.0, 1.0], [0.0, 0.0]]]))
+_Q_CH = _Poly(_gain_outer([[0.0, 1.0], [1.0, 0.0]], lambda m: m))  # B = [T, 1]
+_Q_CAD = _Poly(_gain_outer([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]], lambda m: m))  # B = [T^2, T]
 
 
 def constant_acceleration_f(dt) -> np.ndarray:
     """Baek & Bang eq 6 A_CA (= Hwang eq 18 transition): [[I, T I, T^2/2 I], [0, I, T I], [0, 0, I]]."""
-    t = _dt(dt)
-    f3 = np.zeros(t.shape + (3, 3))
-    f3[:, 0, 0] = f3[:, 1, 1] = f3[:, 2, 2] = 1.0
-    f3[:, 0, 1] = f3[:, 1, 2] = t
-    f3[:, 0, 2] = 0.5 * t * t
-    return per_axis_to_horizontal(f3)
+    return _F_CA(_dt(dt))
 
 
 def cv(dt, sigma_mps2: float):
     """Constant velocity. Baek & Bang eq 5 (A_CV, B_CV = [Omega_2; Omega_1; 0], Q_CV = sigma^2 I), the same as
     Hwang eq 16: the acceleration states are zeroed by F and get no noise (beyond a numerical floor)."""
     t = _dt(dt)
-    f3 = np.zeros(t.shape + (3, 3))
-    f3[:, 0, 0] = f3[:, 1, 1] = 1.0
-    f3[:, 0, 1] = t
-    f = per_axis_to_horizontal(f3)
-    g = _axis_gain(t, (0.5 * t * t, t, 0.0))
-    var = sigma_mps2**2
-    q = _outer_axis(g, g, var, var)
-    q[:, 4, 4] = q[:, 5, 5] = CV_ACCEL_FLOOR_MPS2**2  # numerical floor: P stays positive definite
+    f = _F_CV(t)
+    q = sigma_mps2**2 * _Q_CV(t) + _CV_FLOOR  # the floor keeps P positive definite
     return f, f, q
 
 
@@ -97,24 +129,23 @@ def ca(dt, sigma_mps2: float, heading_rad=None):
     flight along +x, psi = 90 deg, gets its acceleration noise across track, along y). heading None: eq 6's
     isotropic sigma^2 I."""
     t = _dt(dt)
-    f = constant_acceleration_f(t)
-    g = _axis_gain(t, (0.5 * t * t, t, 1.0))
+    f = _F_CA(t)
     var = sigma_mps2**2
     if heading_rad is None:
         var_x = var_y = np.full(t.shape, var)
     else:
         psi = np.broadcast_to(np.asarray(heading_rad, float), t.shape)
         var_x, var_y = var * np.cos(psi) ** 2, var * np.sin(psi) ** 2  # Baek & Bang eq 31
-    return f, f, _outer_axis(g, g, var_x, var_y)
+    return f, f, _Q_CA_XY(t, var_x, var_y)
 
 
 def ct(dt, sigma_mps2: float):
     """Coordinated turn as the Wiener-sequence acceleration model, Hwang eq 18: a(k) - a(k-1) = w(k),
     G = [T^2/2, T, 1] per axis, Q = G G^T sigma^2 (sigma: acceleration increment per step, m/s^2)."""
     t = _dt(dt)
-    f = constant_acceleration_f(t)
-    g = _axis_gain(t, (0.5 * t * t, t, 1.0))
-    return f, f, _outer_axis(g, g, sigma_mps2**2, sigma_mps2**2)
+    f = _F_CA(t)
+    var = np.full(t.shape, sigma_mps2**2)
+    return f, f, _Q_CA_XY(t, var, var)
 
 
 def _cs_phi_column(s: np.ndarray, alpha: float) -> np.ndarray:
@@ -171,19 +202,12 @@ def cs(dt, alpha: float, a_max: float, a_hat: np.ndarray):
     return f_mean, f_cov, q
 
 
-def _vertical_f(t: np.ndarray) -> np.ndarray:
-    f = np.zeros(t.shape + (2, 2))
-    f[:, 0, 0] = f[:, 1, 1] = 1.0
-    f[:, 0, 1] = t
-    return f
-
-
 def ch(dt, sigma_mps: float):
     """Constant altitude (level), Baek & Bang eq 7: A = [[1, T], [0, 1]], B = [T, 1], Q = sigma_CH^2
     (sigma in m/s: a vertical-speed increment per step)."""
     t = _dt(dt)
-    g = np.stack([t, np.ones_like(t)], axis=-1)
-    return _vertical_f(t), _vertical_f(t), sigma_mps**2 * g[:, :, None] * g[:, None, :]
+    f = _F_V(t)
+    return f, f, sigma_mps**2 * _Q_CH(t)
 
 
 def cad(dt, sigma_mps2: float):
@@ -191,8 +215,8 @@ def cad(dt, sigma_mps2: float):
     (the white-acceleration gain is usually [T^2/2, T]; ADS-B measures both altitude and rate, so the factor on
     the position term changes little), Q = sigma_CAD^2."""
     t = _dt(dt)
-    g = np.stack([t * t, t], axis=-1)
-    return _vertical_f(t), _vertical_f(t), sigma_mps2**2 * g[:, :, None] * g[:, None, :]
+    f = _F_V(t)
+    return f, f, sigma_mps2**2 * _Q_CAD(t)
 
 
 # --- derived quantities ------------------------------------------------------------------------------------
@@ -264,6 +288,7 @@ class MarkovChain:
         """(B, n, n) transition matrices M(dt)[from, to]."""
         t = np.abs(_dt(dt))
         e = np.exp(self._lam[None, :] * t[:, None])  # (B, n)
-        m = np.einsum("ik,bk,kj->bij", self._v, e, self._vinv)
+        k = len(self._lam)
+        m = ((self._v[None, :, :] * e[:, None, :]).reshape(-1, k) @ self._vinv).reshape(len(t), k, k)
         m = np.clip(m, 0.0, 1.0)
         return m / m.sum(axis=2, keepdims=True)
