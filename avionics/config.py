@@ -111,7 +111,7 @@ class TrackingConfig:
     max_innovation_speed_mps: float = 400.0  # a report implying a jump faster than this is not this aircraft
     # Track filter (docs/tracking.md): cv = one Kalman CV filter per track; imm, rmimm (Hwang's residual-mean
     # likelihood), vb-imm, vb-rmimm (Dai's variational-Bayes measurement noise) = the vectorised IMM tracker.
-    filter: str = "cv"
+    filter: str = "imm"  # default by measurement: docs/tracking.md "Default filter"
     imm_horizontal_modes: tuple[str, ...] = ("cv", "ct")  # of cv, ca, ct, cs
     imm_vertical_modes: tuple[str, ...] = ("ch", "cad")  # of ch, cad
     imm_switch_probability: float = 0.05  # per second, out of each mode (Hwang eq 21, Baek & Bang eq 30)

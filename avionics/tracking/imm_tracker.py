@@ -125,6 +125,12 @@ class ImmTracker:
     def _release(self, track: ImmTrack) -> None:
         self._free.append(track.slot)
 
+    def _check_slots(self) -> None:
+        """Every live track and competitor owns a distinct slot, none of them free (for tests)."""
+        used = [t.slot for t in self.tracks.values()] + [t.slot for t in self.competitors.values()]
+        assert len(set(used)) == len(used) and not set(used) & set(self._free), "slot bookkeeping"
+        assert len(set(self._free)) == len(self._free) and len(used) + len(self._free) == self.bank_h.capacity
+
     # -- measurement model -------------------------------------------------------------------------------
     def _measure(self, reports: list[IntruderReport], easts, norths):
         """Measurement arrays of a batch: (z_h, mask_h, r_h) (B, 4) and (z_v, mask_v, r_v) (B, 2)."""
@@ -305,8 +311,7 @@ class ImmTracker:
         if comp is not None and rep.time_s > comp.last_report_s + DUPLICATE_WINDOW_S:
             took = bool(self._update([comp], [rep], np.array([east]), np.array([north]), count=False)[0])
         if not took:
-            if comp is not None:
-                self._release(comp)
+            if comp is not None:  # its slot is released by _initiate, which replaces it
                 self.counters["track.competitor_replaced"] += 1
             comp = self._initiate([rep], np.array([east]), np.array([north]), self.competitors)[0]
             self.counters["track.competitor_started"] += 1

@@ -1,0 +1,122 @@
+"""Motion models against the papers' matrices, for any dt."""
+
+import math
+
+import numpy as np
+import pytest
+
+from avionics.tracking import models
+
+T = 1.7
+
+
+def hwang_to_ours(m_hwang: np.ndarray) -> np.ndarray:
+    """Hwang's state [x, vx, ax, y, vy, ay] -> ours [x, y, vx, vy, ax, ay]."""
+    perm = [0, 3, 1, 4, 2, 5]
+    return m_hwang[np.ix_(perm, perm)]
+
+
+def test_cv_is_hwang_eq_16_and_baek_bang_eq_5():
+    a = np.array([[1, T, 0], [0, 1, 0], [0, 0, 0]], float)
+    g = np.array([T**2 / 2, T, 0.0])
+    f_h = np.kron(np.eye(2), a)
+    q_h = np.kron(np.eye(2), np.outer(g, g)) * 0.4**2
+    f, f_cov, q = models.cv(T, 0.4)
+    assert np.array_equal(f, f_cov)
+    np.testing.assert_allclose(f[0], hwang_to_ours(f_h), atol=1e-15)
+    expected = hwang_to_ours(q_h)
+    expected[4, 4] = expected[5, 5] = models.CV_ACCEL_FLOOR_MPS2**2  # the documented numerical floor
+    np.testing.assert_allclose(q[0], expected, atol=1e-15)
+
+
+def test_ct_is_hwang_eq_18_wiener_sequence_acceleration():
+    a = np.array([[1, T, T**2 / 2], [0, 1, T], [0, 0, 1]])
+    g = np.array([T**2 / 2, T, 1.0])
+    f, _, q = models.ct(T, 2.5)
+    np.testing.assert_allclose(f[0], hwang_to_ours(np.kron(np.eye(2), a)), atol=1e-15)
+    np.testing.assert_allclose(q[0], hwang_to_ours(np.kron(np.eye(2), np.outer(g, g))) * 2.5**2, atol=1e-12)
+
+
+def test_constant_acceleration_transition_composes_over_any_split_of_dt():
+    f = models.constant_acceleration_f(np.array([0.3, 1.4, 1.7]))
+    np.testing.assert_allclose(f[1] @ f[0], f[2], atol=1e-13)
+
+
+def test_ca_noise_is_baek_bang_eq_31_heading_rotated():
+    sigma = 3.0
+    g = np.array([T**2 / 2, T, 1.0])
+    for heading_deg, var_x, var_y in ((90.0, 0.0, 9.0), (0.0, 9.0, 0.0), (30.0, 9 * 0.75, 9 * 0.25)):
+        _, _, q = models.ca(T, sigma, math.radians(heading_deg))
+        np.testing.assert_allclose(q[0][0::2, 0::2], np.outer(g, g) * var_x, atol=1e-12)  # x axis
+        np.testing.assert_allclose(q[0][1::2, 1::2], np.outer(g, g) * var_y, atol=1e-12)  # y axis
+    _, _, q_iso = models.ca(T, sigma)  # eq 6 without the rotation: isotropic
+    np.testing.assert_allclose(q_iso[0], models.ct(T, sigma)[2][0], atol=1e-12)
+
+
+def test_cs_transition_is_dai_eq_10_and_its_mean_is_constant_acceleration():
+    alpha = 0.2
+    e = math.exp(-alpha * T)
+    phi = np.array([[1, T, (-1 + alpha * T + e) / alpha**2], [0, 1, (1 - e) / alpha], [0, 0, e]])
+    gamma = np.array([(-T + alpha * T**2 / 2 + (1 - e) / alpha) / alpha, T - (1 - e) / alpha, 1 - e])
+    f_mean, f_cov, _ = models.cs(T, alpha, 20.0, np.zeros((1, 2)))
+    np.testing.assert_allclose(f_cov[0][0::2, 0::2], phi, atol=1e-12)
+    # eq 8 with a-bar = the state's own acceleration: Phi + Gamma e_a^T, which is the CA transition
+    np.testing.assert_allclose(f_mean[0][0::2, 0::2], phi + np.outer(gamma, [0, 0, 1]), atol=1e-12)
+
+
+def test_cs_process_noise_matches_singer_closed_form_and_small_dt_limit():
+    alpha, t = 0.5, 2.0
+    a, e1, e2 = alpha, math.exp(-alpha * t), math.exp(-2 * alpha * t)
+    q11 = (1 - e2 + 2 * a * t + 2 * a**3 * t**3 / 3 - 2 * a**2 * t**2 - 4 * a * t * e1) / (2 * a**5)
+    q12 = (e2 + 1 - 2 * e1 + 2 * a * t * e1 - 2 * a * t + a**2 * t**2) / (2 * a**4)
+    q13 = (1 - e2 - 2 * a * t * e1) / (2 * a**3)
+    q22 = (4 * e1 - 3 - e2 + 2 * a * t) / (2 * a**3)
+    q23 = (e2 + 1 - 2 * e1) / (2 * a**2)
+    q33 = (1 - e2) / (2 * a)
+    singer = np.array([[q11, q12, q13], [q12, q22, q23], [q13, q23, q33]])
+    np.testing.assert_allclose(models.cs_q_unit(t, alpha)[0], singer, rtol=1e-10)
+    tiny = 1e-3  # no cancellation for alpha T -> 0: q -> [[T^5/20, T^4/8, T^3/6], [., T^3/3, T^2/2], [., ., T]]
+    np.testing.assert_allclose(models.cs_q_unit(tiny, alpha)[0, 0, 0], tiny**5 / 20, rtol=1e-3)
+
+
+def test_cs_acceleration_variance_is_zhou_eq_12():
+    k = (4 - math.pi) / math.pi
+    var = models.cs_accel_variance(np.array([0.0, 5.0, -5.0, 30.0]), 20.0)
+    np.testing.assert_allclose(var, [k * 400, k * 225, k * 225, k * (0.05 * 20) ** 2])
+
+
+def test_vertical_ch_and_cad_are_baek_bang_eqs_7_and_8():
+    f, _, q = models.ch(T, 0.2)
+    np.testing.assert_allclose(f[0], [[1, T], [0, 1]])
+    np.testing.assert_allclose(q[0], 0.04 * np.outer([T, 1], [T, 1]), atol=1e-15)
+    _, _, q = models.cad(T, 1.5)
+    np.testing.assert_allclose(q[0], 2.25 * np.outer([T**2, T], [T**2, T]), atol=1e-12)
+
+
+def test_yaw_rate_eq_20_and_its_low_pass():
+    omega = math.radians(3.0)  # counter-clockwise
+    v = np.array([200.0, 50.0])
+    a = omega * np.array([-v[1], v[0]])  # centripetal acceleration of a left turn
+    state = np.array([0.0, 0.0, v[0], v[1], a[0], a[1]])
+    assert models.yaw_rate(state) == pytest.approx(omega, rel=1e-12)
+    state[4:] *= -1
+    assert models.yaw_rate(state) == pytest.approx(-omega, rel=1e-12)
+    # 1/(11.9 s + 1): one time constant of a unit step reaches 1 - 1/e, however it is split into steps
+    y = 0.0
+    for dt in (0.5, 3.0, 2.4, 6.0):
+        y = models.smooth_yaw_rate(y, 1.0, dt, 11.9)
+    assert y == pytest.approx(1 - math.exp(-1), rel=1e-12)
+
+
+def test_markov_chain_for_any_interval():
+    m1 = models.switching_matrix(2, 0.05)
+    chain = models.MarkovChain(m1)
+    m = chain.at(np.array([0.0, 1.0, 2.0, 3.5]))
+    np.testing.assert_allclose(m[0], np.eye(2), atol=1e-14)
+    np.testing.assert_allclose(m[1], m1, atol=1e-14)
+    np.testing.assert_allclose(m[2], m1 @ m1, atol=1e-14)
+    np.testing.assert_allclose(m[3] @ chain.at(0.5)[0], np.linalg.matrix_power(m1, 4), atol=1e-14)
+    np.testing.assert_allclose(models.MarkovChain(models.switching_matrix(3, 0.1)).at(2.0)[0],
+                               np.linalg.matrix_power(models.switching_matrix(3, 0.1), 2), atol=1e-14)
+    with pytest.raises(ValueError):
+        models.MarkovChain(np.array([[0.4, 0.6], [0.6, 0.4]]))  # negative eigenvalue: no real generator
