@@ -11,7 +11,8 @@ from avionics.config import ConfigError, load_config
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.io.payloads import track_payload
 from avionics.reports.tracking import noisy_reports, track_reports
-from avionics.tracking.imm_tracker import UNKNOWN_SPEED_SIGMA_MPS, ImmTracker, make_tracker
+from avionics.tracking.imm_tracker import ImmTracker, make_tracker
+from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS
 from avionics.tracking.tracker import IntruderTracker
 
 KEY = IntruderKey(0xABC123, AddressSource.ES1090)
@@ -104,7 +105,7 @@ def test_a_plausible_but_statistically_inconsistent_report_is_a_gate_miss():
     assert tr.counters["track.gate_miss"] == 1 and tr.counters["track.implausible_jump"] == 0
     assert np.array_equal(tr.tracks[KEY].kf.x, before)
     assert tr.ingest(report(12.0), V * 12 + 10.0, 0.0)  # back on track: accepted
-    assert tr.tracks[KEY].consecutive_misses == 0
+    assert tr.tracks[KEY].consecutive_rejects == 0
 
 
 def test_two_aircraft_under_one_address_are_never_averaged():

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from avionics.monitor.state import (FT, NM, Cursor, FleetState, alt_tag, derive_track, enu_offset, imm_mode,
+from avionics.monitor.state import (FT, NM, FleetState, alt_tag, derive_track, enu_offset, imm_mode,
                                     symbol_of)
 from avionics.monitor.tui import render_text
 

@@ -1,7 +1,6 @@
 """`avionics run` shell behaviours: log replay, port conflicts, ArduPilot traffic on the link, config checks."""
 
 import json
-import socket
 import subprocess
 import sys
 from collections import Counter

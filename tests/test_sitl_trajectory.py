@@ -566,7 +566,7 @@ def test_climbing_intruder():
 
 def test_baek_bang_1():
     sc = BUILTIN["baek-bang-1"]()
-    b, a = sc.ownship, sc.intruders[0]
+    b = sc.ownship
     assert b.speed_mps == 0.0 and sc.duration_s == 130.0
     own, (traj_a,) = sc.trajectories()
     rel = np.array(own.enu_at(0.0)[:2]) - traj_a.enu_at(0.0)[:2]

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import select
 import socket
-import socket
 import struct
 import time
 from collections import Counter

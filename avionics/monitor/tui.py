@@ -13,7 +13,7 @@ import threading
 import time
 
 from rich import box
-from rich.console import Console, Group
+from rich.console import Console
 from rich.layout import Layout
 from rich.live import Live
 from rich.panel import Panel

@@ -32,6 +32,7 @@ from scipy import integrate
 from avionics.conflict import probability as prob
 from avionics.conflict.prediction import ModeSet, combine, imm_predict, model_predict, tracking_model
 from avionics.core.units import KT, NM
+from avionics.reports import save_figure
 
 IMG_DIR = Path(__file__).resolve().parents[2] / "docs" / "img"
 
@@ -158,12 +159,7 @@ def _plot_scenario2(curves) -> Path:
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("conflict probability")
     axes[0].legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
-    IMG_DIR.mkdir(parents=True, exist_ok=True)
-    path = IMG_DIR / "conflict_scenario2.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, IMG_DIR / "conflict_scenario2.png")
 
 
 # --- scenario 1 (Fig. 7) -----------------------------------------------------------------------------------
@@ -345,12 +341,7 @@ def _plot_scenario1(t, inst, predicted, mu, truth_pc, f) -> Path:
     ax2.set_xlabel("time (s)")
     ax2.legend(fontsize=8, loc="upper right")
     ax2.grid(alpha=0.3)
-    fig.tight_layout()
-    IMG_DIR.mkdir(parents=True, exist_ok=True)
-    path = IMG_DIR / "conflict_scenario1.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, IMG_DIR / "conflict_scenario1.png")
 
 
 # --- benchmark ---------------------------------------------------------------------------------------------

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from avionics.config import load_config
+from avionics.reports import save_figure
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank, ModeSpec
@@ -161,10 +162,7 @@ def _plot_hwang(times, rate, res, path: Path) -> None:
     ax.set_ylabel("turn rate, deg/s (+ right)")
     ax.set_xlabel("time, s")
     ax.legend(loc="lower left", fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # --- baek & bang scenario 1 --------------------------------------------------------------------------------
@@ -218,10 +216,7 @@ def _plot_modes(t, mu, names, turning, title, path: Path) -> None:
     ax.set_ylabel("mode probability")
     ax.set_title(title)
     ax.legend(loc="center right")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # --- dai: variational bayes --------------------------------------------------------------------------------
@@ -347,10 +342,7 @@ def _plot_dai(t, level, ests, step_level, step_est, path: Path) -> None:
     ax.set_ylabel("position noise sigma, m")
     ax.set_title("noise steps up 5x at 300 s")
     ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # --- equivalence with filterpy -----------------------------------------------------------------------------

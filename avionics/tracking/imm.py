@@ -249,7 +249,7 @@ class ImmBank:
         """One IMM cycle for the slots with measurements z (B, d), mask (B, d) of measured components and
         measurement variances r_var (B, d) (ignored under VB, which estimates them). Nothing is stored."""
         slots = np.atleast_1d(slots)
-        b, m, n, d = len(slots), self.m, self.n, self.d
+        b, d = len(slots), self.d
         dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
         mask = np.asarray(mask, bool).reshape(b, d)
         mf = mask.astype(float)

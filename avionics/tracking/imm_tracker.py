@@ -33,15 +33,12 @@ import numpy as np
 from scipy.stats import chi2
 
 from avionics.config import TrackingConfig
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.core.types import AddressSource, IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank, ModeSpec, VbParams
+from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
+                                      UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
 
-UNKNOWN_SPEED_SIGMA_MPS = 150.0
-UNKNOWN_VRATE_SIGMA_MPS = 15.0
-UNKNOWN_ALT_SIGMA_M = 1.0e4
-REJECTS_BEFORE_RESTART = 3
-DUPLICATE_WINDOW_S = 1e-6
 H_MEAS = 4  # [x, y, vx, vy]
 V_MEAS = 2  # [z, vz]
 # state index maps between the pipeline's [e, n, alt, ve, vn, vu] and the banks
@@ -50,25 +47,9 @@ PIPE_FROM_V = np.array([2, 5])  # pipeline indices of bank-V [z, vz]
 
 
 @dataclass
-class ImmTrack:
-    key: IntruderKey
-    slot: int
-    datum: AltitudeDatum | None
-    first_report_s: float
-    last_report_s: float
-    last_altitude_s: float | None
-    n_updates: int = 1
-    consecutive_misses: int = 0
-    callsign: str | None = None
-    squawk: int | None = None
-    emitter_type: int = 0
-    simulated: bool = False
-    last_received_s: float = 0.0
-    meta: dict = field(default_factory=dict)
-    tracker: "ImmTracker | None" = field(default=None, repr=False, compare=False)
-
-    def altitude_valid(self, t_s: float, max_coast_s: float) -> bool:
-        return self.last_altitude_s is not None and t_s - self.last_altitude_s <= max_coast_s
+class ImmTrack(TrackRecord):
+    slot: int = field(kw_only=True)
+    tracker: "ImmTracker | None" = field(default=None, kw_only=True, repr=False, compare=False)
 
     def mode_info(self, t_s: float | None = None) -> dict:
         return self.tracker.mode_info(self.key, t_s)
@@ -234,7 +215,7 @@ class ImmTracker:
         accepted = self._update(tracks, reps, easts[upd], norths[upd])
         for k, (i, rep, track) in enumerate(zip(upd, reps, tracks)):
             if accepted[k]:
-                track.consecutive_misses = 0
+                track.consecutive_rejects = 0
                 out[i] = True
             else:
                 out[i] = self._handle_miss(track, rep, easts[i], norths[i])
@@ -246,9 +227,9 @@ class ImmTracker:
         out = []
         for rep, slot in zip(reps, slots):
             self._t[slot] = rep.time_s
-            track = ImmTrack(rep.key, int(slot), rep.altitude_datum, rep.time_s, rep.time_s,
-                             rep.time_s if rep.altitude_m is not None else None, tracker=self)
-            self._copy_identity(track, rep)
+            track = ImmTrack(rep.key, rep.altitude_datum, rep.time_s, rep.time_s,
+                             rep.time_s if rep.altitude_m is not None else None, slot=int(slot), tracker=self)
+            track.copy_identity(rep)
             old = into.get(rep.key)
             if old is not None:
                 self._release(old)
@@ -262,14 +243,6 @@ class ImmTracker:
         slot = np.array([track.slot])
         self.bank_v.init(slot, np.zeros((1, 2)), np.diag([UNKNOWN_ALT_SIGMA_M, UNKNOWN_VRATE_SIGMA_MPS]) ** 2,
                          nominal_var=np.array([[self.config.altitude_sigma_m**2, self.config.vertical_rate_sigma_mps**2]]))
-
-    @staticmethod
-    def _copy_identity(track: ImmTrack, report: IntruderReport) -> None:
-        track.callsign = report.callsign or track.callsign
-        track.squawk = report.squawk if report.squawk is not None else track.squawk
-        track.emitter_type = report.emitter_type
-        track.simulated = report.simulated
-        track.last_received_s = report.received_s
 
     def _update(self, tracks: list[ImmTrack], reps: list[IntruderReport], easts, norths,
                 count: bool = True) -> np.ndarray:
@@ -297,7 +270,7 @@ class ImmTracker:
             track.n_updates += 1
             if rep.altitude_m is not None:
                 track.last_altitude_s = rep.time_s
-            self._copy_identity(track, rep)
+            track.copy_identity(rep)
         for k in np.flatnonzero(~in_gate) if count else ():
             self.counters["track.implausible_jump" if not plausible[k] else "track.gate_miss"] += 1
         return in_gate
@@ -305,7 +278,7 @@ class ImmTracker:
     def _handle_miss(self, track: ImmTrack, rep: IntruderReport, east: float, north: float) -> bool:
         """A report outside the track's gate: it goes to the key's competing track (started if needed); the
         competitor replaces the track after REJECTS_BEFORE_RESTART misses in a row that it took."""
-        track.consecutive_misses += 1
+        track.consecutive_rejects += 1
         comp = self.competitors.get(rep.key)
         took = False
         if comp is not None and rep.time_s > comp.last_report_s + DUPLICATE_WINDOW_S:
@@ -315,7 +288,7 @@ class ImmTracker:
                 self.counters["track.competitor_replaced"] += 1
             comp = self._initiate([rep], np.array([east]), np.array([north]), self.competitors)[0]
             self.counters["track.competitor_started"] += 1
-        if track.consecutive_misses >= REJECTS_BEFORE_RESTART and comp.n_updates >= REJECTS_BEFORE_RESTART:
+        if track.consecutive_rejects >= REJECTS_BEFORE_RESTART and comp.n_updates >= REJECTS_BEFORE_RESTART:
             del self.competitors[rep.key]
             self._release(track)
             self.tracks[rep.key] = comp

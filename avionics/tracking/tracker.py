@@ -15,35 +15,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from avionics.config import TrackingConfig
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.core.types import AddressSource, IntruderKey, IntruderReport
 from avionics.tracking.kalman_cv import CvKalman, Measurement
+from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
+                                      UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
 
-UNKNOWN_SPEED_SIGMA_MPS = 150.0  # prior on an unreported horizontal velocity: any aircraft we protect against
-UNKNOWN_VRATE_SIGMA_MPS = 15.0
-UNKNOWN_ALT_SIGMA_M = 1.0e4  # placeholder variance of an axis that has never been measured
-REJECTS_BEFORE_RESTART = 3
-DUPLICATE_WINDOW_S = 1e-6
 
 
 @dataclass
-class IntruderTrack:
-    key: IntruderKey
-    kf: CvKalman
-    datum: AltitudeDatum | None
-    first_report_s: float
-    last_report_s: float
-    last_altitude_s: float | None
-    n_updates: int = 1
-    consecutive_rejects: int = 0
-    callsign: str | None = None
-    squawk: int | None = None
-    emitter_type: int = 0
-    simulated: bool = False
-    last_received_s: float = 0.0
-    meta: dict = field(default_factory=dict)
-
-    def altitude_valid(self, t_s: float, max_coast_s: float) -> bool:
-        return self.last_altitude_s is not None and t_s - self.last_altitude_s <= max_coast_s
+class IntruderTrack(TrackRecord):
+    kf: CvKalman = field(kw_only=True)
 
 
 class IntruderTracker:
@@ -75,19 +56,11 @@ class IntruderTracker:
         var[list(z.index)] = z.sigma**2
         kf = CvKalman(report.time_s, x, np.diag(var), self.config.horizontal_accel_sigma_mps2,
                       self.config.vertical_accel_sigma_mps2)
-        track = IntruderTrack(report.key, kf, report.altitude_datum, report.time_s, report.time_s,
-                              report.time_s if report.altitude_m is not None else None)
-        self._copy_identity(track, report)
+        track = IntruderTrack(report.key, report.altitude_datum, report.time_s, report.time_s,
+                              report.time_s if report.altitude_m is not None else None, kf=kf)
+        track.copy_identity(report)
         self.counters["track.initiated"] += 1
         return track
-
-    @staticmethod
-    def _copy_identity(track: IntruderTrack, report: IntruderReport) -> None:
-        track.callsign = report.callsign or track.callsign
-        track.squawk = report.squawk if report.squawk is not None else track.squawk
-        track.emitter_type = report.emitter_type
-        track.simulated = report.simulated
-        track.last_received_s = report.received_s
 
     # -- lifecycle ---------------------------------------------------------------------------------------
     def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
@@ -123,7 +96,7 @@ class IntruderTracker:
         track.n_updates += 1
         if report.altitude_m is not None:
             track.last_altitude_s = report.time_s
-        self._copy_identity(track, report)
+        track.copy_identity(report)
         return True
 
     def _plausible(self, track: IntruderTrack, report: IntruderReport, z: Measurement, dt: float) -> bool:
