@@ -172,6 +172,9 @@ class ConflictConfig:
     accel_sigma_v_mps2: float = 1.0
     mc_samples: int = 10000  # method mc: samples per pair and time
     within_samples: int = 500  # trajectories per pair for P(conflict within lookahead); 0: not computed
+    # At most this many pairs' within-probabilities per second (token bucket, stalest first): the Monte Carlo
+    # costs ~2 ms per pair, and its cost must stay bounded however much traffic converges at once.
+    within_max_pairs_per_s: float = 50.0
     seed: int = 0  # Monte Carlo seed (reproducible runs)
     prefilter: str = "min_distance"  # min_distance | hwang | none (Hwang condition 2)
     prefilter_alpha: float = 1.5  # test safety distance alpha R (Hwang: 1.5)
@@ -311,6 +314,8 @@ def _validate_conflict(c: ConflictConfig) -> None:
         raise ConfigError("conflict.n_blocks: need 1 <= n_blocks <= 1000")
     if c.mc_samples < 1 or c.within_samples < 0:
         raise ConfigError("conflict.mc_samples must be >= 1 and conflict.within_samples >= 0")
+    if not c.within_max_pairs_per_s > 0:
+        raise ConfigError("conflict.within_max_pairs_per_s must be > 0")
     if c.prefilter_alpha < 1.0:
         raise ConfigError("conflict.prefilter_alpha: must be >= 1 (Hwang's alpha)")
     if c.schedule_fast_period_s > c.schedule_period_s:

@@ -98,12 +98,13 @@ class DaaNode:
         xs, ps = core.tracker.predict(keys, now_s)
         lats, lons = core.plane.to_geodetic(xs[:, 0], xs[:, 1])
         advisories = core.advisories()
+        modes = core.tracker.mode_infos(keys, now_s)
         out = []
         for i, key in enumerate(keys):
             track = core.tracker.tracks[key]
             valid_alt = track.altitude_valid(now_s, self.config.tracking.max_coast_s)
             out.append((f"tracks/{key}", track_payload(self.vehicle, track, now_s, xs[i], ps[i], float(lats[i]),
-                                                       float(lons[i]), valid_alt, advisories.get(key))))
+                                                       float(lons[i]), valid_alt, advisories.get(key), modes[i])))
         return out
 
     def status(self, now_s: float) -> dict:

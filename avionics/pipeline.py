@@ -74,10 +74,18 @@ class DaaCore:
         east, north = self.plane.to_en(lat_deg, lon_deg)
         return float(east), float(north)
 
-    def _ingest(self, item: Input, dirty: set[IntruderKey]) -> None:
-        if isinstance(item, IntruderReport):
-            if self.tracker.ingest(item, *self._en(item.lat_deg, item.lon_deg)):
-                dirty.add(item.key)
+    def _ingest_reports(self, reports: list[tuple[IntruderReport, float, float]], dirty: set[IntruderKey]) -> None:
+        """A step's intruder reports in one vectorised tracker call: under load the live link hands over a
+        backlog at once, and the per-call cost is paid once per step instead of once per report."""
+        if not reports:
+            return
+        items, easts, norths = zip(*reports)
+        took = self.tracker.ingest_many(list(items), easts, norths)
+        dirty.update(r.key for r, ok in zip(items, took) if ok)
+
+    def _ingest(self, item: Input, reports: list[tuple[IntruderReport, float, float]]) -> None:
+        if isinstance(item, IntruderReport):  # positions in arrival order: the first of any aircraft fixes the plane
+            reports.append((item, *self._en(item.lat_deg, item.lon_deg)))
         elif isinstance(item, OwnshipFix):
             if not self.ownship.update_fix(item, *self._en(item.lat_deg, item.lon_deg)):
                 self.counters["ownship.out_of_order"] += 1
@@ -90,8 +98,10 @@ class DaaCore:
     # -- step ------------------------------------------------------------------------------------------------
     def step(self, now_s: float, inputs: Iterable[Input] = ()) -> StepResult:
         dirty: set[IntruderKey] = set()
+        reports: list[tuple[IntruderReport, float, float]] = []
         for item in inputs:
-            self._ingest(item, dirty)
+            self._ingest(item, reports)
+        self._ingest_reports(reports, dirty)
         changes: list[Advisory] = []
         period = 1.0 / self.config.advisory.assessment_hz
         if now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S:
@@ -204,11 +214,12 @@ class DaaCore:
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
         sigma_h, sigma_v = self.config.tracking.horizontal_accel_sigma_mps2, self.config.tracking.vertical_accel_sigma_mps2
-        pc_ta = pc_at_cpa(rel_x, rel_p, t, level.ta_dmod_m, level.ta_zthr_m, sigma_h, sigma_v, has_alt)
-        if level.ra_tau_s is None:
-            return pc_ta, np.zeros_like(pc_ta), zone
-        radius = level.ra_hmd_m if level.ra_hmd_m is not None else level.ra_dmod_m
-        return pc_ta, pc_at_cpa(rel_x, rel_p, t, radius, level.alim_m, sigma_h, sigma_v, has_alt) * has_alt, zone
+        volumes = [(level.ta_dmod_m, level.ta_zthr_m)]
+        if level.ra_tau_s is not None:
+            volumes.append((level.ra_hmd_m if level.ra_hmd_m is not None else level.ra_dmod_m, level.alim_m))
+        pc = pc_at_cpa(rel_x, rel_p, t, volumes, sigma_h, sigma_v, has_alt)
+        pc_ra = pc[1] * has_alt if level.ra_tau_s is not None else np.zeros(len(keys))
+        return pc[0], pc_ra, zone
 
     def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin) -> dict:
         """The conflict stage runs on the full-assessment ticks only (its scheduler then decides which pairs

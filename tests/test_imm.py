@@ -53,6 +53,7 @@ def test_coasting_propagates_modes_by_the_markov_chain_alone_unlike_filterpy_upd
     np.testing.assert_allclose(mu_pred[0], mu0 @ np.linalg.matrix_power(models.switching_matrix(2, 0.05), 5),
                                atol=1e-13)
     assert np.array_equal(bank.x, x_before)  # prediction stores nothing
+    np.testing.assert_allclose(bank.mode_probabilities(np.array([0]), 5.0), mu_pred, atol=1e-15)  # no states
     for _ in range(5):  # the filterpy idiom for a missed report
         imm.predict()
         imm.update(None)

@@ -260,6 +260,40 @@ def test_assessor_applies_hwang_conditions():
     assert o4["computed"][0]
 
 
+def test_assessor_refreshes_the_monte_carlo_within_probability_on_the_slow_period_only():
+    cfg = ConflictConfig(within_samples=400, schedule_period_s=1.0, schedule_fast_period_s=0.2, schedule_threshold=0.1)
+    a = ConflictAssessor(cfg)
+    rel_x = np.array([[3000.0, 0.0, 0.0, -100.0, 0.0, 0.0]])
+    rel_p = np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0])[None]
+    first = a.assess(0.0, ["near"], rel_x, rel_p)
+    closer = rel_x + [[-20.0, 1200.0, 0, 0, 0, 0]]  # the miss moves to the zone edge: every output changes
+    fast = a.assess(0.2, ["near"], closer, rel_p)  # Pc above the threshold: recomputed at the fast rate ...
+    assert fast["computed"][0] and fast["pc_max"][0] != first["pc_max"][0]
+    assert fast["pc_within"][0] == first["pc_within"][0]  # ... but the Monte Carlo part waits for the period
+    slow = a.assess(1.0, ["near"], closer, rel_p)
+    assert slow["computed"][0] and slow["pc_within"][0] < first["pc_within"][0] - 0.2
+    assert slow["pc_within"][0] >= slow["pc_max"][0] - 0.1
+
+
+def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_first():
+    cfg = ConflictConfig(within_samples=50, within_max_pairs_per_s=4.0, schedule_period_s=1.0)
+    a = ConflictAssessor(cfg)
+    keys = [f"k{i}" for i in range(10)]
+    rel_x = np.tile([3000.0, 0.0, 0.0, -100.0, 0.0, 0.0], (10, 1))
+    rel_p = np.broadcast_to(np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0]), (10, 6, 6))
+    fresh, first = [], None
+    for t in (0.0, 1.0, 2.0):
+        o = a.assess(t, keys, rel_x, rel_p)
+        assert o["computed"].all()  # Pc now and max for every pair, every time
+        first = o["pc_within"] if first is None else first
+        fresh.append({k for k in keys if a._within_s.get(k) == t})
+    assert [len(f) for f in fresh] == [4, 4, 4]  # the bucket holds one second: 4 pairs
+    assert fresh[0] == set(keys[:4]) and fresh[1] == set(keys[4:8])  # never-computed first ...
+    assert fresh[2] == set(keys[8:] + keys[:2])  # ... then the stalest
+    assert np.isnan(first[4:]).all() and (first[:4] > 0.5).all()  # no value before a pair's first turn
+    assert a.last(keys)["pc_within"].min() > 0.5  # every pair has one by now
+
+
 @pytest.mark.parametrize("override, message", [
     ("conflict.method=nope", "conflict.method"),
     ("conflict.prefilter=nope", "conflict.prefilter"),

@@ -17,7 +17,8 @@ Output dict, every entry (N,) float:
     pc_max          maximum predicted Pc over [0, lookahead] (CV prediction, step config.step_s)
     t_pc_max_s      time of pc_max (s from now; the earliest on ties)
     pc_within       P(conflict at any time within the lookahead), Monte Carlo over config.within_samples
-                    trajectories per pair (NaN when within_samples = 0); >= pc_max up to MC noise
+                    trajectories per pair (NaN when within_samples = 0, and for pairs outside the optional
+                    (N,) bool mask `within`); >= pc_max up to MC noise
     pc_pe           Paielli-Erzberger / Hwang eq 24 encounter probability with the covariance predicted to
                     the CPA time (clamped to the lookahead), times the slab probability at that time; 0 for
                     pairs failing Hwang's condition 2(b) (eq 24 alone cannot tell receding from approaching)
@@ -28,7 +29,11 @@ white acceleration config.accel_sigma_h_mps2 / accel_sigma_v_mps2. For IMM track
 prediction.imm_predict and prediction.pc_curve directly with the tracker's per-mode estimates.
 
 `ConflictAssessor` wraps the function with Hwang's conditions (scheduling.py): pairs failing the pre-filter
-get zeros without computation ('filtered'), pairs not due keep their last values ('computed' False).
+get zeros without computation ('filtered'), pairs not due keep their last values ('computed' False). The
+Monte Carlo pc_within, the stage's one costly output, is recomputed at most every schedule_period_s (pairs on
+the fast schedule refresh their Pc now and max at the fast rate and keep pc_within between) and for at most
+within_max_pairs_per_s pairs per second, the stalest first (a token bucket holding one second's worth): its
+cost stays bounded when many pairs converge at once, and each pair's value is then refreshed less often.
 """
 
 from __future__ import annotations
@@ -48,7 +53,7 @@ KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
 
 
 def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *, has_alt=None, z_margin_m=None,
-                           rng=None, return_curve: bool = False) -> dict[str, np.ndarray]:
+                           rng=None, return_curve: bool = False, within=None) -> dict[str, np.ndarray]:
     cfg = config or ConflictConfig()
     rel_x = np.asarray(rel_x, float).reshape(-1, 6)
     rel_p = np.asarray(rel_p, float).reshape(-1, 6, 6)
@@ -73,13 +78,13 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
     pc_max, t_max = max_over_lookahead(curve, t)
     out = {"pc_now": curve[:, 0], "pc_max": pc_max, "t_pc_max_s": t_max}
 
-    if cfg.within_samples > 0:
-        hh = np.where(has_alt, half, np.inf)
-        out["pc_within"] = pc_within_cv_mc(rel_x, rel_p, cfg.zone_radius_m, cfg.lookahead_s, cfg.step_s,
-                                           cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2, hh, cfg.within_samples,
-                                           rng)
-    else:
-        out["pc_within"] = np.full(n, np.nan)
+    out["pc_within"] = np.full(n, np.nan)
+    within = np.ones(n, bool) if within is None else np.asarray(within, bool)
+    if cfg.within_samples > 0 and within.any():
+        hh = np.where(has_alt, half, np.inf)[within]
+        out["pc_within"][within] = pc_within_cv_mc(rel_x[within], rel_p[within], cfg.zone_radius_m, cfg.lookahead_s,
+                                                   cfg.step_s, cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2, hh,
+                                                   cfg.within_samples, rng)
 
     # Hwang eq 24 at the (clamped) CPA time of the mean.
     v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
@@ -113,11 +118,15 @@ class ConflictAssessor:
         c = self.config
         self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
         self._cache: dict = {}
+        self._within_s: dict = {}  # when each pair's pc_within was last computed
+        self._within_tokens = c.within_max_pairs_per_s
+        self._within_last_s: float | None = None
         self._rng = np.random.default_rng(c.seed)
 
     def forget(self, key) -> None:
         self.scheduler.forget(key)
         self._cache.pop(key, None)
+        self._within_s.pop(key, None)
 
     def last(self, keys) -> dict[str, np.ndarray]:
         """The values last assessed for these pairs (0, and NaN for pc_within, where none are known)."""
@@ -145,6 +154,22 @@ class ConflictAssessor:
             keep &= hwang_geometric_filter(rel_x[:, 0:2], v_own, v_own + rel_x[:, 3:5])
         return keep
 
+    def _within_due(self, now_s: float, keys) -> np.ndarray:
+        """Which of these pairs get a fresh pc_within now: due by schedule_period_s, within the token bucket,
+        never-computed and stalest first."""
+        c = self.config
+        if self._within_last_s is not None:
+            self._within_tokens = min(c.within_max_pairs_per_s, self._within_tokens +
+                                      (now_s - self._within_last_s) * c.within_max_pairs_per_s)
+        self._within_last_s = now_s
+        last = np.array([self._within_s.get(k, -np.inf) for k in keys], float)
+        due = np.flatnonzero(now_s - last >= c.schedule_period_s - 1e-9)
+        take = due[np.argsort(last[due], kind="stable")][:int(self._within_tokens)]
+        self._within_tokens -= take.size
+        within = np.zeros(len(keys), bool)
+        within[take] = True
+        return within
+
     def assess(self, now_s: float, keys, rel_x, rel_p, has_alt=None, z_margin_m=None, modes=None,
                own_vel=None) -> dict[str, np.ndarray]:
         rel_x = np.asarray(rel_x, float).reshape(-1, 6)
@@ -160,12 +185,17 @@ class ConflictAssessor:
         out["t_pc_max_s"][:] = 0.0
         if compute.any():
             i = np.flatnonzero(compute)
+            within = self._within_due(now_s, [keys[j] for j in i])
             res = conflict_probabilities(rel_x[i], rel_p[i], self.config, has_alt=has_alt[i], z_margin_m=margin[i],
-                                         rng=self._rng)
+                                         rng=self._rng, within=within)
+            for j, idx in enumerate(i):
+                if within[j]:
+                    self._within_s[keys[idx]] = now_s
+                else:  # not due, or over the budget: the last value (NaN until the first)
+                    res["pc_within"][j] = self._cache.get(keys[idx], {}).get("pc_within", np.nan)
+                self._cache[keys[idx]] = {k: float(res[k][j]) for k in KEYS}
             for k in KEYS:
                 out[k][i] = res[k]
-            for j, idx in enumerate(i):
-                self._cache[keys[idx]] = {k: float(res[k][j]) for k in KEYS}
         reuse = keep & ~compute
         for idx in np.flatnonzero(reuse):
             for k, v in self._cache[keys[idx]].items():

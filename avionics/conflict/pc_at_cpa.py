@@ -17,18 +17,24 @@ import numpy as np
 from avionics.conflict.probability import conflict_probability, vertical_probability
 
 
-def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, radius_m: float, half_height_m: float | None,
-              accel_sigma_h_mps2: float, accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
-    """rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; (N,) probabilities.
-    Without altitude (has_altitude False) or without a half height the vertical factor is 1."""
+def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, accel_sigma_h_mps2: float,
+              accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
+    """rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; volumes: V pairs (radius m, half
+    height m or None). Returns (V, N) probabilities, every volume's disks in one exact call (the per-call cost
+    dominates for the few pairs of a single report). Without altitude (has_altitude False) or without a half
+    height the vertical factor is 1."""
     t = np.asarray(t_s, float)
+    n = t.shape[0]
     mean = rel_x[:, 0:3] + t[:, None] * rel_x[:, 3:6]
     pp, pv, vv = rel_p[:, 0:3, 0:3], rel_p[:, 0:3, 3:6], rel_p[:, 3:6, 3:6]
     cov = pp + t[:, None, None] * (pv + np.swapaxes(pv, 1, 2)) + (t * t)[:, None, None] * vv
     q = (t**4 / 4.0)[:, None] * np.array([accel_sigma_h_mps2**2] * 2 + [accel_sigma_v_mps2**2])
     cov = cov + q[:, :, None] * np.eye(3)[None]
-    horizontal = conflict_probability(mean[:, 0:2], cov[:, 0:2, 0:2], radius_m)
-    if half_height_m is None:
-        return horizontal
-    vertical = vertical_probability(mean[:, 2], cov[:, 2, 2], half_height_m)
-    return horizontal * np.where(has_altitude, vertical, 1.0)
+    radii = np.repeat(np.array([r for r, _ in volumes], float), n)
+    v = len(volumes)
+    out = conflict_probability(np.tile(mean[:, 0:2], (v, 1)), np.tile(cov[:, 0:2, 0:2], (v, 1, 1)),
+                               radii).reshape(v, n)
+    for k, (_, half_height_m) in enumerate(volumes):
+        if half_height_m is not None:
+            out[k] *= np.where(has_altitude, vertical_probability(mean[:, 2], cov[:, 2, 2], half_height_m), 1.0)
+    return out

@@ -57,7 +57,11 @@ TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s"
 
 
 def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
-                  lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None) -> dict:
+                  lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None,
+                  modes: dict | None = None) -> dict:
+    """modes: the tracker's mode_infos entry for this track (IMM filters; None for the CV filter): filter
+    name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s, positive right),
+    vertical mode, VB noise estimate (docs/tracking.md)."""
     ve, vn, vu = (float(v) for v in x[3:6])
     return {
         "schema": SCHEMA_VERSION,
@@ -69,7 +73,7 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "squawk": track.squawk,
         "emitter_type": track.emitter_type,
         "simulated": track.simulated,
-        "model": "cv-kalman",  # the IMM tracker's tracks overwrite this with their filter (imm_fields below)
+        "model": "cv-kalman",  # an IMM filter's modes overwrite this with the filter's name
         "time_s": now_s,
         "last_report_s": track.last_report_s,
         "age_s": now_s - track.last_report_s,
@@ -86,20 +90,8 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
         "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
         **{name: getattr(advisory, name) if advisory else None for name in TRACK_ASSESSMENT_FIELDS},
-        **imm_fields(track, now_s),
+        **(modes or {}),
     }
-
-
-def imm_fields(track, now_s: float) -> dict:
-    """IMM outputs when the tracker provides them (docs/tracking.md): filter name, mode probabilities (Markov-
-    propagated to now), most likely mode, turn rate (deg/s, positive right), vertical mode, VB noise estimate."""
-    if not hasattr(track, "mode_info"):
-        return {}
-    info = track.mode_info(now_s)
-    return {"model": info["model"], "mode_probabilities": info["mode_probabilities"],
-            "most_likely_mode": info["most_likely_mode"], "turn_rate_dps": info["turn_rate_dps"],
-            "vertical_mode_probabilities": info["vertical_mode_probabilities"],
-            "vertical_mode": info["vertical_mode"], "vb_noise": info["vb_noise"]}
 
 
 def status_payload(vehicle: str, now_s: float, status: dict, counters: dict) -> dict:

@@ -240,6 +240,13 @@ class ImmBank:
         x, p = combine(xp, pp, cbar)
         return x, p, cbar
 
+    def mode_probabilities(self, slots, dt) -> np.ndarray:
+        """Mode probabilities Markov-propagated dt after each slot's last update (Baek & Bang eq 20; the cbar
+        of predict) without predicting the states: (B, M)."""
+        slots = np.atleast_1d(slots)
+        dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
+        return (self.mu[slots][:, None, :] @ self.chain.at(dt))[:, 0, :]
+
     def posterior(self, slots):
         """Combined posterior at each slot's last update (eqs 16-17)."""
         slots = np.atleast_1d(slots)

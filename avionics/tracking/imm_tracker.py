@@ -51,9 +51,6 @@ class ImmTrack(TrackRecord):
     slot: int = field(kw_only=True)
     tracker: "ImmTracker | None" = field(default=None, kw_only=True, repr=False, compare=False)
 
-    def mode_info(self, t_s: float | None = None) -> dict:
-        return self.tracker.mode_info(self.key, t_s)
-
     @property
     def kf(self) -> SimpleNamespace:
         """The combined posterior at the last accepted report, as x [e, n, alt, ve, vn, vu], p, t_s (the
@@ -337,32 +334,37 @@ class ImmTracker:
         return self._assemble(xh, ph, xv, pv)
 
     def mode_info(self, key: IntruderKey, t_s: float | None = None) -> dict:
-        """Mode probabilities by name (Markov-propagated to t_s if given), most likely modes, smoothed turn rate
-        (Hwang eq 20 through 1/(11.9 s + 1); degrees per second, positive = right turn, clockwise), VB noise."""
-        track = self.tracks[key]
-        slot = np.array([track.slot])
-        if t_s is None:
-            mu_h, mu_v = self.bank_h.mu[track.slot], self.bank_v.mu[track.slot]
-        else:
-            dt = t_s - self._t[slot]
-            mu_h = self.bank_h.predict(slot, dt)[2][0]
-            mu_v = self.bank_v.predict(slot, dt)[2][0]
-        info = {
-            "model": self.model,
-            "mode_probabilities": {n: float(p) for n, p in zip(self.bank_h.names, mu_h)},
-            "most_likely_mode": self.bank_h.names[int(np.argmax(mu_h))],
-            "turn_rate_dps": -math.degrees(float(self.bank_h.yaw[track.slot])),
-            "vertical_mode_probabilities": {n: float(p) for n, p in zip(self.bank_v.names, mu_v)},
-            "vertical_mode": self.bank_v.names[int(np.argmax(mu_v))],
-            "vb_noise": None,
-        }
+        return self.mode_infos([key], t_s)[0]
+
+    def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[dict]:
+        """Per track: mode probabilities by name (Markov-propagated to t_s if given, else at the last update),
+        most likely modes, smoothed turn rate (Hwang eq 20 through 1/(11.9 s + 1); degrees per second, positive =
+        right turn, clockwise), VB noise. One vectorised call for all the tracks of a publication."""
+        slots = np.fromiter((self.tracks[k].slot for k in keys), int, len(keys))
+        dt = 0.0 if t_s is None else t_s - self._t[slots]
+        mu_h = self.bank_h.mode_probabilities(slots, dt)
+        mu_v = self.bank_v.mode_probabilities(slots, dt)
+        best_h, best_v = np.argmax(mu_h, axis=1), np.argmax(mu_v, axis=1)
+        turn_dps = -np.degrees(self.bank_h.yaw[slots])
+        names_h, names_v = self.bank_h.names, self.bank_v.names
+        noise = [None] * len(keys)
         if self.bank_h.vb is not None:
-            h = self.bank_h.noise_estimate(slot)[0]
-            v = self.bank_v.noise_estimate(slot)[0]
-            info["vb_noise"] = {"position_sigma_m": math.sqrt(0.5 * (h[0] + h[1])),
-                                "velocity_sigma_mps": math.sqrt(0.5 * (h[2] + h[3])),
-                                "altitude_sigma_m": math.sqrt(v[0]), "vertical_rate_sigma_mps": math.sqrt(v[1])}
-        return info
+            h = self.bank_h.noise_estimate(slots)
+            v = self.bank_v.noise_estimate(slots)
+            noise = [{"position_sigma_m": math.sqrt(0.5 * (hi[0] + hi[1])),
+                      "velocity_sigma_mps": math.sqrt(0.5 * (hi[2] + hi[3])),
+                      "altitude_sigma_m": math.sqrt(vi[0]), "vertical_rate_sigma_mps": math.sqrt(vi[1])}
+                     for hi, vi in zip(h.tolist(), v.tolist())]
+        return [{
+            "model": self.model,
+            "mode_probabilities": dict(zip(names_h, mh)),
+            "most_likely_mode": names_h[bh],
+            "turn_rate_dps": td,
+            "vertical_mode_probabilities": dict(zip(names_v, mv)),
+            "vertical_mode": names_v[bv],
+            "vb_noise": nz,
+        } for mh, mv, bh, bv, td, nz in zip(mu_h.tolist(), mu_v.tolist(), best_h.tolist(), best_v.tolist(),
+                                             turn_dps.tolist(), noise)]
 
 
 def make_tracker(config: TrackingConfig, counters: Counter):

@@ -63,6 +63,18 @@ class IntruderTracker:
         return track
 
     # -- lifecycle ---------------------------------------------------------------------------------------
+    def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[None]:
+        """The IMM tracker's mode outputs; a single-model filter has none."""
+        return [None] * len(keys)
+
+    def ingest_many(self, reports: list[IntruderReport], easts, norths) -> list[bool]:
+        """The IMM tracker's batch interface: reports applied in time order, one at a time."""
+        order = sorted(range(len(reports)), key=lambda i: reports[i].time_s)
+        took = [False] * len(reports)
+        for i in order:
+            took[i] = self.ingest(reports[i], float(easts[i]), float(norths[i]))
+        return took
+
     def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
         """Apply one report; True when it updated or started a track, False when it was counted and dropped."""
         z = self._measurement(report, east, north)
