@@ -156,6 +156,7 @@ class DaaCore:
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter)
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin)
+        within_age = self.conflict.within_age(now_s, keys)
         candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
         candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
@@ -193,6 +194,7 @@ class DaaCore:
                 pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
                 pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
                 t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
+                pc_within_age_s=_finite_or_none(within_age[i]),
                 **(_ra_fields(resolution) if state.level is AdvisoryLevel.RA and resolution else {}),
             )
             self.assessments[key] = _Assessment(advisory, state)

@@ -184,3 +184,11 @@ def test_a_backlog_ingested_in_one_step_gives_what_one_step_per_report_gives():
     xs, ps = single.tracker.predict(keys, 110.0)
     np.testing.assert_allclose(xb, xs, rtol=0, atol=1e-9)
     np.testing.assert_allclose(pb, ps, rtol=1e-9, atol=1e-12)
+
+
+def test_advisories_carry_the_conflict_stage_probabilities_and_their_age():
+    _, changes = head_on().run(110)
+    ra = next(c for _, c in changes if c.level is AdvisoryLevel.RA)
+    assert 0.0 <= ra.pc_now <= ra.pc_max <= 1.0 and 0.0 <= ra.t_pc_max_s <= 60.0
+    assert ra.pc_within >= ra.pc_max - 0.1  # any time within the lookahead >= at the likeliest time (MC noise)
+    assert 0.0 <= ra.pc_within_age_s <= 1.0 + 1e-9  # one pair: the Monte Carlo's budget never binds

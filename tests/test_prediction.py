@@ -292,6 +292,8 @@ def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_fi
     assert fresh[2] == set(keys[8:] + keys[:2])  # ... then the stalest
     assert np.isnan(first[4:]).all() and (first[:4] > 0.5).all()  # no value before a pair's first turn
     assert a.last(keys)["pc_within"].min() > 0.5  # every pair has one by now
+    np.testing.assert_allclose(a.within_age(2.5, keys), [0.5, 0.5, 2.5, 2.5] + [1.5] * 4 + [0.5, 0.5])  # its age
+    assert np.isnan(a.within_age(2.5, ["never"]))[0]
 
 
 @pytest.mark.parametrize("override, message", [

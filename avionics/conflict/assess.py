@@ -154,6 +154,11 @@ class ConflictAssessor:
             keep &= hwang_geometric_filter(rel_x[:, 0:2], v_own, v_own + rel_x[:, 3:5])
         return keep
 
+    def within_age(self, now_s: float, keys) -> np.ndarray:
+        """Seconds since each pair's pc_within Monte Carlo ran; NaN where it has not (pc_within NaN, or 0 from
+        the pre-filter)."""
+        return np.array([now_s - self._within_s.get(k, np.nan) for k in keys], float)
+
     def _within_due(self, now_s: float, keys) -> np.ndarray:
         """Which of these pairs get a fresh pc_within now: due by schedule_period_s, within the token bucket,
         never-computed and stalest first."""

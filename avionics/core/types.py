@@ -112,6 +112,7 @@ class Advisory:
     pc_max: float | None = None  # maximum predicted over the lookahead ...
     t_pc_max_s: float | None = None  # ... and when (from now)
     pc_within: float | None = None  # probability of a conflict at any time within the lookahead
+    pc_within_age_s: float | None = None  # since its Monte Carlo ran (budgeted: may exceed 1 s); None: not run
     # The resolution advisory (level RA only): one ownship manoeuvre shared by every RA threat.
     ra_sense: str | None = None  # "climb" | "descend"
     ra_strength: str | None = None  # "preventive" | "level_off" | "corrective" | "increase"

@@ -41,6 +41,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "pc_max": advisory.pc_max,
         "t_pc_max_s": advisory.t_pc_max_s,
         "pc_within": advisory.pc_within,
+        "pc_within_age_s": advisory.pc_within_age_s,
         "ra_sense": advisory.ra_sense,
         "ra_strength": advisory.ra_strength,
         "ra_words": advisory.ra_words,
@@ -53,7 +54,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
 
 # The latest assessment of a track, repeated in its track message.
 TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s", "mod_tau_s", "pc_ta", "pc_ra",
-                           "pc_now", "pc_max", "t_pc_max_s", "pc_within")
+                           "pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_within_age_s")
 
 
 def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
