@@ -101,7 +101,7 @@ def _flush(node: DaaNode, bus: ZenohBus, out_mav) -> int:
     return sent
 
 
-def _summary(n: int, node: DaaNode, counters: Counter, lat_s: list[float], outputs: int) -> dict:
+def _summary(node: DaaNode, counters: Counter, lat_s: list[float], outputs: int) -> dict:
     lat_us = np.array(lat_s) * 1e6
     return {
         "latency_us_p50": round(float(np.percentile(lat_us, 50)), 1),
@@ -128,7 +128,7 @@ def _run_per_report(n: int, seconds: float, port: int) -> dict:
     bus.close()
     return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
             "reports_per_s": round(len(latencies) / wall, 1), "realtime_factor": round(seconds / wall, 2),
-            **_summary(n, node, counters, latencies, outputs)}
+            **_summary(node, counters, latencies, outputs)}
 
 
 def _run_real_time(n: int, seconds: float, port: int) -> dict:
@@ -165,21 +165,26 @@ def _run_real_time(n: int, seconds: float, port: int) -> dict:
     bus.close()
     return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
             "cpu_load": round(busy / wall, 3), "lag_at_end_s": round(max(0.0, wall - seconds), 3),
-            "steps": steps, "largest_batch": biggest, **_summary(n, node, counters, latencies, outputs)}
+            "steps": steps, "largest_batch": biggest, **_summary(node, counters, latencies, outputs)}
 
 
 def bench(intruder_counts: list[int], seconds: float) -> dict:
+    """Pinned to one core, as on a companion computer; the caller's affinity is restored afterwards."""
     try:
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core, as on the companion computer
-        pinned = True
+        cores = os.sched_getaffinity(0)
+        os.sched_setaffinity(0, {min(cores)})
     except (AttributeError, OSError):
-        pinned = False
-    return {
-        "benchmark": "end-to-end ADSB_VEHICLE -> advisory, in-process",
-        "version": __version__,
-        "python": platform.python_version(),
-        "machine": platform.machine(),
-        "pinned_to_one_core": pinned,
-        "per_report": [_run_per_report(n, seconds, _free_port()) for n in intruder_counts],
-        "real_time": [_run_real_time(n, seconds, _free_port()) for n in intruder_counts],
-    }
+        cores = None
+    try:
+        return {
+            "benchmark": "end-to-end ADSB_VEHICLE -> advisory, in-process",
+            "version": __version__,
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "pinned_to_one_core": cores is not None,
+            "per_report": [_run_per_report(n, seconds, _free_port()) for n in intruder_counts],
+            "real_time": [_run_real_time(n, seconds, _free_port()) for n in intruder_counts],
+        }
+    finally:
+        if cores is not None:
+            os.sched_setaffinity(0, cores)
