@@ -192,3 +192,26 @@ def test_advisories_carry_the_conflict_stage_probabilities_and_their_age():
     assert 0.0 <= ra.pc_now <= ra.pc_max <= 1.0 and 0.0 <= ra.t_pc_max_s <= 60.0
     assert ra.pc_within >= ra.pc_max - 0.1  # any time within the lookahead >= at the likeliest time (MC noise)
     assert 0.0 <= ra.pc_within_age_s <= 1.0 + 1e-9  # one pair: the Monte Carlo's budget never binds
+
+
+def test_an_older_report_after_a_newer_one_in_the_same_step_is_out_of_order_as_in_separate_steps():
+    from avionics.config import load_config
+    from avionics.pipeline import DaaCore
+
+    key = IntruderKey(0xABC123, AddressSource.ES1090)
+    mover = Mover((0, R0, ALT), (0, -V, 0))
+
+    def rep(t):
+        e, n, alt = mover.at(t)
+        lat, lon = PLANE.to_geodetic(e, n)
+        return IntruderReport(key, t, t, float(lat), float(lon), alt, AltitudeDatum.PRESSURE, (0.0, -V), 0.0)
+
+    together, apart = DaaCore(load_config()), DaaCore(load_config())
+    for core in (together, apart):
+        for t in range(6):
+            core.step(float(t), [rep(float(t))])
+    together.step(6.0, [rep(5.3), rep(5.2)])  # the late one arrives after the newer one, in one datagram batch
+    apart.step(6.0, [rep(5.3)])
+    apart.step(6.0, [rep(5.2)])
+    for core in (together, apart):
+        assert core.counters["report.out_of_order"] == 1 and core.tracker.tracks[key].n_updates == 7

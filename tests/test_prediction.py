@@ -296,6 +296,17 @@ def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_fi
     assert np.isnan(a.within_age(2.5, ["never"]))[0]
 
 
+def test_assessor_budget_below_one_pair_per_second_and_the_monte_carlo_off():
+    rel_x = np.array([[3000.0, 0.0, 0.0, -100.0, 0.0, 0.0]])
+    rel_p = np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0])[None]
+    slow = ConflictAssessor(ConflictConfig(within_samples=50, within_max_pairs_per_s=0.5))
+    ages = [slow.assess(t, ["a"], rel_x, rel_p) and slow.within_age(t, ["a"])[0] for t in (0.0, 1.0, 2.0)]
+    assert ages == [0.0, 1.0, 0.0]  # one pair every 2 s
+    off = ConflictAssessor(ConflictConfig(within_samples=0))
+    o = off.assess(0.0, ["a"], rel_x, rel_p)
+    assert np.isnan(o["pc_within"][0]) and np.isnan(off.within_age(0.5, ["a"])[0])  # no value, no age
+
+
 @pytest.mark.parametrize("override, message", [
     ("conflict.method=nope", "conflict.method"),
     ("conflict.prefilter=nope", "conflict.prefilter"),

@@ -46,7 +46,7 @@ from avionics.conflict.prediction import (
 )
 from avionics.conflict.probability import pc_paielli_erzberger, vertical_probability
 from avionics.conflict.scheduling import (
-    ConflictScheduler, hwang_geometric_filter, min_distance_filter, predicted_min_vertical,
+    TIME_EPSILON_S, ConflictScheduler, hwang_geometric_filter, min_distance_filter, predicted_min_vertical,
 )
 
 KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
@@ -119,7 +119,7 @@ class ConflictAssessor:
         self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
         self._cache: dict = {}
         self._within_s: dict = {}  # when each pair's pc_within was last computed
-        self._within_tokens = c.within_max_pairs_per_s
+        self._within_tokens = max(c.within_max_pairs_per_s, 1.0)
         self._within_last_s: float | None = None
         self._rng = np.random.default_rng(c.seed)
 
@@ -163,15 +163,17 @@ class ConflictAssessor:
         """Which of these pairs get a fresh pc_within now: due by schedule_period_s, within the token bucket,
         never-computed and stalest first."""
         c = self.config
-        if self._within_last_s is not None:
-            self._within_tokens = min(c.within_max_pairs_per_s, self._within_tokens +
+        within = np.zeros(len(keys), bool)
+        if c.within_samples == 0:
+            return within
+        if self._within_last_s is not None:  # the bucket holds one second's worth, and at least one pair
+            self._within_tokens = min(max(c.within_max_pairs_per_s, 1.0), self._within_tokens +
                                       (now_s - self._within_last_s) * c.within_max_pairs_per_s)
         self._within_last_s = now_s
         last = np.array([self._within_s.get(k, -np.inf) for k in keys], float)
-        due = np.flatnonzero(now_s - last >= c.schedule_period_s - 1e-9)
+        due = np.flatnonzero(now_s - last + TIME_EPSILON_S >= c.schedule_period_s)
         take = due[np.argsort(last[due], kind="stable")][:int(self._within_tokens)]
         self._within_tokens -= take.size
-        within = np.zeros(len(keys), bool)
         within[take] = True
         return within
 

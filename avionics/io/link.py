@@ -20,6 +20,7 @@ from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVIS
 from avionics.io.framing import FrameScanner
 
 READ_CHUNK = 65536
+MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
 
 
 class LinkError(RuntimeError):
@@ -76,7 +77,7 @@ class MavlinkLink:
         if not readable:
             return []
         out = []
-        for _ in range(256):  # drain what is queued without starving the caller's clock
+        for _ in range(MAX_DATAGRAMS_PER_RECEIVE):  # drain what is queued
             try:
                 data = self.conn.recv(READ_CHUNK)
             except OSError:

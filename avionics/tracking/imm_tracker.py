@@ -3,7 +3,7 @@
 Each intruder key owns one slot in a horizontal bank ([x, y, vx, vy, ax, ay], modes from
 tracking.imm_horizontal_modes) and in a vertical bank ([z, vz], CH/CAD), Baek & Bang's decoupled structure
 (their Fig. 2). A report updates only its track's slot; `ingest_many` applies a batch of reports with one
-vectorised IMM cycle per bank (at most one report per track per cycle, in time order).
+vectorised IMM cycle per bank (at most one report per track per cycle, each key's reports in arrival order).
 
 Lifecycle:
 - **Initiation** from the first report: measured components at their measurement variance, unmeasured ones at
@@ -163,14 +163,14 @@ class ImmTracker:
 
     def ingest_many(self, reports: list[IntruderReport], easts, norths) -> np.ndarray:
         """Apply a batch of reports (any order, any keys). Returns, per report, whether it updated or started a
-        published track. Reports of one key are applied in time order, one vectorised cycle per round."""
+        published track. Each key's reports are applied in arrival order, one vectorised cycle per round, so
+        that a batch gives what one report at a time gives (an older report after a newer one is out of order)."""
         easts = np.asarray(easts, float)
         norths = np.asarray(norths, float)
         out = np.zeros(len(reports), bool)
-        order = sorted(range(len(reports)), key=lambda i: reports[i].time_s)
         rounds: list[list[int]] = []
         seen: Counter = Counter()
-        for i in order:
+        for i in range(len(reports)):
             r = seen[reports[i].key]
             seen[reports[i].key] += 1
             if r == len(rounds):

@@ -68,12 +68,8 @@ class IntruderTracker:
         return [None] * len(keys)
 
     def ingest_many(self, reports: list[IntruderReport], easts, norths) -> list[bool]:
-        """The IMM tracker's batch interface: reports applied in time order, one at a time."""
-        order = sorted(range(len(reports)), key=lambda i: reports[i].time_s)
-        took = [False] * len(reports)
-        for i in order:
-            took[i] = self.ingest(reports[i], float(easts[i]), float(norths[i]))
-        return took
+        """The IMM tracker's batch interface: the reports one at a time, in arrival order."""
+        return [self.ingest(r, float(e), float(n)) for r, e, n in zip(reports, easts, norths)]
 
     def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
         """Apply one report; True when it updated or started a track, False when it was counted and dropped."""
