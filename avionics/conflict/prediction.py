@@ -359,8 +359,8 @@ def pc_within_cv_mc(rel_x, rel_p, radius, lookahead_s: float, step_s: float, sig
     # v_r > 6 sigma_h h sqrt(steps left). (Along any path d v_r/dt = (|v|^2 - v_r^2)/r + a.r_hat >= a.r_hat,
     # so re-entering needs sum_k a_k.u_k (u_k = the integral of r_hat over step k, |u_k| <= h) to exceed v_r:
     # a sum of zero-mean Gaussian increments of spread <= sigma_h h, which reaches 6 times its total spread
-    # with probability < exp(-18) = 2e-8 (exponential martingale inequality): no bias at Monte Carlo
-    # precision.) Per step
+    # with probability < exp(-18) = 2e-8 (exponential martingale inequality; u_k's own dependence on a_k
+    # adds a second-order term that only raises v_r): no bias at Monte Carlo precision.) Per step
     # only the samples that can reach the disk during the step (start range - step length <= R, 1 m of slack
     # for the float32 rounding) get the exact segment test, in float64. The propagation runs in float32
     # (memory-bound, so faster; float32 resolves 2 mm at 20 km).
