@@ -21,7 +21,6 @@ from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART
                                       UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
 
 
-
 @dataclass
 class IntruderTrack(TrackRecord):
     kf: CvKalman = field(kw_only=True)
@@ -62,11 +61,11 @@ class IntruderTracker:
         self.counters["track.initiated"] += 1
         return track
 
-    # -- lifecycle ---------------------------------------------------------------------------------------
     def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[None]:
         """The IMM tracker's mode outputs; a single-model filter has none."""
         return [None] * len(keys)
 
+    # -- lifecycle ---------------------------------------------------------------------------------------
     def ingest_many(self, reports: list[IntruderReport], easts, norths) -> list[bool]:
         """The IMM tracker's batch interface: the reports one at a time, in arrival order."""
         return [self.ingest(r, float(e), float(n)) for r, e, n in zip(reports, easts, norths)]
