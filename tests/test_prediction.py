@@ -286,7 +286,7 @@ def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_fi
         o = a.assess(t, keys, rel_x, rel_p)
         assert o["computed"].all()  # Pc now and max for every pair, every time
         first = o["pc_within"] if first is None else first
-        fresh.append({k for k in keys if a._within_s.get(k) == t})
+        fresh.append({k for k, age in zip(keys, a.within_age(t, keys)) if age == 0.0})
     assert [len(f) for f in fresh] == [4, 4, 4]  # the bucket holds one second: 4 pairs
     assert fresh[0] == set(keys[:4]) and fresh[1] == set(keys[4:8])  # never-computed first ...
     assert fresh[2] == set(keys[8:] + keys[:2])  # ... then the stalest

@@ -119,7 +119,8 @@ class ConflictAssessor:
         self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
         self._cache: dict = {}
         self._within_s: dict = {}  # when each pair's pc_within was last computed
-        self._within_tokens = max(c.within_max_pairs_per_s, 1.0)
+        self._within_capacity = max(c.within_max_pairs_per_s, 1.0)  # one second's worth, and at least one pair
+        self._within_tokens = self._within_capacity
         self._within_last_s: float | None = None
         self._rng = np.random.default_rng(c.seed)
 
@@ -166,8 +167,8 @@ class ConflictAssessor:
         within = np.zeros(len(keys), bool)
         if c.within_samples == 0:
             return within
-        if self._within_last_s is not None:  # the bucket holds one second's worth, and at least one pair
-            self._within_tokens = min(max(c.within_max_pairs_per_s, 1.0), self._within_tokens +
+        if self._within_last_s is not None:
+            self._within_tokens = min(self._within_capacity, self._within_tokens +
                                       (now_s - self._within_last_s) * c.within_max_pairs_per_s)
         self._within_last_s = now_s
         last = np.array([self._within_s.get(k, -np.inf) for k in keys], float)
