@@ -316,6 +316,7 @@ def test_assessor_budget_below_one_pair_per_second_and_the_monte_carlo_off():
     ("conflict.schedule_fast_period_s=2", "schedule_fast_period_s"),
     ("conflict.schedule_threshold=1.5", "probability"),
     ("conflict.prefilter_alpha=0.5", "alpha"),
+    ("conflict.within_max_pairs_per_s=0", "within_max_pairs_per_s"),
 ])
 def test_conflict_config_validation(override, message):
     from avionics.config import ConfigError, load_config
