@@ -9,7 +9,12 @@ an optional next line of units in brackets; then one row per aircraft and time. 
     trk gs vs   | vx vy vz   velocity: track/ground speed/vertical speed (deg, knot, fpm) or ENU (knot, knot, fpm)
     time                     seconds (optional: without it the file is one snapshot)
 
-Other DAIDALUS columns (alerter, heading, airspeed, *_std uncertainties, ...) are recognised and ignored.
+Other DAIDALUS columns (alerter, heading, airspeed, *_std uncertainties, ...) are recognised and ignored,
+units included: like DAIDALUS's reader, which never converts a column it does not use, the units of ignored
+columns are not checked (daidalus_H1_SUM.daa writes its *_std columns in [nmi/s]). Rows of one aircraft must
+not go back in time (DAIDALUS would sort them); a row with the same time as that aircraft's previous row
+replaces it: the last row wins, as in DAIDALUS's SequenceReader, which keeps one state per (time, name)
+(daa-displays' sim3.daa repeats stamps).
 Euclidean positions are placed on the tangent plane at EUCLIDEAN_ORIGIN. Times are shifted so that the
 file's first time is simulation time 0. Extension: a comment '# ground_ft = N' sets the ground elevation.
 docs/scenarios.md has the details and the reasons.
@@ -82,8 +87,13 @@ def _fields(line: str) -> list[str]:
     return [f for f in _SPLIT_RE.split(line.strip()) if f]
 
 
-def _is_units_line(fields: list[str]) -> bool:
-    return all(f.startswith("[") or f.lower() in _UNITLESS for f in fields)
+def _is_units_line(fields: list[str], columns: list[str]) -> bool:
+    """Every field under a column we use is a bracketed unit or unitless; under ignored columns anything goes."""
+    return all(
+        f.startswith("[") or f.lower() in _UNITLESS
+        for i, f in enumerate(fields)
+        if not (i < len(columns) and columns[i] in _IGNORED_COLUMNS)
+    )
 
 
 def _parse_units(fields: list[str], columns: list[str], line_no: int) -> list[float]:
@@ -91,6 +101,9 @@ def _parse_units(fields: list[str], columns: list[str], line_no: int) -> list[fl
         raise ValueError(f"line {line_no}: units line has {len(fields)} fields, header has {len(columns)}")
     factors = []
     for col, text in zip(columns, fields):
+        if col in _IGNORED_COLUMNS:  # never converted, so never checked (DAIDALUS: unknown -> "unspecified")
+            factors.append(1.0)
+            continue
         unit = text.strip("[]").lower()
         if unit not in _UNITS:
             raise ValueError(f"line {line_no}: unknown unit {text!r} for column {col!r}")
@@ -168,7 +181,7 @@ def _parse_rows(text: str, euclid_plane: LocalTangentPlane) -> tuple[list[_Row],
             continue
         if expect_units:
             expect_units = False
-            if _is_units_line(fields):
+            if _is_units_line(fields, columns):
                 factors = _parse_units(fields, columns, line_no)
                 continue
         rows.append(_parse_row(fields, columns, factors, line_no, euclid_plane))
@@ -231,26 +244,39 @@ def _spec(name: str, index: int, first: _Row) -> AircraftSpec:
         raise ValueError(f"{where}: {e}") from None
 
 
+def _rows_by_aircraft(rows: list[_Row]) -> dict[str, list[_Row]]:
+    """Each aircraft's rows in time order, in order of the names' first appearance (the first is the ownship,
+    as in DAIDALUS's name index). A row at the same time as the aircraft's previous row replaces it (the last
+    row wins, as DAIDALUS's SequenceReader keeps it); an earlier time is an error."""
+    by_name: dict[str, list[_Row]] = {}
+    for row in rows:
+        ac_rows = by_name.setdefault(row.name, [])
+        if ac_rows:
+            prev = ac_rows[-1]
+            if row.t == prev.t:
+                ac_rows[-1] = row
+                continue
+            if row.t < prev.t:
+                raise ValueError(
+                    f"line {row.line}: time {row.t:g} s of {row.name!r} is not after its previous row's "
+                    f"(line {prev.line}, {prev.t:g} s)"
+                )
+        ac_rows.append(row)
+    return by_name
+
+
 def read_daa(path_or_text: str | Path) -> Scenario:
     """A Scenario from a DAIDALUS .daa file (a Path, or a path string) or from its text (a str with newlines)."""
     text, name = _text_of(path_or_text)
     euclid_plane = LocalTangentPlane(*EUCLIDEAN_ORIGIN)
     rows, ground_m, euclidean = _parse_rows(text, euclid_plane)
-    by_name: dict[str, list[_Row]] = {}
-    for row in rows:  # dicts keep first-appearance order: the first name is the ownship
-        by_name.setdefault(row.name, []).append(row)
-    for ac, ac_rows in by_name.items():
-        for prev, row in zip(ac_rows, ac_rows[1:]):
-            if not row.t > prev.t:
-                raise ValueError(
-                    f"line {row.line}: time {row.t:g} s of {ac!r} is not after its previous row's "
-                    f"(line {prev.line}, {prev.t:g} s)"
-                )
+    by_name = _rows_by_aircraft(rows)
     if len(by_name) < 2:
         raise ValueError(f"need at least two aircraft (ownship and an intruder), found {len(by_name)}")
-    t0 = min(r.t for r in rows)
-    t_last = max(r.t for r in rows)
-    first_own = rows[0]
+    kept = [r for ac_rows in by_name.values() for r in ac_rows]
+    t0 = min(r.t for r in kept)
+    t_last = max(r.t for r in kept)
+    first_own = next(iter(by_name.values()))[0]  # the ownship's first kept row (an earlier duplicate lost)
     # Euclidean files are exact on their own plane; geodetic ones are integrated around the ownship.
     origin = EUCLIDEAN_ORIGIN if euclidean else (first_own.lat, first_own.lon)
     plane = euclid_plane if euclidean else LocalTangentPlane(*origin)
@@ -272,7 +298,7 @@ def read_daa(path_or_text: str | Path) -> Scenario:
         trajectories.append(traj)
     snapshot = all(len(r) == 1 for r in by_name.values()) and t_last == t0
     duration = SNAPSHOT_DURATION_S if snapshot else (t_last - t0) + DURATION_MARGIN_S
-    n_samples = len(rows)
+    n_samples = len(kept)
     description = (
         f"DAIDALUS file {name}: {len(by_name)} aircraft, "
         + ("one snapshot, straight-line extrapolation" if snapshot else

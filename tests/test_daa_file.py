@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,8 @@ from sitl.scenario import Leg
 from sitl.trajectory import LegKinematics, SampledTrajectory
 
 DATA = Path(__file__).resolve().parent / "data"
+# NASA's public DAIDALUS / daa-displays files, read where they are (never copied into the project).
+CONFORMANCE = Path(__file__).resolve().parents[1].parent / "shared" / "conformance" / "daidalus"
 # Hand constants, deliberately not imported from avionics.core.units: the reader's unit table is under test.
 M_PER_NMI, M_PER_FT, MPS_PER_KT = 1852.0, 0.3048, 1852.0 / 3600.0
 FAST = settings(max_examples=30, deadline=None)
@@ -267,7 +270,7 @@ intruder, 47.5, 8.5, 3000, 180, 125, 0, 0
         ("own, 47.4,", "own, nan,", 3, "not finite"),
         ("intruder, 47.5, 8.5, 3000, 180, 125", "intruder, 47.5, 8.5, 3000, 180, inf", 4, "not finite"),
         ("own, 47.4,", "own, 95,", 3, "out of range"),
-        ("intruder, 47.5,", "own, 47.5,", 4, "is not after"),
+        ("intruder, 47.5, 8.5, 3000, 180, 125, 0, 0", "own, 47.5, 8.5, 3000, 180, 125, 0, -1", 4, "is not after"),
     ],
 )
 def test_bad_files_name_the_line(old, new, line, message):
@@ -304,3 +307,121 @@ def test_invalid_aircraft_state_names_the_line():
 def test_missing_file():
     with pytest.raises(ValueError, match="cannot read"):
         read_daa(DATA / "no_such_file.daa")
+
+
+# --- DAIDALUS's behaviour: units of ignored columns, repeated time stamps -----------------------------------
+
+
+def test_units_of_ignored_columns_are_not_checked():
+    # DAIDALUS never converts a column it does not use, so any unit text there is fine (H1_SUM: [nmi/s]).
+    text = """NAME, lat, lon, alt, trk, gs, vs, time, alerter, s_EW_std, v_EW_std, vz_std
+[none], [deg], [deg], [m], [deg], [knot], [fpm], [s], [furlong], [nmi/s], nmi/s, -
+own, 47.4, 8.5, 1000, 0, 125, 0, 0, 1, 0.02, 0.0007, 0
+intruder, 47.5, 8.5, 1000, 180, 125, 0, 0, 1, 0.02, 0.0007, 0
+"""
+    sc = read_daa(text)
+    assert [a.name for a in sc.aircraft] == ["own", "intruder"]
+    assert sc.ownship.alt_msl_m == pytest.approx(1000.0)  # the units line was read: alt in metres
+    # The columns we use are still checked, naming the line and the column.
+    with pytest.raises(ValueError, match=r"line 2: unit '\[deg\]' is not a length unit \(column 'alt'\)"):
+        read_daa(text.replace("[deg], [m]", "[deg], [deg]", 1))
+    with pytest.raises(ValueError, match=r"line 2: unknown unit '\[furlong\]' for column 'alt'"):
+        read_daa(text.replace("[m]", "[furlong]", 1))
+
+
+def test_a_repeated_time_keeps_the_last_row():
+    # DAIDALUS's SequenceReader keeps one state per (aircraft, time): the last row read.
+    text = GOOD.replace("own, 47.4, 8.5, 3000, 0, 125, 0, 0\n",
+                        "own, 47.3, 8.4, 2000, 90, 100, 0, 0\nown, 47.4, 8.5, 3000, 0, 125, 0, 0\n", 1)
+    text += ("own, 47.41, 8.5, 3000, 0, 125, 0, 10\n"
+             "intruder, 47.49, 8.5, 3000, 180, 125, 0, 10\n"
+             "own, 47.9, 8.9, 9000, 270, 200, 500, 10\n"  # replaced by the next own row at 10 s
+             "own, 47.42, 8.5, 3000, 0, 125, 0, 10\n")
+    sc = read_daa(text)
+    assert [a.name for a in sc.aircraft] == ["own", "intruder"]
+    own, (intr,) = sc.trajectories()
+    assert list(own.times) == [0.0, 10.0] and list(intr.times) == [0.0, 10.0]
+    assert sc.origin == (47.4, 8.5)  # geodetic plane at the ownship's first kept row, not the replaced one
+    assert (sc.ownship.lat_deg, sc.ownship.lon_deg) == pytest.approx((47.4, 8.5))
+    assert sc.ownship.heading_deg == pytest.approx(0.0, abs=1e-9)
+    s10 = own.state_at(10.0)
+    assert (s10.lat_deg, s10.lon_deg, s10.alt_msl_m) == pytest.approx((47.42, 8.5, 3000 * M_PER_FT))
+    assert "4 samples" in sc.description
+    # Repeated rows at the one time of a snapshot leave a snapshot.
+    snap = read_daa(GOOD + "intruder, 47.6, 8.5, 3000, 180, 125, 0, 0\n")
+    assert snap.precomputed_trajectories is None and snap.duration_s == 120.0
+    assert snap.intruders[0].lat_deg == pytest.approx(47.6)
+
+
+def test_a_time_going_backwards_is_still_an_error_naming_the_line():
+    text = GOOD + ("own, 47.41, 8.5, 3000, 0, 125, 0, 10\n"
+                   "own, 47.42, 8.5, 3000, 0, 125, 0, 10\n"  # repeats 10 s: replaces line 5
+                   "own, 47.43, 8.5, 3000, 0, 125, 0, 9.5\n")
+    with pytest.raises(ValueError, match=r"line 7: time 9.5 s of 'own' is not after .*\(line 6, 10 s\)"):
+        read_daa(text)
+
+
+# --- NASA's own files (public data in ../shared/conformance/daidalus) ---------------------------------------
+
+
+def conformance_file(name: str) -> Path:
+    """A file of the DAIDALUS conformance set; skip if the set is absent (a plain clone), fail if under CI."""
+    if not CONFORMANCE.is_dir():
+        reason = f"DAIDALUS conformance set not found at {CONFORMANCE} (public NASA data, not in the repository)"
+        if "CI" in os.environ:
+            pytest.fail(f"{reason}; it is required under CI")
+        pytest.skip(reason)
+    path = CONFORMANCE / name
+    if not path.is_file():
+        pytest.fail(f"{path}: missing from the DAIDALUS conformance set")
+    return path
+
+
+def _by_name(sc):
+    own, intruders = sc.trajectories()
+    return {a.name: (a, traj) for a, traj in zip(sc.aircraft, (own, *intruders))}
+
+
+def _assert_same_trajectories(a, b):
+    """Same aircraft (ownship first), same sample times, same states at those times and between them."""
+    assert a.ownship.name == b.ownship.name
+    ta, tb = _by_name(a), _by_name(b)
+    assert sorted(ta) == sorted(tb)
+    assert a.origin == b.origin and a.duration_s == b.duration_s
+    for name, (spec_a, traj_a) in ta.items():
+        spec_b, traj_b = tb[name]
+        assert (spec_a.lat_deg, spec_a.lon_deg, spec_a.alt_msl_m, spec_a.heading_deg, spec_a.speed_mps,
+                spec_a.vertical_rate_mps) == (spec_b.lat_deg, spec_b.lon_deg, spec_b.alt_msl_m, spec_b.heading_deg,
+                                              spec_b.speed_mps, spec_b.vertical_rate_mps), name
+        assert list(traj_a.times) == list(traj_b.times), name
+        times = np.asarray(traj_a.times)
+        for t in [*times, *(times[:-1] + 0.5)]:
+            assert traj_a.state_at(float(t)) == traj_b.state_at(float(t)), (name, t)
+
+
+def test_daidalus_h1_sum_reads_as_its_file_without_std_columns():
+    # *_std columns in [nmi], [nmi/s]: DAIDALUS ignores them, so do we.
+    sc = read_daa(conformance_file("daidalus_H1_SUM.daa"))
+    assert [a.name for a in sc.aircraft] == ["Ownship", "Intruder_1"]
+    own, (intr,) = sc.trajectories()
+    assert (len(own.times), len(intr.times)) == (230, 203)
+    assert own.times[0] == 0.0 and own.times[-1] == 229.0 and sc.duration_s == 229.0 + 60.0
+    nostd = read_daa(conformance_file("daidalus_H1_SUM_nostd.daa"))
+    assert [a for a in sc.aircraft] == [a for a in nostd.aircraft]  # same specs, same ICAO addresses
+    _assert_same_trajectories(sc, nostd)
+
+
+def test_daa_displays_sim3_keeps_the_last_row_of_each_repeated_stamp():
+    path = conformance_file("daadisplays_sim3.daa")
+    raw_rows = sum(1 for line in path.read_text().splitlines()[2:] if line.strip())
+    sc = read_daa(path)
+    assert [a.name for a in sc.aircraft] == ["ownship", "traffic1", "traffic2"]
+    by_name = _by_name(sc)
+    assert {n: len(t.times) for n, (_, t) in by_name.items()} == {"ownship": 127, "traffic1": 129, "traffic2": 129}
+    assert raw_rows == 6474  # 385 (aircraft, time) stamps, most repeated
+    assert "385 samples over 128 s" in sc.description and "file time 17 s is simulation time 0" in sc.description
+    lastrow = read_daa(conformance_file("daadisplays_sim3_lastrow.daa"))
+    # The publisher's de-duplicated file lists traffic2 first at 17 s; the intruders' order (and so their ICAO
+    # addresses) follows each file's first appearance, as DAIDALUS's does. Everything else is identical.
+    assert [a.name for a in lastrow.aircraft] == ["ownship", "traffic2", "traffic1"]
+    _assert_same_trajectories(sc, lastrow)
