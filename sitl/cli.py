@@ -30,7 +30,9 @@ def cmd_replay(args) -> int:
     from sitl.replay import replay
 
     config = load_config(args.config, list(args.set) + ["zenoh.enabled=false"])
-    result = replay(_scenario(args.encounter), config, PRESETS[args.noise], seed=args.seed)
+    result = replay(_scenario(args.encounter), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras)
+    if args.misses:
+        result.write_misses_csv(args.misses)
     if args.out:
         result.write_csv(args.out)
     else:
@@ -81,6 +83,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("replay", help="fly an encounter in fast time through the onboard core; CSV of advisories")
     common(p)
     p.add_argument("--out", metavar="FILE.csv", help="write the advisory changes here (default: stdout)")
+    p.add_argument("--fly-ras", action="store_true",
+                   help="close the loop: ownship flies the RAs with the profile's response model")
+    p.add_argument("--misses", metavar="FILE.csv",
+                   help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
+                        "(equal without --fly-ras)")
     p.add_argument("--config", metavar="FILE", help="onboard configuration TOML")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE", help="config override")
     p.set_defaults(func=cmd_replay)

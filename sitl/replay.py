@@ -16,7 +16,7 @@ import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
-from avionics.core.types import Advisory
+from avionics.core.types import Advisory, IntruderKey
 from avionics.io.framing import FrameScanner
 from avionics.node import DaaNode
 from sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
@@ -27,6 +27,8 @@ from sitl.scenario import Scenario
 CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
                "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
                "mod_tau_s", "vertical_tau_s", "ra_separation_m")
+# One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop).
+MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m")
 
 
 @dataclass
@@ -57,6 +59,18 @@ class ReplayResult:
             writer = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             writer.writerows(self.rows())
+
+    def miss_rows(self) -> list[dict]:
+        return [{
+            "intruder": str(m.key) if m.key is not None else "", "name": m.intruder, "t_cpa_s": f"{m.t_cpa_s:.3f}",
+            "hmd_m": f"{m.hmd_m:.3f}", "vmd_unflown_m": f"{m.vmd_without_m:.3f}", "vmd_flown_m": f"{m.vmd_with_m:.3f}",
+        } for m in self.misses]
+
+    def write_misses_csv(self, path: str | Path) -> None:
+        with open(path, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=MISS_COLUMNS)
+            writer.writeheader()
+            writer.writerows(self.miss_rows())
 
 
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
@@ -105,7 +119,8 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
                 for msg in ownship_messages(own, scenario.ground_elevation_m, int(t_tick * 1000)):
                     step(scanner.feed(packer.pack(msg), end_of_datagram=True), t_tick)
         step([], t_tick)
-    result.misses = [_vertical_miss(scenario, own_traj, traj, spec.name, offsets)
+    result.misses = [_vertical_miss(scenario, own_traj, traj, spec.name, offsets,
+                                    IntruderKey(spec.icao_address, spec.address_source))
                      for spec, traj in zip(scenario.intruders, intruder_trajs)]
     return result
 
@@ -117,9 +132,10 @@ class VerticalMiss:
     hmd_m: float
     vmd_without_m: float  # |vertical separation| at CPA on the scenario's paths
     vmd_with_m: float  # ... with ownship flying the RAs (equal when the loop is open)
+    key: IntruderKey | None = None  # as the node keys it (the advisory CSV's intruder column)
 
 
-def _vertical_miss(scenario, own_traj, traj, name, offsets) -> VerticalMiss:
+def _vertical_miss(scenario, own_traj, traj, name, offsets, key=None) -> VerticalMiss:
     """Truth at the time of least horizontal distance, sampled at 0.1 s."""
     times = [k * 0.1 for k in range(int(scenario.duration_s * 10) + 1)]
     dist = []
@@ -131,4 +147,4 @@ def _vertical_miss(scenario, own_traj, traj, name, offsets) -> VerticalMiss:
     t = times[k]
     without = traj.enu_at(t)[2] - own_traj.enu_at(t)[2]
     offset = next((o for tt, o in reversed(offsets) if tt <= t + 1e-9), 0.0) if offsets else 0.0
-    return VerticalMiss(name, t, dist[k], abs(without), abs(without - offset))
+    return VerticalMiss(name, t, dist[k], abs(without), abs(without - offset), key)
