@@ -18,6 +18,7 @@ from typing import Iterable
 import numpy as np
 
 from avionics.advisory.gating import AlertGate
+from avionics.advisory.inhibits import LowAltitudeInhibits
 from avionics.advisory.logic import AdvisoryState, detect
 from avionics.advisory.resolution import ResolutionLogic, Threat
 from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
@@ -56,6 +57,7 @@ class DaaCore:
         self.profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
         self.levels = LevelSelector(self.profile)
         self.resolution = ResolutionLogic(self.profile)
+        self.inhibits = LowAltitudeInhibits(self.profile)
         self._ra_threats: dict[IntruderKey, Threat] = {}
         self.gate = AlertGate(config.advisory)
         self.conflict = ConflictAssessor(config.conflict)
@@ -139,7 +141,8 @@ class DaaCore:
                else own.height_above_home_m)
         sl_altitude = own.pressure_altitude_m if own.pressure_altitude_m is not None else float(own.x[2])
         self.level = level = self.levels.select(agl, sl_altitude)
-        ra_allowed = cfg.advisory.ra_enabled and not (agl is not None and agl < self.profile.ra_inhibit_below_agl_m)
+        inhibits = self.inhibits.update(agl)
+        ra_allowed = cfg.advisory.ra_enabled and not inhibits.ra
 
         xs, ps = self.tracker.predict(keys, now_s)
         tracks = [self.tracker.tracks[k] for k in keys]
@@ -154,7 +157,8 @@ class DaaCore:
         geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
-        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter)
+        threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
+        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter, threat_eligible)
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin)
         within_age = self.conflict.within_age(now_s, keys)
         candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
@@ -175,15 +179,21 @@ class DaaCore:
                 self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
             else:
                 self._ra_threats.pop(key, None)
-        resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]), agl,
-                                             level.alim_m or 0.0)
+        resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
+                                             level.alim_m or 0.0, inhibits, float(own.x[2]))
+        blocked = self.resolution.blocked if resolution is None else ""
         out = []
         for i, key in enumerate(keys):
             state, candidate, previous = states[i]
+            if blocked and state.level is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
+                state.level = AdvisoryLevel.TA
+            threat = self._ra_threats.get(key) if state.level is AdvisoryLevel.RA else None
             dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
             advisory = Advisory(
                 intruder=key, level=state.level, time_s=now_s,
-                reason=self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod),
+                reason=(blocked if blocked and key in self._ra_threats else
+                        resolution.reason if threat is not None and resolution.reason else
+                        self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod)),
                 sensitivity_level=level.sl,
                 range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
                 t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
@@ -195,7 +205,7 @@ class DaaCore:
                 pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
                 t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
                 pc_within_age_s=_finite_or_none(within_age[i]),
-                **(_ra_fields(resolution) if state.level is AdvisoryLevel.RA and resolution else {}),
+                **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
             )
             self.assessments[key] = _Assessment(advisory, state)
             if previous is None and advisory.level is not AdvisoryLevel.NONE or \
@@ -211,7 +221,7 @@ class DaaCore:
         rel_x = xs - own.x
         rel_x[:, 2] = geometry.sz_m  # the datum-matched relative altitude
         rel_p = ps + own.p
-        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin)
+        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin, own.x[3:5])
         # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
@@ -223,11 +233,11 @@ class DaaCore:
         pc_ra = pc[1] * has_alt if level.ra_tau_s is not None else np.zeros(len(keys))
         return pc[0], pc_ra, zone
 
-    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin) -> dict:
+    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin, own_velocity) -> dict:
         """The conflict stage runs on the full-assessment ticks only (its scheduler then decides which pairs
         are due); an assessment between ticks, for a fresh report, reuses the intruder's last values."""
         if len(keys) == len(self.tracker.tracks) and now_s == self._last_full_assessment_s:
-            return self.conflict.assess(now_s, keys, rel_x, rel_p, has_alt, margin)
+            return self.conflict.assess(now_s, keys, rel_x, rel_p, has_alt, margin, own_vel=own_velocity)
         return self.conflict.last(keys)
 
     @staticmethod
@@ -266,8 +276,8 @@ class DaaCore:
 NONE = int(AdvisoryLevel.NONE)
 
 
-def _ra_fields(r) -> dict:
-    return dict(ra_sense=r.sense.value, ra_strength=r.strength.value, ra_words=r.words(),
+def _ra_fields(r, threat) -> dict:
+    return dict(ra_sense=r.sense_against(threat).value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
                 ra_separation_m=r.separation_m)
 

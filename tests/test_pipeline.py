@@ -39,11 +39,14 @@ def level_sequence(changes):
 def test_head_on_ta_ra_clear_at_hand_computed_times():
     core, changes = head_on().run(110)
     seq = levels(changes)
-    assert [lvl for _, lvl in seq] == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.NONE]
-    t_ta, t_ra, t_clear = (t for t, _ in seq)
+    assert [lvl for _, lvl in seq] == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.TA, AdvisoryLevel.NONE]
+    t_ta, t_ra, t_ra_end, t_clear = (t for t, _ in seq)
     assert t_ta == pytest.approx(onset(R0, 2 * V, 30, 0.48 * NM), abs=0.11)
     assert t_ra == pytest.approx(onset(R0, 2 * V, 20, 0.35 * NM), abs=0.11)
-    assert t_clear == pytest.approx(R0 / (2 * V), abs=0.11)  # clear of conflict once the range diverges
+    # Diverging but inside DMOD is still a threat (DAIDALUS TCAS2D.horizontal_RA: range <= DMOD alerts,
+    # closing or not): the RA holds until the range passes the RA DMOD, the TA until it passes the TA DMOD.
+    assert t_ra_end == pytest.approx((R0 + 0.35 * NM) / (2 * V), abs=0.11)
+    assert t_clear == pytest.approx((R0 + 0.48 * NM) / (2 * V), abs=0.11)
     assert changes[-1][1].reason == "diverging"
     assert all(c.sensitivity_level == 4 for _, c in changes)
 
@@ -73,7 +76,7 @@ def test_mismatched_datums_widen_the_vertical_test_and_say_so():
 
 def test_geometric_intruder_needs_no_pressure_altitude():
     _, changes = head_on(datum=AltitudeDatum.GEOMETRIC, pressure=False).run(110)
-    assert level_sequence(changes) == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.NONE]
+    assert level_sequence(changes) == [AdvisoryLevel.TA, AdvisoryLevel.RA, AdvisoryLevel.TA, AdvisoryLevel.NONE]
     assert not any(c.datum_mismatch for _, c in changes)
 
 
@@ -215,3 +218,21 @@ def test_an_older_report_after_a_newer_one_in_the_same_step_is_out_of_order_as_i
     apart.step(6.0, [rep(5.2)])
     for core in (together, apart):
         assert core.counters["report.out_of_order"] == 1 and core.tracker.tracks[key].n_updates == 7
+
+
+def test_the_hwang_prefilter_runs_through_full_assessments():
+    # conflict.prefilter = "hwang" validated, then crashed the first full assessment (the ownship velocity
+    # never reached the conflict stage). A 90-degree crossing meeting at (0, d): Hwang condition 2(a) CASE I
+    # keeps it (r.v_own = dV >= 0, r.v_intruder = -dV <= 0, r x v_own = dV and -r x v_intruder = -dV of
+    # opposite signs): the same advisories as the default pre-filter, with a Pc.
+    d = R0 / math.sqrt(2)
+
+    def crossing(**kw):
+        return Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((d, d, ALT), (-V, 0, 0)), **kw)
+
+    _, default = crossing().run(110)
+    _, hwang = crossing(overrides=["conflict.prefilter=hwang"]).run(110)
+    assert AdvisoryLevel.RA in level_sequence(default)
+    assert level_sequence(hwang) == level_sequence(default)
+    ra = next(c for _, c in hwang if c.level is AdvisoryLevel.RA)
+    assert ra.pc_max > 0.5

@@ -66,3 +66,27 @@ def test_sensitivity_level_hysteresis_at_a_band_boundary():
     assert sel.select(4950 * FT, 4950 * FT).sl == 5  # within 100 ft below: stays
     assert sel.select(4850 * FT, 4850 * FT).sl == 4
     assert sel.select(800 * FT, 800 * FT).sl == 2  # a big step is taken at once
+
+
+def test_daidalus_tcas3d_is_tcas3d_conf():
+    # DAIDALUS Configurations/TCAS3D.conf (TCASTable): SL from altitude alone (SL N while alt <= its upper
+    # bound, TCASTable.getSensitivityLevel), RA HMD = the RA DMOD values (TCASTable.RA_HMD_ in ft), no
+    # hysteresis, no inhibits. The tcas2 profile keeps v7.1's own HMD filter table, which is not these.
+    from avionics.advisory.tables import select_level
+
+    p = load_profile("daidalus-tcas3d")
+    ra_levels = [lvl for lvl in p.levels if lvl.ra_tau_s is not None]
+    assert [lvl.ra_hmd_m / FT for lvl in ra_levels] == pytest.approx([1215, 2126, 3342, 4861, 6683, 6683])
+    # 1215 ft = 0.2 nm to the foot
+    assert [lvl.ra_hmd_m for lvl in ra_levels] == pytest.approx([lvl.ra_dmod_m for lvl in ra_levels], abs=0.25)
+    assert [lvl.ra_tau_s for lvl in ra_levels] == [15, 20, 25, 30, 35, 35]
+    assert p.sl_hysteresis_m == p.inhibit_hysteresis_m == p.descend_inhibit_below_agl_m == 0.0
+    assert math.isinf(p.max_threat_vertical_rate_mps)
+    for alt_ft, sl in ((-1, 1), (0, 1), (0.1, 2), (1000, 2), (1000.1, 3), (2350, 3), (5000, 4), (10000, 5),
+                       (20000, 6), (42000, 7), (42000.1, 8)):
+        assert select_level(0.0, alt_ft * FT, p.levels).sl == sl, alt_ft  # AGL is not used
+    tcas = load_profile("tcas2")
+    assert [lvl.ra_hmd_m / NM for lvl in tcas.levels if lvl.ra_hmd_m] == pytest.approx(
+        [0.40, 0.57, 0.74, 0.82, 0.98, 0.98])
+    assert tcas.inhibit_hysteresis_m == pytest.approx(100 * FT)
+    assert tcas.max_threat_vertical_rate_mps == pytest.approx(10000 * FPM)

@@ -1,17 +1,35 @@
-"""RA sense and strength against hand-projected vertical separations (TCAS II standard response)."""
+"""RA sense and strength (TCAS II v7.1 rules, docs/advisories.md) against hand-projected vertical separations.
 
+The standard response (tcas2): 5 s, 0.25 g (2.4517 m/s^2) to 1500 fpm (7.62 m/s); strengthening and reversal
+2.5 s, 0.35 g to 2500 fpm. Closed-loop expectations are flown by tests/ra_sim.py, a point-mass vertical
+simulation written apart from advisory/resolution.py.
+"""
+
+import numpy as np
 import pytest
 
+from avionics.advisory.inhibits import HysteresisInhibit, Inhibits, LowAltitudeInhibits
+from avionics.advisory.logic import detect
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat, own_displacement
-from avionics.advisory.tables import load_profile
-from avionics.core.units import FPM, FT
+from avionics.advisory.tables import load_profile, select_level
+from avionics.conflict.cpa import pair_geometry
+from avionics.core.types import AdvisoryLevel
+from avionics.core.units import FPM, FT, G0, NM
+from ra_sim import Encounter, Intruder, fly
 
 TCAS = load_profile("tcas2")
-ALIM = 300 * FT  # SL 4
+ALIM = 300 * FT  # SL 3 and SL 4
+LOW = Inhibits(ra=False, descend=True, increase_descent=True)  # 1000 to 1100 ft AGL
 
 
 def logic():
     return ResolutionLogic(TCAS)
+
+
+def head_on(agl_ft, sz_ft, vz_own_fpm=0.0, vz_intruder_fpm=0.0):
+    """Head-on at 100 m/s closure from 5 km, the intruder sz_ft above ownship."""
+    return Encounter(agl_ft * FT, vz_own_fpm * FPM, (Intruder(5000.0, 0.0, -100.0, 0.0, sz_ft * FT,
+                                                              vz_intruder_fpm * FPM),))
 
 
 def test_standard_response_by_hand():
@@ -24,8 +42,8 @@ def test_standard_response_by_hand():
 
 
 def test_level_intruder_above_gives_descend_below_gives_climb():
-    above = logic().resolve(0.0, [Threat(200 * FT, 0.0, 25.0)], 0.0, None, ALIM)
-    below = logic().resolve(0.0, [Threat(-200 * FT, 0.0, 25.0)], 0.0, None, ALIM)
+    above = logic().resolve(0.0, [Threat(200 * FT, 0.0, 25.0)], 0.0, ALIM)
+    below = logic().resolve(0.0, [Threat(-200 * FT, 0.0, 25.0)], 0.0, ALIM)
     assert (above.sense, above.strength, above.words()) == (Sense.DESCEND, Strength.CORRECTIVE, "DESCEND")
     assert (below.sense, below.strength, below.words()) == (Sense.CLIMB, Strength.CORRECTIVE, "CLIMB")
     assert above.target_rate_mps == pytest.approx(-1500 * FPM) and not above.crossing
@@ -33,23 +51,22 @@ def test_level_intruder_above_gives_descend_below_gives_climb():
 
 
 def test_separation_already_assured_gives_a_preventive_ra():
-    ra = logic().resolve(0.0, [Threat(500 * FT, 0.0, 20.0)], 0.0, None, ALIM)
+    ra = logic().resolve(0.0, [Threat(500 * FT, 0.0, 20.0)], 0.0, ALIM)
     assert (ra.sense, ra.strength, ra.words(), ra.target_rate_mps) == (Sense.DESCEND, Strength.PREVENTIVE,
                                                                        "DONT CLIMB", None)
 
 
 def test_climbing_ownship_that_can_level_off_is_told_to():
     # Intruder 600 ft above, level; we climb at 2000 fpm toward it: levelling off keeps > ALIM.
-    ra = logic().resolve(0.0, [Threat(600 * FT, 0.0, 20.0)], 2000 * FPM, None, ALIM)
+    ra = logic().resolve(0.0, [Threat(600 * FT, 0.0, 20.0)], 2000 * FPM, ALIM)
     assert (ra.sense, ra.strength, ra.words()) == (Sense.DESCEND, Strength.LEVEL_OFF, "LEVEL OFF")
     assert ra.target_rate_mps == 0.0
 
 
 def test_intruder_climbing_through_our_altitude_non_crossing_when_it_achieves_alim():
-    # From 300 ft below at 1000 fpm, co-altitude in 18 s, CPA in 20 s: staying above needs the climb
-    # to beat the intruder's climb; climb 1500 fpm achieves ALIM without crossing.
+    # From 300 ft below at 1000 fpm, CPA in 20 s: climbing 1500 fpm stays above it by ALIM without crossing.
     threat = Threat(-300 * FT, 1000 * FPM, 20.0)
-    ra = logic().resolve(0.0, [threat], 0.0, None, ALIM)
+    ra = logic().resolve(0.0, [threat], 0.0, ALIM)
     climb = logic().separation([threat], Sense.CLIMB, Strength.CORRECTIVE, 0.0)
     assert ra.sense is Sense.CLIMB and not ra.crossing and climb >= ALIM
 
@@ -58,57 +75,169 @@ def test_fast_climber_makes_the_crossing_sense_the_choice():
     # 3000 fpm from 300 ft below, CPA in 25 s: it will be far above by CPA; climbing (non-crossing) cannot
     # stay above it, descending (through its current altitude) leaves it above us by > ALIM.
     threat = Threat(-300 * FT, 3000 * FPM, 25.0)
-    ra = logic().resolve(0.0, [threat], 0.0, None, ALIM)
+    ra = logic().resolve(0.0, [threat], 0.0, ALIM)
     assert logic().separation([threat], Sense.CLIMB, Strength.CORRECTIVE, 0.0) < ALIM
     assert ra.sense is Sense.DESCEND and ra.crossing and ra.separation_m >= ALIM
 
 
 def test_reversal_when_the_intruder_reverses_its_vertical_rate():
     lg = logic()
-    first = lg.resolve(0.0, [Threat(400 * FT, 0.0, 30.0)], 0.0, None, ALIM)
+    first = lg.resolve(0.0, [Threat(400 * FT, 0.0, 30.0)], 0.0, ALIM)
     assert first.sense is Sense.DESCEND
     # The intruder now dives at 3000 fpm at us: descending can no longer reach ALIM; climbing can.
-    t = 0.0
     for k in range(1, 40):
         t = k * 0.5
-        ra = lg.resolve(t, [Threat(400 * FT - 3000 * FPM * t, -3000 * FPM, 30.0 - t)], 0.0, None, ALIM)
+        ra = lg.resolve(t, [Threat(400 * FT - 3000 * FPM * t, -3000 * FPM, 30.0 - t)], 0.0, ALIM)
         if ra.reversed:
             break
     assert ra.reversed and ra.sense is Sense.CLIMB and ra.words() == "CLIMB NOW"
 
 
-def test_descend_is_inhibited_below_1100_ft_agl():
-    ra = logic().resolve(0.0, [Threat(200 * FT, 0.0, 25.0)], 0.0, 1050 * FT, ALIM)
-    assert ra.sense is Sense.CLIMB  # would have been DESCEND (test above) higher up
-    high = logic().resolve(0.0, [Threat(200 * FT, 0.0, 25.0)], 0.0, 1200 * FT, ALIM)
-    assert high.sense is Sense.DESCEND
+# -- item 1: low altitude ------------------------------------------------------------------------------------
+
+def test_at_1050_ft_agl_a_threat_400_ft_above_gets_dont_climb_and_keeps_its_400_ft():
+    # The issue's case: the descend inhibit used to remove DON'T CLIMB too, and CLIMB, INCREASE CLIMB took
+    # ownship from 400 ft below the intruder to about 20 ft. Flown, the preventive RA keeps all 400 ft.
+    out = fly(head_on(1050, 400), TCAS)
+    assert out.words == ["DONT CLIMB"]
+    assert out.vmd_flown_m[0] == pytest.approx(400 * FT, abs=0.5)
+    ra = out.first_ra[1]
+    assert ra.sense is Sense.DESCEND and ra.strength is Strength.PREVENTIVE and "inhibited" in ra.reason
+
+
+def test_below_1100_ft_no_corrective_descent_above_1200_ft_one():
+    # 200 ft below a level intruder at SL 3 (RA tau 15 s). Above the inhibit: DESCEND (200 ft + ~211 ft of
+    # descent by CPA > ALIM). Below it: DESCEND is inhibited and CLIMB would cross to ~11 ft above
+    # (211 - 200 ft), worse than the 200 ft of doing nothing: DON'T CLIMB, and the 200 ft are kept.
+    high = fly(head_on(1300, 200), TCAS)
+    assert high.words[0] == "DESCEND" and high.vmd_flown_m[0] >= ALIM
+    low = fly(head_on(1050, 200), TCAS)
+    assert low.words == ["DONT CLIMB"] and low.vmd_flown_m[0] == pytest.approx(200 * FT, abs=0.5)
+
+
+def test_climbing_toward_a_threat_below_the_inhibit_is_told_to_level_off():
+    # At 1050 ft AGL climbing 1000 fpm, a level threat 400 ft above, CPA in 15 s: doing nothing leaves
+    # 400 - 250 = 150 ft. Level Off (not a descent, so allowed): 5.08 m/s for 5 s then 0.25 g to 0 gives
+    # 25.40 + 5.08^2 / (2 * 2.4517) = 30.66 m of climb, 121.92 - 30.66 = 91.26 m (299 ft) below it.
+    # CLIMB would pass ~68 ft above it (worse than doing nothing): never issued.
+    ra = logic().resolve(0.0, [Threat(400 * FT, 0.0, 15.0)], 1000 * FPM, ALIM, LOW)
+    assert (ra.sense, ra.strength, ra.words()) == (Sense.DESCEND, Strength.LEVEL_OFF, "LEVEL OFF")
+    assert ra.separation_m == pytest.approx(400 * FT - (5.08 * 5 + 5.08**2 / (2 * 0.25 * G0)), abs=0.01)
+
+
+def test_inhibits_have_100_ft_hysteresis():
+    descend = HysteresisInhibit(1100 * FT, 100 * FT)
+    heights = [1050, 1150, 1199, 1201, 1150, 1050, 1001, 999, 1100]
+    assert [descend.update(h * FT) for h in heights] == [True, True, True, False, False, False, False, True, True]
+    assert descend.update(None) is False  # no AGL: no inhibit can apply
+    now = LowAltitudeInhibits(TCAS).update(1050 * FT)
+    assert (now.ra, now.descend, now.increase_descent) == (False, True, True)
 
 
 def test_no_increase_descent_below_1450_ft_agl():
     lg = logic()
-    lg.resolve(0.0, [Threat(100 * FT, 0.0, 30.0)], 0.0, 1400 * FT, ALIM)
+    low = Inhibits(increase_descent=True)
+    lg.resolve(0.0, [Threat(100 * FT, 0.0, 30.0)], 0.0, ALIM, low)
     # Nothing is flown (open loop): the descend RA would be strengthened to INCREASE DESCENT, but not here.
-    strengths = {lg.resolve(t, [Threat(100 * FT, 0.0, 30.0 - t)], 0.0, 1400 * FT, ALIM).strength
+    strengths = {lg.resolve(t, [Threat(100 * FT, 0.0, 30.0 - t)], 0.0, ALIM, low).strength
                  for t in (3.0, 6.0, 9.0, 12.0)}
     assert Strength.INCREASE not in strengths
 
 
-def test_one_sense_for_several_threats():
+# -- item 2: inside DMOD, diverging --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("range_nm, expected", [(0.30, AdvisoryLevel.RA), (0.40, AdvisoryLevel.TA),
+                                                (0.50, AdvisoryLevel.NONE)])
+def test_a_slowly_diverging_pair_inside_dmod_is_a_threat(range_nm, expected):
+    # SL 4: RA DMOD 0.35 nm, TA DMOD 0.48 nm. Co-altitude, opening at 1 m/s: TCAS2D.horizontal_RA alerts
+    # on range <= DMOD, closing or not; outside DMOD a diverging pair is clear.
+    level = select_level(None, 3000 * FT, TCAS.levels)
+    g = pair_geometry(np.array([[range_nm * NM, 0.0]]), np.array([[1.0, 0.0]]), np.array([0.0]), np.array([0.0]))
+    assert detect(g, level, np.array([True]), np.array([0.0]))[0] == int(expected)
+
+
+# -- item 3: multi-threat -----------------------------------------------------------------------------------
+
+def test_threats_above_and_below_get_a_composite_ra_that_level_flight_satisfies():
+    above, below = Threat(400 * FT, 0.0, 20.0), Threat(-400 * FT, 0.0, 20.0)
+    ra = logic().resolve(0.0, [above, below], 0.0, ALIM)
+    assert ra.composite and ra.words() == "DONT CLIMB DONT DESCEND" and ra.target_rate_mps == 0.0
+    assert ra.sense_against(above) is Sense.DESCEND and ra.sense_against(below) is Sense.CLIMB
+    assert ra.separation_m == pytest.approx(400 * FT) and not ra.crossing
+    climbing = logic().resolve(0.0, [above, below], 500 * FPM, ALIM)
+    assert climbing.composite and climbing.strength is Strength.LEVEL_OFF and climbing.words() == "LEVEL OFF"
+    # Flown: both vertical misses stay 400 ft (the old logic climbed at 2500 fpm through the upper one).
+    enc = Encounter(3000 * FT, 0.0, (Intruder(5000.0, 0.0, -100.0, 0.0, 400 * FT, 0.0),
+                                     Intruder(-5000.0, 0.0, 100.0, 0.0, -400 * FT, 0.0)))
+    out = fly(enc, TCAS)
+    assert out.words == ["DONT CLIMB DONT DESCEND"]
+    assert min(out.vmd_flown_m) == pytest.approx(400 * FT, abs=0.5)
+
+
+def test_several_threats_on_one_side_share_one_sense():
     both_above = [Threat(250 * FT, 0.0, 25.0), Threat(600 * FT, -500 * FPM, 22.0)]
-    ra = logic().resolve(0.0, both_above, 0.0, None, ALIM)
+    ra = logic().resolve(0.0, both_above, 0.0, ALIM)
     assert ra.sense is Sense.DESCEND and not ra.crossing
     assert ra.separation_m == pytest.approx(min(
         logic().separation([th], Sense.DESCEND, ra.strength, 0.0) for th in both_above))
-    # One above, one below: the sense with the larger least separation (climbing keeps above the lower one
-    # and gets above the upper one; descending would pass through the lower one).
-    split = [Threat(250 * FT, 0.0, 25.0), Threat(-900 * FT, 0.0, 22.0)]
-    ra = logic().resolve(0.0, split, 0.0, None, ALIM)
-    seps = {s: logic().separation(split, s, Strength.CORRECTIVE, 0.0) for s in Sense}
-    assert ra.sense is max(seps, key=seps.get) is Sense.CLIMB and ra.crossing
 
 
-def test_strengthening_when_the_response_is_not_flown():
+# -- item 4: strength sequence ------------------------------------------------------------------------------
+
+def test_a_corrective_ra_weakens_to_level_off():
+    out = fly(head_on(3000, 0), TCAS)  # co-altitude head-on at SL 4
+    assert out.words == ["DESCEND", "LEVEL OFF"]  # v7.1; v7.0 weakened to DON'T CLIMB
+    assert out.vmd_flown_m[0] >= ALIM
+
+
+def test_strengthening_goes_preventive_corrective_increase():
+    # Open loop (nothing flown): DON'T CLIMB against a level intruder 350 ft above (> ALIM), then the intruder
+    # descends at 1100 fpm toward us (to 17 ft below our altitude by CPA): the RA strengthens one step at a
+    # time, never preventive -> increase. (At 1500 fpm it would end 150 ft below us, a DESCEND would leave
+    # only ~136 ft, worse than doing nothing, and the RA reverses to CLIMB instead.)
     lg = logic()
-    assert lg.resolve(0.0, [Threat(0.0, 0.0, 22.0)], 0.0, None, ALIM).strength is Strength.CORRECTIVE
-    strengths = [lg.resolve(t, [Threat(0.0, 0.0, 22.0 - t)], 0.0, None, ALIM).strength for t in (2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0)]
-    assert Strength.INCREASE in strengths
+    first = lg.resolve(0.0, [Threat(350 * FT, 0.0, 20.0)], 0.0, ALIM)
+    assert first.strength is Strength.PREVENTIVE
+    seen = [first.strength]
+    for k in range(1, 13):
+        t = k * 1.0
+        ra = lg.resolve(t, [Threat(350 * FT - 1100 * FPM * t, -1100 * FPM, 20.0 - t)], 0.0, ALIM)
+        if ra.strength is not seen[-1]:
+            seen.append(ra.strength)
+    assert seen == [Strength.PREVENTIVE, Strength.CORRECTIVE, Strength.INCREASE]
+
+
+def test_a_first_ra_is_never_an_increase():
+    ra = logic().resolve(0.0, [Threat(0.0, 0.0, 8.0)], 0.0, ALIM)  # too late for ALIM with any RA
+    assert ra.strength is Strength.CORRECTIVE
+
+
+# -- item 5: co-altitude ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("sz_m", [1e-4, -1e-4, 0.0, 0.4, -0.4])
+def test_exact_co_altitude_is_a_tie_that_goes_to_descend(sz_m):
+    # Within 10 ft neither sense crosses, and separations within 1 m tie: descend (DO-185B sense selection,
+    # as publicly described), climb where descend is inhibited. Sub-millimetre noise no longer decides.
+    assert logic().resolve(0.0, [Threat(sz_m, 0.0, 25.0)], 0.0, ALIM).sense is Sense.DESCEND
+    assert logic().resolve(0.0, [Threat(sz_m, 0.0, 25.0)], 0.0, ALIM, LOW).sense is Sense.CLIMB
+
+
+def test_within_10_ft_the_larger_separation_decides_without_a_crossing():
+    # 2.9 m below us: climbing gains 5.8 m over descending (> the 1 m tie) and crosses nothing.
+    ra = logic().resolve(0.0, [Threat(-2.9, 0.0, 25.0)], 0.0, ALIM)
+    assert ra.sense is Sense.CLIMB and not ra.crossing
+
+
+def test_mirrored_co_altitude_head_ons_get_the_same_sense():
+    east = fly(Encounter(3000 * FT, 0.0, (Intruder(5000.0, 0.0, -100.0, 0.0, 0.0, 0.0),)), TCAS)
+    west = fly(Encounter(3000 * FT, 0.0, (Intruder(-5000.0, 0.0, 100.0, 0.0, 0.0, 0.0),)), TCAS)
+    assert east.words[0] == west.words[0] == "DESCEND"
+
+
+# -- item 6: no threat above 10,000 fpm ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("rate_fpm, ra", [(11000, False), (9000, True)])
+def test_no_threat_declared_against_an_intruder_above_10000_fpm(rate_fpm, ra):
+    # Diving onto ownship: co-altitude at the CPA, 50 s away at the start.
+    out = fly(head_on(5000, rate_fpm * 50 / 60, vz_intruder_fpm=-rate_fpm), TCAS)
+    assert bool(out.words) is ra

@@ -1,11 +1,15 @@
 """TCAS II v7.1 threat detection (TA and RA tests) for many pairs, and the per-intruder advisory state.
 
-Tests, as in DO-185B and NASA DAIDALUS TCAS3D (Muñoz, Narkawicz & Chamberlain 2013):
-  horizontal: r <= DMOD, or closing (s.v < 0) with modified tau <= TAU
-  vertical:   |sz| <= ZTHR, or converging (sz vz < 0) with time to co-altitude <= TAU
-  RA only:    horizontal miss distance at CPA <= HMD (v7.1 HMD filter); intruder altitude known; SL >= 3
+Tests, as in DO-185B and NASA DAIDALUS TCAS3D (Muñoz, Narkawicz & Chamberlain 2013; DAIDALUS
+`TCAS2D.horizontal_RA`, `TCAS3D.vertical_RA`, `TCAS3D.cd2d_TCAS`):
+  horizontal: r <= DMOD (closing or not), or closing (s.v < 0) with modified tau <= TAU
+  vertical:   |sz| <= ZTHR, or converging (sz vz < 0) with time to co-altitude <= TCOA (= TAU)
+  RA only:    horizontal miss distance at CPA <= HMD (v7.1 HMD filter; inside the HMD circle when
+              diverging, as cd2d_TCAS's exit time >= 0); intruder altitude known; a threat may be declared
+              (|intruder vertical rate| <= the profile's limit: 10,000 fpm in TCAS II v7.0/7.1); SL has an RA
 An intruder without valid altitude passes the TA vertical test (TCAS shows non-altitude-reporting traffic
-on range alone) and never gets an RA. A diverging pair (s.v > 0) is clear of conflict.
+on range alone) and never gets an RA. A diverging pair outside DMOD is clear of conflict; inside DMOD it
+is not (a slowly diverging neighbour at the same altitude stays a threat, as in TCAS3D).
 """
 
 from __future__ import annotations
@@ -31,20 +35,19 @@ def _vertical_test(sz_m: np.ndarray, vz_mps: np.ndarray, zthr_m: float, tau_s: f
 
 
 def detect(g: PairGeometry, level: SensitivityLevel, has_altitude: np.ndarray, vertical_margin_m: np.ndarray,
-           ra_enabled: bool = True, hmd_filter: bool = True) -> np.ndarray:
+           ra_enabled: bool = True, hmd_filter: bool = True, threat_eligible: np.ndarray | bool = True) -> np.ndarray:
     """Candidate advisory level (N,) of int: NONE, TA or RA from the geometry alone.
 
     vertical_margin_m widens the vertical tests where the relative altitude crosses datums: the
     separation used is |sz| - margin (never below 0), so uncertainty never hides a threat.
+    threat_eligible (N,) is False where no RA threat may be declared (the intruder's vertical rate).
     """
     sz = np.sign(g.sz_m) * np.maximum(np.abs(g.sz_m) - vertical_margin_m, 0.0)
-    closing_or_static = g.s_dot_v <= 0.0
     ta = _horizontal_test(g, level.ta_dmod_m, level.ta_tau_s)
     ta &= ~has_altitude | _vertical_test(sz, g.vz_mps, level.ta_zthr_m, level.ta_tau_s)
-    ta &= closing_or_static
     out = np.where(ta, int(AdvisoryLevel.TA), int(AdvisoryLevel.NONE))
     if ra_enabled and level.ra_tau_s is not None:
-        ra = has_altitude & closing_or_static
+        ra = has_altitude & threat_eligible
         ra &= _horizontal_test(g, level.ra_dmod_m, level.ra_tau_s)
         ra &= _vertical_test(sz, g.vz_mps, level.ra_zthr_m, level.ra_tau_s)
         if hmd_filter:

@@ -1,28 +1,48 @@
-"""RA sense and strength like TCAS II: one vertical manoeuvre for ownship against every RA threat.
+"""RA sense and strength like TCAS II v7.1: one vertical manoeuvre for ownship against every RA threat.
 
-Projection (DO-185B standard response): after delay d ownship accelerates at a to the target rate and
-holds it; the intruder keeps its vertical rate. For each sense the vertical separation at each threat's
-CPA time t is
-    climb:   sep = dz_own(t) - (sz + v_i t)        descend: sep = (sz + v_i t) - dz_own(t)
-with sz = intruder - ownship altitude now. The sense achieving ALIM without crossing the intruder's
-altitude is preferred; otherwise the sense with the larger least separation. The strength is the weakest
-that achieves ALIM: preventive (keep the current rate: "don't descend"/"don't climb"), level off, corrective
-(climb/descend at the response rate), increase (the strengthened rate). As the geometry evolves an RA is
-strengthened, weakened or reversed (reversal uses the strengthened response: 2.5 s, 0.35 g in TCAS II).
+Projection (DO-185B standard response, FAA "Introduction to TCAS II v7.1", "Resolution Advisory
+Selection": the logic models upward and downward RAs to CPA): after delay d ownship accelerates at a to the
+target rate and holds it; each intruder keeps its vertical rate. Against threat k at its CPA time t_k:
+
+    miss_k(RA)  = dz_own(t_k) - (sz_k + v_k t_k)          sz_k = intruder - ownship altitude now
+    sep_k(RA)   = sigma_k * miss_k(RA)                     sigma_k = +1 passing above the threat, -1 below
+
+The rules, in the order they apply (docs/advisories.md has the table with sources and worked examples):
+1. Never worse than doing nothing: an RA (first, strengthened, weakened or reversed) whose least |miss_k|
+   over the threats is smaller than that of the path ownship was on when the RA began (at the first RA:
+   keeping the current vertical rate) is never issued.
+2. Sense: the sense that crosses no threat's altitude when it achieves ALIM; otherwise, against threats
+   above and below, a composite RA (Don't Climb + Don't Descend: level) when it does better than either
+   sense; otherwise the sense with the larger least separation. Ties within TIE_M go to descend (DO-185B
+   sense selection, as publicly described), or to climb where descend is inhibited. A threat within
+   COALTITUDE_M of ownship's altitude is crossed by neither sense, so exact co-altitude is a tie, not noise.
+3. Strength: the weakest that achieves ALIM of preventive (Don't Climb / Don't Descend, ownship already
+   complies), Level Off (ownship moving toward the threat), corrective (1500 fpm). Strengthening goes one
+   step: preventive or Level Off -> corrective -> increase (2500 fpm). A corrective or increase RA weakens
+   to Level Off (v7.1: "Adjust Vertical Speed" became "Level Off") once that beats ALIM by WEAKEN_MARGIN.
+4. Inhibits (advisory/inhibits.py): below the Descend inhibit only the corrective and increase descents go;
+   Don't Climb and Level Off stay. Where no allowed RA helps, the weakest that keeps the separation is
+   issued, or none (the threat stays a TA), and `reason` says why.
+5. Reversal (CLIMB NOW / DESCEND NOW, strengthened response 2.5 s, 0.35 g): when the current sense cannot
+   reach ALIM even increased, the other sense can, and CPA is more than MIN_REVERSAL_TIME_S away; once.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 
+from avionics.advisory.inhibits import NO_INHIBITS, Inhibits
 from avionics.advisory.tables import AlertProfile
 
 DWELL_S = 2.0  # least time between strength changes, so an RA does not flicker with noise
 MIN_REVERSAL_TIME_S = 4.0  # no reversal this close to CPA: it could not take effect
 TIE_M = 1.0  # senses whose projected separations differ by less than this are tied
+COALTITUDE_M = 3.048  # 10 ft: a threat this close in altitude is crossed by neither sense
 WEAKEN_MARGIN = 1.1  # an RA weakens only once the weaker strength beats ALIM by 10 %
+NEVER_WORSE_TOLERANCE_M = 0.01  # rounding of the projections; far below any altitude source's resolution
+LEVEL_MPS = 0.5  # ~100 fpm: ownship this slow vertically is level (a composite RA is then preventive)
 
 
 class Sense(str, Enum):
@@ -40,12 +60,13 @@ class Sense(str, Enum):
 
 class Strength(str, Enum):
     PREVENTIVE = "preventive"  # vertical speed limit: do not move toward the threat
-    LEVEL_OFF = "level_off"
+    LEVEL_OFF = "level_off"  # reduce the vertical rate toward the threat to 0
     CORRECTIVE = "corrective"  # climb/descend at the response rate
     INCREASE = "increase"  # at the strengthened rate
 
 
-ORDER = [Strength.PREVENTIVE, Strength.LEVEL_OFF, Strength.CORRECTIVE, Strength.INCREASE]
+STRONGER = {Strength.PREVENTIVE: Strength.CORRECTIVE, Strength.LEVEL_OFF: Strength.CORRECTIVE,
+            Strength.CORRECTIVE: Strength.INCREASE}
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,19 +77,36 @@ class Threat:
     vz_intruder_mps: float
     t_cpa_s: float
 
+    def intruder_dz(self) -> float:
+        """Intruder altitude at CPA relative to ownship's altitude now."""
+        return self.sz_m + self.vz_intruder_mps * max(self.t_cpa_s, 0.0)
+
 
 @dataclass(frozen=True, slots=True)
 class Resolution:
-    sense: Sense
+    sense: Sense | None  # None: composite (each threat gets the sense away from it)
     strength: Strength
-    target_rate_mps: float | None  # None for preventive: a limit (>= 0 climb sense, <= 0 descend), no target
+    target_rate_mps: float | None  # None for a one-sided preventive limit; 0 for Level Off and composite
     reversed: bool
     separation_m: float  # least projected separation at CPA over the threats, with this RA flown
     crossing: bool
+    reason: str = ""  # the rule that limited the choice, when one did
+
+    @property
+    def composite(self) -> bool:
+        return self.sense is None
+
+    def sense_against(self, threat: Threat) -> Sense:
+        """The sense this RA has against one threat (a composite RA moves away from each)."""
+        if self.sense is not None:
+            return self.sense
+        return Sense.CLIMB if threat.sz_m < 0.0 else Sense.DESCEND
 
     def words(self) -> str:
         """TCAS-style phrase: CLIMB, DESCEND, DONT CLIMB, LEVEL OFF, INCREASE CLIMB, CLIMB NOW, ..."""
         s = self.sense
+        if s is None:
+            return "DONT CLIMB DONT DESCEND" if self.strength is Strength.PREVENTIVE else "LEVEL OFF"
         if self.strength is Strength.PREVENTIVE:
             return "DONT DESCEND" if s is Sense.CLIMB else "DONT CLIMB"
         if self.strength is Strength.LEVEL_OFF:
@@ -91,6 +129,18 @@ def own_displacement(t: float, v0: float, target: float, accel: float, delay: fl
     return v0 * (delay + ta) + 0.5 * direction * accel * ta * ta + target * (tr - ta)
 
 
+@dataclass(frozen=True, slots=True)
+class _Reference:
+    """The path ownship was on when the RA began: 'doing nothing'."""
+
+    time_s: float
+    altitude_m: float
+    rate_mps: float
+
+    def displacement(self, now_s: float, altitude_m: float, t: float) -> float:
+        return self.altitude_m + self.rate_mps * (now_s + t - self.time_s) - altitude_m
+
+
 class ResolutionLogic:
     """One ownship manoeuvre for all RA threats, kept consistent across assessments."""
 
@@ -100,126 +150,200 @@ class ResolutionLogic:
         self._changed_s = -math.inf
         self._command_s = -math.inf  # when the manoeuvre being flown was commanded
         self._command_delay_s = 0.0
+        self._reference: _Reference | None = None
+        self.blocked = ""  # why the last resolve() gave no RA although there were threats
+        # the picture of the assessment being resolved
+        self._threats: list[Threat] = []
+        self._v0 = 0.0
+        self._do_nothing_m = 0.0
 
     # -- projection ------------------------------------------------------------------------------------------
-    def _target(self, sense: Sense, strength: Strength, v0: float) -> tuple[float, float, float]:
-        """(target rate, accel, delay) of a strength; preventive and level-off are targets too."""
+    def _command(self, sense: Sense | None, strength: Strength, v0: float) -> tuple[float, float, float]:
+        """(target rate, accel, delay) of an RA; preventive and level-off are targets too."""
         r = self.profile.response
-        if strength is Strength.PREVENTIVE:  # keep the current rate, but never toward the threat
-            target = max(v0, 0.0) if sense is Sense.CLIMB else min(v0, 0.0)
-            return target, r.accel_mps2, r.delay_s
-        if strength is Strength.LEVEL_OFF:
+        if sense is None or strength is Strength.LEVEL_OFF:
             return 0.0, r.accel_mps2, r.delay_s
-        if strength is Strength.CORRECTIVE:
-            rate = sense.sign * r.rate_mps
-            target = max(v0, rate) if sense is Sense.CLIMB else min(v0, rate)
-            return target, r.accel_mps2, r.delay_s
-        rate = sense.sign * r.strengthen_rate_mps
+        if strength is Strength.PREVENTIVE:  # keep the current rate, but never toward the threat
+            return (max(v0, 0.0) if sense is Sense.CLIMB else min(v0, 0.0)), r.accel_mps2, r.delay_s
+        strong = strength is Strength.INCREASE
+        rate = sense.sign * (r.strengthen_rate_mps if strong else r.rate_mps)
         target = max(v0, rate) if sense is Sense.CLIMB else min(v0, rate)
-        return target, r.strengthen_accel_mps2, r.strengthen_delay_s
+        return target, (r.strengthen_accel_mps2 if strong else r.accel_mps2), \
+            (r.strengthen_delay_s if strong else r.delay_s)
 
-    def separation(self, threats: list[Threat], sense: Sense, strength: Strength, v0: float,
+    def _misses(self, sense: Sense | None, strength: Strength, reversal: bool = False,
+                delay_s: float | None = None) -> list[float]:
+        """miss_k = ownship - intruder altitude at each threat's CPA with this RA flown."""
+        target, accel, delay = self._command(sense, strength, self._v0)
+        if reversal:  # reversals use the strengthened response timing at the normal rate
+            accel, delay = self.profile.response.strengthen_accel_mps2, self.profile.response.strengthen_delay_s
+        if delay_s is not None:
+            delay = delay_s
+        return [own_displacement(max(th.t_cpa_s, 0.0), self._v0, target, accel, delay) - th.intruder_dz()
+                for th in self._threats]
+
+    def _separation(self, sense: Sense | None, misses: list[float]) -> float:
+        if sense is not None:
+            return min(sense.sign * m for m in misses)
+        return min((1.0 if th.sz_m < 0.0 else -1.0) * m for th, m in zip(self._threats, misses))
+
+    def separation(self, threats: list[Threat], sense: Sense | None, strength: Strength, v0: float,
                    reversal: bool = False, delay_s: float | None = None) -> float:
         """Least projected separation at CPA with this RA flown; delay_s overrides the response delay
         (an RA already being answered has only the rest of its delay left)."""
-        target, accel, delay = self._target(sense, strength, v0)
-        if reversal:  # reversals use the strengthened response timing at the normal rate
-            r = self.profile.response
-            accel, delay = r.strengthen_accel_mps2, r.strengthen_delay_s
-        if delay_s is not None:
-            delay = delay_s
-        seps = []
-        for th in threats:
-            t = max(th.t_cpa_s, 0.0)
-            intruder = th.sz_m + th.vz_intruder_mps * t
-            own = own_displacement(t, v0, target, accel, delay)
-            seps.append(sense.sign * (own - intruder))
-        return min(seps)
+        self._threats, self._v0 = threats, v0
+        return self._separation(sense, self._misses(sense, strength, reversal, delay_s))
 
-    # -- selection -------------------------------------------------------------------------------------------
-    def _allowed(self, sense: Sense, strength: Strength, agl_m: float | None) -> bool:
-        if agl_m is None or sense is Sense.CLIMB:
-            return True
-        if strength in (Strength.CORRECTIVE, Strength.INCREASE) and agl_m < self.profile.descend_inhibit_below_agl_m:
-            return False
-        return not (strength is Strength.INCREASE and agl_m < self.profile.increase_descent_inhibit_below_agl_m)
-
-    def _weakest(self, threats, sense: Sense, v0: float, alim: float, agl_m, at_most: Strength,
-                 current: Strength | None = None, delay_left_s: float | None = None) -> Strength:
-        """The weakest strength up to at_most that achieves ALIM; the strongest of those if none does.
-        With a current strength, weaker ones must beat ALIM by WEAKEN_MARGIN (no flicker at the boundary),
-        the current and weaker ones keep what is left of the current delay, stronger ones get the
-        strengthened response."""
-        allowed = [s for s in ORDER[:ORDER.index(at_most) + 1] if self._allowed(sense, s, agl_m)]
-        if sense.sign * v0 >= 0:
-            allowed = [s for s in allowed if s is not Strength.LEVEL_OFF]  # nothing to level off from
-        else:  # moving toward the threat: keeping the rate is no RA, changing it is corrective
-            allowed = [s for s in allowed if s is not Strength.PREVENTIVE]
-        for strength in allowed:
-            needed, delay = alim, None
-            if current is not None:
-                rank, current_rank = ORDER.index(strength), ORDER.index(current)
-                needed = alim * WEAKEN_MARGIN if rank < current_rank else alim
-                delay = delay_left_s if rank <= current_rank else self.profile.response.strengthen_delay_s
-            if self.separation(threats, sense, strength, v0, delay_s=delay) >= needed:
-                return strength
-        return allowed[-1] if allowed else Strength.PREVENTIVE
+    def _helps(self, misses: list[float]) -> bool:
+        """Rule 1: no RA leaves less vertical miss than doing nothing."""
+        return min(abs(m) for m in misses) >= self._do_nothing_m - NEVER_WORSE_TOLERANCE_M
 
     @staticmethod
-    def _crossing(threats: list[Threat], sense: Sense) -> bool:
-        """Does this sense take ownship through an intruder's current altitude?"""
-        return any(sense.sign * th.sz_m > 0 for th in threats)
+    def _crossing(threats: list[Threat], sense: Sense | None) -> bool:
+        """Does this sense take ownship through a threat's current altitude?"""
+        return sense is not None and any(sense.sign * th.sz_m > COALTITUDE_M for th in threats)
 
-    def _resolution(self, threats, sense, strength, v0, reversed_=False) -> Resolution:
-        target, _, _ = self._target(sense, strength, v0)
-        return Resolution(sense, strength, None if strength is Strength.PREVENTIVE else target, reversed_,
-                          self.separation(threats, sense, strength, v0, reversal=reversed_),
-                          self._crossing(threats, sense))
+    # -- what is allowed -------------------------------------------------------------------------------------
+    def _allowed(self, sense: Sense, strength: Strength, inhibits: Inhibits) -> bool:
+        if sense is Sense.CLIMB:
+            return True
+        if strength is Strength.CORRECTIVE:
+            return not inhibits.descend
+        if strength is Strength.INCREASE:
+            return not (inhibits.descend or inhibits.increase_descent)
+        return True  # Don't Climb and Level Off are not descents
 
-    def resolve(self, now_s: float, threats: list[Threat], v0_mps: float, agl_m: float | None,
-                alim_m: float) -> Resolution | None:
-        """The RA for ownship given every current RA threat (None when there is none)."""
-        if not threats:
-            self.current = None
+    def _initial_strengths(self, sense: Sense, inhibits: Inhibits) -> list[Strength]:
+        """A first RA is preventive (ownship complies), Level Off (it moves toward the threat) or corrective;
+        TCAS II never opens with an increase RA."""
+        first = Strength.PREVENTIVE if sense.sign * self._v0 >= 0.0 else Strength.LEVEL_OFF
+        return [s for s in (first, Strength.CORRECTIVE) if self._allowed(sense, s, inhibits)]
+
+    def _option(self, sense: Sense | None, strengths: list[Strength], alim: float, reason: str = ""):
+        """The weakest helpful strength achieving ALIM, else the strongest helpful one; None if none helps."""
+        helpful = []
+        for strength in strengths:
+            misses = self._misses(sense, strength)
+            if self._helps(misses):
+                helpful.append((strength, self._separation(sense, misses)))
+        if not helpful:
             return None
-        if self.current is None:
-            self.current = self._select(threats, v0_mps, agl_m, alim_m)
-            self._changed_s = self._command_s = now_s
-            self._command_delay_s = self.profile.response.delay_s
-            return self.current
+        strength, sep = next(((s, sep) for s, sep in helpful if sep >= alim), helpful[-1])
+        if len(helpful) < len(strengths) and strength is helpful[-1][0] and sep < alim:
+            reason = reason or "stronger RA would reduce the vertical miss"
+        return strength, sep, reason
+
+    # -- selection -------------------------------------------------------------------------------------------
+    def resolve(self, now_s: float, threats: list[Threat], v0_mps: float, alim_m: float,
+                inhibits: Inhibits = NO_INHIBITS, own_altitude_m: float = 0.0) -> Resolution | None:
+        """The RA for ownship given every current RA threat. None when there is none, or when no allowed RA
+        would leave more vertical miss than doing nothing (the threats then stay TAs): see `blocked`."""
+        self.blocked = ""
+        if not threats:
+            self.current, self._reference = None, None
+            return None
+        if self._reference is None:
+            self._reference = _Reference(now_s, own_altitude_m, v0_mps)
+        self._threats, self._v0 = threats, v0_mps
+        ref = self._reference
+        self._do_nothing_m = min(abs(ref.displacement(now_s, own_altitude_m, max(th.t_cpa_s, 0.0)) - th.intruder_dz())
+                                 for th in threats)
+        if self.current is None or self.current.composite:
+            chosen = self._select(alim_m, inhibits)
+            if chosen is None:
+                self.current = None
+                return None
+            if self.current is None or chosen.sense is not None:
+                self._changed_s = self._command_s = now_s
+                self._command_delay_s = self.profile.response.delay_s
+            self.current = chosen
+            return chosen
+        self.current = self._update(now_s, alim_m, inhibits)
+        return self.current
+
+    def _resolution(self, sense, strength, reversed_=False, reason="") -> Resolution:
+        target, _, _ = self._command(sense, strength, self._v0)
+        if sense is not None and strength is Strength.PREVENTIVE:
+            target = None
+        misses = self._misses(sense, strength, reversal=reversed_)
+        return Resolution(sense, strength, target, reversed_, self._separation(sense, misses),
+                          self._crossing(self._threats, sense), reason)
+
+    def _select(self, alim: float, inhibits: Inhibits) -> Resolution | None:
+        options = {}
+        for sense in (Sense.DESCEND, Sense.CLIMB):
+            reason = "descend inhibited (low altitude): no corrective descent" if sense is Sense.DESCEND and inhibits.descend else ""
+            option = self._option(sense, self._initial_strengths(sense, inhibits), alim, reason)
+            if option is not None:
+                options[sense] = option
+        # Sense capability: what its strongest allowed first RA achieves (TCAS models the corrective response).
+        capability = {s: self._separation(s, self._misses(s, self._initial_strengths(s, inhibits)[-1]))
+                      for s in options}
+
+        def best(pool):
+            top = max(capability[s] for s in pool)
+            tied = [s for s in pool if capability[s] >= top - TIE_M]
+            return Sense.DESCEND if Sense.DESCEND in tied and not inhibits.descend else tied[-1]
+
+        non_crossing = [s for s in options if not self._crossing(self._threats, s) and options[s][1] >= alim]
+        if non_crossing:
+            sense = best(non_crossing)
+            strength, _, reason = options[sense]
+            return self._resolution(sense, strength, reason=reason)
+        composite = self._composite(alim)
+        if composite is not None and (composite.separation_m >= alim or not options or
+                                      composite.separation_m > max(options[s][1] for s in options)):
+            return composite
+        if not options:
+            self.blocked = "no allowed RA beats doing nothing: TA kept"
+            return None
+        sense = best(list(options))
+        strength, _, reason = options[sense]
+        return self._resolution(sense, strength, reason=reason)
+
+    def _composite(self, alim: float) -> Resolution | None:
+        """Threats above and below: Don't Climb against the upper, Don't Descend against the lower (level)."""
+        above = any(th.sz_m > COALTITUDE_M for th in self._threats)
+        below = any(th.sz_m < -COALTITUDE_M for th in self._threats)
+        if not (above and below):
+            return None
+        strength = Strength.PREVENTIVE if abs(self._v0) <= LEVEL_MPS else Strength.LEVEL_OFF
+        if not self._helps(self._misses(None, strength)):
+            return None
+        return self._resolution(None, strength, reason="composite: threats above and below")
+
+    def _update(self, now_s: float, alim: float, inhibits: Inhibits) -> Resolution:
+        """Strengthen, weaken or reverse the RA being flown, or keep it (with its projections refreshed)."""
         current = self.current
         sense = current.sense
         delay_left = max(0.0, self._command_s + self._command_delay_s - now_s)
-        strength = self._weakest(threats, sense, v0_mps, alim_m, agl_m, Strength.INCREASE, current.strength,
-                                 delay_left)
-        # Reversal: this sense cannot reach ALIM even strengthened, the other sense can.
-        best_here = self.separation(threats, sense, Strength.INCREASE, v0_mps)
-        other = sense.opposite
-        t_min = min(th.t_cpa_s for th in threats)
-        if (best_here < alim_m and not current.reversed and t_min > MIN_REVERSAL_TIME_S
-                and self._allowed(other, Strength.CORRECTIVE, agl_m)):
-            reverse_sep = self.separation(threats, other, Strength.CORRECTIVE, v0_mps, reversal=True)
-            if reverse_sep >= alim_m:
-                self.current = self._resolution(threats, other, Strength.CORRECTIVE, v0_mps, reversed_=True)
+        misses_now = self._misses(sense, current.strength, delay_s=delay_left)
+        now_sep = self._separation(sense, misses_now)
+        dwell_over = now_s - self._changed_s >= DWELL_S
+        t_min = min(th.t_cpa_s for th in self._threats)
+        strongest = Strength.INCREASE if self._allowed(sense, Strength.INCREASE, inhibits) else Strength.CORRECTIVE
+        # Reversal: this sense cannot reach ALIM even at its strongest, the other sense can.
+        if (not current.reversed and t_min > MIN_REVERSAL_TIME_S and self._allowed(sense.opposite, Strength.CORRECTIVE, inhibits)
+                and self._separation(sense, self._misses(sense, strongest)) < alim):
+            other = sense.opposite
+            misses = self._misses(other, Strength.CORRECTIVE, reversal=True)
+            if self._separation(other, misses) >= alim and self._helps(misses):
                 self._changed_s = self._command_s = now_s
                 self._command_delay_s = self.profile.response.strengthen_delay_s
-                return self.current
-        if strength is not current.strength and now_s - self._changed_s >= DWELL_S:
-            if ORDER.index(strength) > ORDER.index(current.strength):  # strengthening: a new manoeuvre
-                self._command_s, self._command_delay_s = now_s, self.profile.response.strengthen_delay_s
-            self.current = self._resolution(threats, sense, strength, v0_mps, current.reversed)
-            self._changed_s = now_s
-        else:
-            self.current = self._resolution(threats, sense, current.strength, v0_mps, current.reversed)
-        return self.current
-
-    def _select(self, threats, v0, agl_m, alim) -> Resolution:
-        senses = [s for s in (Sense.CLIMB, Sense.DESCEND) if self._allowed(s, Strength.CORRECTIVE, agl_m)]
-        best = {s: self.separation(threats, s, Strength.CORRECTIVE, v0) for s in senses}
-        non_crossing = [s for s in senses if not self._crossing(threats, s) and best[s] >= alim]
-        pool = non_crossing or senses
-        top = max(best[s] for s in pool)
-        sense = next(s for s in pool if best[s] >= top - TIE_M)  # near-ties go to climb, away from the ground
-        # A first RA is at most corrective (TCAS II never opens with an increase RA).
-        strength = self._weakest(threats, sense, v0, alim, agl_m, Strength.CORRECTIVE)
-        return self._resolution(threats, sense, strength, v0)
+                return self._resolution(other, Strength.CORRECTIVE, reversed_=True)
+        if dwell_over and now_sep < alim:  # strengthen one step
+            stronger = STRONGER.get(current.strength)
+            if stronger is not None and self._allowed(sense, stronger, inhibits):
+                misses = self._misses(sense, stronger)
+                if self._helps(misses) and self._separation(sense, misses) > now_sep:
+                    self._changed_s = self._command_s = now_s
+                    self._command_delay_s = self._command(sense, stronger, self._v0)[2]
+                    return self._resolution(sense, stronger, current.reversed)
+        if (dwell_over and current.strength in (Strength.CORRECTIVE, Strength.INCREASE)
+                and sense.sign * self._v0 > 0.0):  # weaken to Level Off (v7.1)
+            misses = self._misses(sense, Strength.LEVEL_OFF, delay_s=self.profile.response.strengthen_delay_s)
+            if self._separation(sense, misses) >= alim * WEAKEN_MARGIN and self._helps(misses):
+                self._changed_s = now_s
+                return replace(self._resolution(sense, Strength.LEVEL_OFF, current.reversed),
+                               separation_m=self._separation(sense, misses))
+        return replace(current, separation_m=now_sep, crossing=self._crossing(self._threats, sense))

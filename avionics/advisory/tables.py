@@ -57,6 +57,8 @@ class AlertProfile:
     descend_inhibit_below_agl_m: float
     increase_descent_inhibit_below_agl_m: float
     sl_hysteresis_m: float
+    inhibit_hysteresis_m: float = 0.0  # each inhibit engages below its height - this, releases above + this
+    max_threat_vertical_rate_mps: float = math.inf  # no RA against an intruder whose |vertical rate| exceeds this
 
 
 class ProfileError(ValueError):
@@ -170,7 +172,10 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
                                                 "descend_inhibit_below_agl_ft") * FT,
             increase_descent_inhibit_below_agl_m=_number(data["increase_descent_inhibit_below_agl_ft"],
                                                          "increase_descent_inhibit_below_agl_ft") * FT,
-            sl_hysteresis_m=_number(data["sl_hysteresis_ft"], "sl_hysteresis_ft") * FT)
+            sl_hysteresis_m=_number(data["sl_hysteresis_ft"], "sl_hysteresis_ft") * FT,
+            inhibit_hysteresis_m=_number(data.get("inhibit_hysteresis_ft", 0.0), "inhibit_hysteresis_ft") * FT,
+            max_threat_vertical_rate_mps=_number(data.get("max_threat_vertical_rate_fpm", math.inf),
+                                                 "max_threat_vertical_rate_fpm") * FPM)
     except KeyError as exc:
         raise ProfileError(f"{where}: missing key {exc}") from None
     if not levels or not math.isinf(levels[-1].ceiling_m):

@@ -1,0 +1,172 @@
+"""A point-mass vertical simulation of the standard RA response, independent of advisory/resolution.py.
+
+Straight-line horizontal paths with exact states; ownship's vertical channel flies each RA as the profile's
+response model says (after the delay, constant acceleration toward the target rate; a preventive RA only
+stops motion toward the threat; strengthening and reversal with the strengthened delay and acceleration);
+when every RA ends, ownship returns to its original vertical rate and keeps the altitude gained. The RA
+logic sees the exact states each step through the same detection and resolution the core uses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from avionics.advisory.inhibits import LowAltitudeInhibits
+from avionics.advisory.logic import detect
+from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat
+from avionics.advisory.tables import AlertProfile, select_level
+from avionics.conflict.cpa import pair_geometry
+from avionics.core.types import AdvisoryLevel
+
+
+@dataclass(frozen=True)
+class Intruder:
+    x_m: float  # horizontal position relative to ownship at t = 0
+    y_m: float
+    vx_mps: float  # horizontal velocity relative to ownship
+    vy_mps: float
+    sz_m: float  # altitude above ownship at t = 0
+    vz_mps: float  # its own vertical rate
+
+
+@dataclass(frozen=True)
+class Encounter:
+    agl_m: float  # ownship height above ground at t = 0 (altitude MSL = AGL: ground at 0)
+    vz_own_mps: float
+    intruders: tuple[Intruder, ...]
+    duration_s: float = 90.0
+
+
+@dataclass
+class Outcome:
+    vmd_unflown_m: list[float]  # |vertical separation| at each intruder's true horizontal CPA
+    vmd_flown_m: list[float]
+    first_ra: object = None  # (time, Resolution, threats) of the first RA
+    words: list[str] = field(default_factory=list)
+
+
+def true_cpa_time(intr: Intruder) -> float:
+    v2 = intr.vx_mps**2 + intr.vy_mps**2
+    return max(0.0, -(intr.x_m * intr.vx_mps + intr.y_m * intr.vy_mps) / v2) if v2 > 0 else 0.0
+
+
+class Pilot:
+    """Flies the RAs: one command at a time, started after its delay."""
+
+    def __init__(self, profile: AlertProfile, vz0: float):
+        self.r = profile.response
+        self.vz0 = vz0
+        self.vz = vz0
+        self.command = None  # (kind, value, sign, accel, start)
+        self.key = None
+
+    def receive(self, t: float, ra) -> None:
+        if ra is None:
+            self.command, self.key = None, None
+            return
+        key = (ra.sense, ra.strength, ra.reversed)
+        if key == self.key:
+            return
+        stronger = ra.strength is Strength.INCREASE or ra.reversed
+        delay = self.r.strengthen_delay_s if stronger else self.r.delay_s
+        accel = self.r.strengthen_accel_mps2 if stronger else self.r.accel_mps2
+        if ra.sense is None:  # composite: neither climb nor descend
+            command = ("target", 0.0, 0.0)
+        elif ra.strength is Strength.PREVENTIVE:
+            command = ("limit", 0.0, ra.sense.sign)
+        elif ra.strength is Strength.LEVEL_OFF:
+            command = ("target", 0.0, ra.sense.sign)
+        else:
+            rate = self.r.strengthen_rate_mps if ra.strength is Strength.INCREASE else self.r.rate_mps
+            command = ("at_least", rate, ra.sense.sign)
+        self.command, self.key = (*command, accel, t + delay), key
+
+    def step(self, t: float, dt: float) -> float:
+        """Advance dt; return the altitude change."""
+        if self.command is None:
+            wanted, accel = self.vz0, self.r.accel_mps2
+        else:
+            kind, value, sign, accel, start = self.command
+            if t < start:
+                wanted = self.vz
+            elif kind == "target":
+                wanted = value
+            elif kind == "limit":  # no motion toward the threat
+                wanted = max(self.vz, 0.0) if sign > 0 else min(self.vz, 0.0)
+            else:  # at least the rate in the sense; faster is kept
+                wanted = max(self.vz, value) if sign > 0 else min(self.vz, -value)
+        new = self.vz + max(-accel * dt, min(accel * dt, wanted - self.vz))
+        dz = 0.5 * (self.vz + new) * dt
+        self.vz = new
+        return dz
+
+
+def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: float = 0.1) -> Outcome:
+    logic = ResolutionLogic(profile)
+    inhibits = LowAltitudeInhibits(profile)
+    pilot = Pilot(profile, encounter.vz_own_mps)
+    own_z = encounter.agl_m
+    intr = encounter.intruders
+    t_cpa = [true_cpa_time(i) for i in intr]
+    at_cpa: list[float | None] = [None] * len(intr)
+    out = Outcome([], [])
+    n = int(round(encounter.duration_s / dt))
+    for k in range(n + 1):
+        t = k * dt
+        s = np.array([[i.x_m + i.vx_mps * t, i.y_m + i.vy_mps * t] for i in intr])
+        v = np.array([[i.vx_mps, i.vy_mps] for i in intr])
+        iz = np.array([encounter.agl_m + i.sz_m + i.vz_mps * t for i in intr])
+        ivz = np.array([i.vz_mps for i in intr])
+        for j in range(len(intr)):  # the true miss at the horizontal CPA, on the 0.1 s grid
+            if at_cpa[j] is None and t >= t_cpa[j] - 1e-9:
+                at_cpa[j] = iz[j] - own_z
+        if k % 10 == 0 and respond:  # the logic runs at 1 Hz on exact states
+            g = pair_geometry(s, v, iz - own_z, ivz - pilot.vz)
+            level = select_level(own_z, own_z, profile.levels)
+            inh = inhibits.update(own_z)
+            candidate = detect(g, level, np.ones(len(intr), bool), np.zeros(len(intr)), not inh.ra, True,
+                               np.abs(ivz) <= profile.max_threat_vertical_rate_mps)
+            threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j]))
+                       for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
+            ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z)
+            if ra is not None and out.first_ra is None:
+                out.first_ra = (t, ra, threats)
+            if ra is not None and (not out.words or out.words[-1] != ra.words()):
+                out.words.append(ra.words())
+            pilot.receive(t, ra)
+        own_z += pilot.step(t, dt) if respond else encounter.vz_own_mps * dt
+    unflown = [abs(i.sz_m + i.vz_mps * tc - encounter.vz_own_mps * tc) for i, tc in zip(intr, t_cpa)]
+    out.vmd_unflown_m = unflown
+    out.vmd_flown_m = [abs(m) if m is not None else math.inf for m in at_cpa]
+    return out
+
+
+def non_crossing_sense(threats: list[Threat]) -> Sense | None:
+    """The sense that crosses no threat's current altitude, if there is one (all threats on one side)."""
+    if all(th.sz_m > 0 for th in threats):
+        return Sense.DESCEND
+    if all(th.sz_m < 0 for th in threats):
+        return Sense.CLIMB
+    return None
+
+
+def corrective_separation(profile: AlertProfile, threats: list[Threat], sense: Sense, v0: float) -> float:
+    """Closed-form separation at each CPA with the corrective standard response (independent of resolution.py)."""
+    r = profile.response
+    target = max(v0, r.rate_mps) if sense is Sense.CLIMB else min(v0, -r.rate_mps)
+    seps = []
+    for th in threats:
+        t = max(th.t_cpa_s, 0.0)
+        t_acc = abs(target - v0) / r.accel_mps2
+        if t <= r.delay_s:
+            dz = v0 * t
+        elif t <= r.delay_s + t_acc:
+            u = t - r.delay_s
+            dz = v0 * t + 0.5 * math.copysign(r.accel_mps2, target - v0) * u * u
+        else:
+            dz = v0 * r.delay_s + 0.5 * (v0 + target) * t_acc + target * (t - r.delay_s - t_acc)
+        seps.append(sense.sign * (dz - (th.sz_m + th.vz_intruder_mps * t)))
+    return min(seps)
