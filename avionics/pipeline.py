@@ -19,7 +19,7 @@ import numpy as np
 
 from avionics.advisory.gating import AlertGate
 from avionics.advisory.inhibits import LowAltitudeInhibits
-from avionics.advisory.logic import AdvisoryState, detect
+from avionics.advisory.logic import AdvisoryState, detect, ra_continues
 from avionics.advisory.resolution import ResolutionLogic, Threat
 from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
 from avionics.config import Config
@@ -163,6 +163,11 @@ class DaaCore:
         within_age = self.conflict.within_age(now_s, keys)
         candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
         candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
+        was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
+                           for k in keys], bool)
+        if ra_allowed:
+            hold = ra_continues(geometry, level, was_ra, cfg.advisory.hmd_filter) & has_alt & threat_eligible
+            candidates = np.where(hold, int(AdvisoryLevel.RA), candidates)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
 
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,

@@ -42,7 +42,9 @@ class RaResponder:
         accel = self.response.strengthen_accel_mps2 if stronger else self.response.accel_mps2
         sign = 1.0 if latest.sense == mavlink2.DAA_RA_SENSE_CLIMB else -1.0
         target = None if math.isnan(latest.target_vertical_rate) else latest.target_vertical_rate
-        key = (target, sign)
+        # A target rate is the same manoeuvre against every threat (a composite RA sends 0 with opposite
+        # senses); only a one-sided preventive limit depends on the sense.
+        key = (target, 0.0 if target is not None else sign)
         if self._command is None or self._command[:2] != key:
             # a new or changed manoeuvre starts after the delay; the same RA repeated changes nothing
             self._command = (target, sign, accel, now_s + delay)

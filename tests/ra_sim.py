@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from avionics.advisory.inhibits import LowAltitudeInhibits
-from avionics.advisory.logic import detect
+from avionics.advisory.logic import detect, ra_continues
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat
 from avionics.advisory.tables import AlertProfile, select_level
 from avionics.conflict.cpa import pair_geometry
@@ -44,8 +44,9 @@ class Encounter:
 class Outcome:
     vmd_unflown_m: list[float]  # |vertical separation| at each intruder's true horizontal CPA
     vmd_flown_m: list[float]
-    first_ra: object = None  # (time, Resolution, threats) of the first RA
+    first_ra: object = None  # (time, Resolution, threats, inhibits) of the first RA
     words: list[str] = field(default_factory=list)
+    threats: set[int] = field(default_factory=set)  # intruders that were RA threats at some time
 
 
 def true_cpa_time(intr: Intruder) -> float:
@@ -113,6 +114,7 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
     t_cpa = [true_cpa_time(i) for i in intr]
     at_cpa: list[float | None] = [None] * len(intr)
     out = Outcome([], [])
+    was_ra = np.zeros(len(intr), bool)
     n = int(round(encounter.duration_s / dt))
     for k in range(n + 1):
         t = k * dt
@@ -129,11 +131,16 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             inh = inhibits.update(own_z)
             candidate = detect(g, level, np.ones(len(intr), bool), np.zeros(len(intr)), not inh.ra, True,
                                np.abs(ivz) <= profile.max_threat_vertical_rate_mps)
-            threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j]))
-                       for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
+            if not inh.ra:
+                candidate = np.where(ra_continues(g, level, was_ra), int(AdvisoryLevel.RA), candidate)
+            ra_now = [j for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
+            threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j])) for j in ra_now]
             ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z)
-            if ra is not None and out.first_ra is None:
-                out.first_ra = (t, ra, threats)
+            was_ra = (candidate == int(AdvisoryLevel.RA)) & (ra is not None)  # a blocked RA stays a TA
+            if ra is not None:
+                out.threats.update(ra_now)
+                if out.first_ra is None:
+                    out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
             if ra is not None and (not out.words or out.words[-1] != ra.words()):
                 out.words.append(ra.words())
             pilot.receive(t, ra)
@@ -170,3 +177,45 @@ def corrective_separation(profile: AlertProfile, threats: list[Threat], sense: S
             dz = v0 * r.delay_s + 0.5 * (v0 + target) * t_acc + target * (t - r.delay_s - t_acc)
         seps.append(sense.sign * (dz - (th.sz_m + th.vz_intruder_mps * t)))
     return min(seps)
+
+
+def random_encounter(rng: np.random.Generator, t_cpa_s=(25.0, 60.0), duration_s: float = 65.0) -> Encounter:
+    """The encounter model of tests/test_ra_properties.py, drawn from a numpy generator: each intruder reaches
+    its horizontal CPA after t_cpa_s with a drawn HMD and unflown VMD; the start is traced back."""
+    from avionics.core.units import FPM, FT
+
+    agl = rng.uniform(500 * FT, 12000 * FT)
+    vz_own = 0.0 if rng.random() < 0.3 else rng.uniform(-3000 * FPM, 3000 * FPM)
+    intruders = []
+    for _ in range(1 if rng.random() < 0.75 else 2):
+        t_cpa, closure, bearing = rng.uniform(*t_cpa_s), rng.uniform(30.0, 250.0), rng.uniform(0, 2 * math.pi)
+        hmd, side = rng.uniform(0.0, 1500.0), rng.choice([-1.0, 1.0])
+        vmd = 0.0 if rng.random() < 0.2 else rng.uniform(-800 * FT, 800 * FT)
+        vz = 0.0 if rng.random() < 0.3 else rng.uniform(-4000 * FPM, 4000 * FPM)
+        vx, vy = -closure * math.cos(bearing), -closure * math.sin(bearing)
+        cx, cy = side * hmd * math.sin(bearing), -side * hmd * math.cos(bearing)
+        intruders.append(Intruder(cx - vx * t_cpa, cy - vy * t_cpa, vx, vy, vmd - (vz - vz_own) * t_cpa, vz))
+    return Encounter(agl, vz_own, tuple(intruders), duration_s)
+
+
+def to_scenario(enc: Encounter, name: str = "generated"):
+    """The same encounter as a SITL scenario (ground at 0 ft MSL, ownship northbound at 60 m/s), for
+    `sitl replay --fly-ras`."""
+    from avionics.core.geodesy import LocalTangentPlane
+    from sitl.scenario import AircraftSpec, Scenario
+
+    origin = (47.4, 8.5)
+    plane = LocalTangentPlane(*origin)
+    own_v = (0.0, 60.0)
+
+    def spec(label, icao, east, north, alt, ve, vn, vu):
+        lat, lon = (float(c) for c in plane.to_geodetic(east, north))
+        return AircraftSpec(name=label, icao_address=icao, lat_deg=lat, lon_deg=lon, alt_msl_m=alt,
+                            heading_deg=math.degrees(math.atan2(ve, vn)) % 360.0, speed_mps=math.hypot(ve, vn),
+                            vertical_rate_mps=vu)
+
+    own = spec("ownship", 0xC0FFEE, 0.0, 0.0, enc.agl_m, *own_v, enc.vz_own_mps)
+    intruders = tuple(spec(f"intruder{k}", 0xA20000 + k, i.x_m, i.y_m, enc.agl_m + i.sz_m, own_v[0] + i.vx_mps,
+                           own_v[1] + i.vy_mps, i.vz_mps) for k, i in enumerate(enc.intruders))
+    return Scenario(name=name, description="generated encounter (tests/ra_sim.py)", ownship=own,
+                    intruders=intruders, duration_s=enc.duration_s, origin=origin)

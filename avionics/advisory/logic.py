@@ -29,7 +29,7 @@ def _horizontal_test(g: PairGeometry, dmod_m: float, tau_s: float) -> np.ndarray
 
 def _vertical_test(sz_m: np.ndarray, vz_mps: np.ndarray, zthr_m: float, tau_s: float) -> np.ndarray:
     converging = sz_m * vz_mps < 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t_coalt = np.where(converging, -sz_m / np.where(converging, vz_mps, 1.0), np.inf)
     return (np.abs(sz_m) <= zthr_m) | (converging & (t_coalt <= tau_s))
 
@@ -54,6 +54,18 @@ def detect(g: PairGeometry, level: SensitivityLevel, has_altitude: np.ndarray, v
             ra &= g.hmd_m <= level.ra_hmd_m
         out = np.where(ra, int(AdvisoryLevel.RA), out)
     return out
+
+
+def ra_continues(g: PairGeometry, level: SensitivityLevel, was_ra: np.ndarray, hmd_filter: bool = True) -> np.ndarray:
+    """Which current RA threats stay threats although the RA tests no longer hold: while the range still
+    closes ("when the range of an intruder responsible for an RA begins to increase, its conflict is
+    resolved": clear of conflict, FAA TCAS II descriptions), unless the HMD filter ends it (v7.1 booklet: the
+    HMD filter can terminate an RA before ALIM is obtained). Without this an RA could end halfway, ownship
+    go back to its old vertical rate, and fly into the threat it was steering clear of."""
+    keep = was_ra & (g.s_dot_v < 0.0)
+    if hmd_filter and level.ra_hmd_m is not None:
+        keep &= g.hmd_m <= level.ra_hmd_m
+    return keep
 
 
 @dataclass
