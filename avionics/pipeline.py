@@ -165,9 +165,11 @@ class DaaCore:
         candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
         was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
                            for k in keys], bool)
+        continued = np.zeros(len(keys), bool)  # RA threats kept although the RA tests no longer hold
         if ra_allowed:
-            hold = ra_continues(geometry, level, was_ra, cfg.advisory.hmd_filter) & has_alt & threat_eligible
-            candidates = np.where(hold, int(AdvisoryLevel.RA), candidates)
+            continued = ra_continues(geometry, level, was_ra, cfg.advisory.hmd_filter) & has_alt & threat_eligible
+            continued &= candidates < int(AdvisoryLevel.RA)
+            candidates = np.where(continued, int(AdvisoryLevel.RA), candidates)
         stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
 
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
@@ -198,6 +200,7 @@ class DaaCore:
                 intruder=key, level=state.level, time_s=now_s,
                 reason=(blocked if blocked and key in self._ra_threats else
                         resolution.reason if threat is not None and resolution.reason else
+                        "closing" if threat is not None and continued[i] else
                         self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod)),
                 sensitivity_level=level.sl,
                 range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),

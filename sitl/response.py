@@ -24,6 +24,7 @@ class RaResponder:
         self.extra_rate_mps = 0.0  # vertical rate over the scenario's rate
         self._active: dict[int, object] = {}  # intruder id -> its latest DAA_ADVISORY while RA
         self._command = None  # (target rate or None for preventive, sense sign, accel, start time)
+        self._key = None  # what makes a command a new manoeuvre
         self._last_t: float | None = None
 
     def receive(self, msg, now_s: float) -> None:
@@ -45,9 +46,9 @@ class RaResponder:
         # A target rate is the same manoeuvre against every threat (a composite RA sends 0 with opposite
         # senses); only a one-sided preventive limit depends on the sense.
         key = (target, 0.0 if target is not None else sign)
-        if self._command is None or self._command[:2] != key:
+        if self._command is None or self._key != key:
             # a new or changed manoeuvre starts after the delay; the same RA repeated changes nothing
-            self._command = (target, sign, accel, now_s + delay)
+            self._command, self._key = (target, sign, accel, now_s + delay), key
 
     def fly(self, base: KinematicState) -> KinematicState:
         """Advance to base.t_s and return the ownship state with the response applied."""
