@@ -166,7 +166,7 @@ class DaaCore:
         was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
                            for k in keys], bool)
         continued = np.zeros(len(keys), bool)  # RA threats kept although the RA tests no longer hold
-        if ra_allowed:
+        if ra_allowed and level.ra_tau_s is not None:
             continued = ra_continues(geometry, level, was_ra, cfg.advisory.hmd_filter) & has_alt & threat_eligible
             continued &= candidates < int(AdvisoryLevel.RA)
             candidates = np.where(continued, int(AdvisoryLevel.RA), candidates)

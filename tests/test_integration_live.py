@@ -17,7 +17,7 @@ from sitl.impairments import PRESETS
 from sitl.live import fly
 from sitl.scenario import load_encounter
 
-START_S, END_S = 46.0, 93.0  # head-on: TA ~55 s, RA ~65 s, CPA 86.4 s
+START_S, END_S = 46.0, 100.0  # head-on: TA ~55 s, RA ~65 s, CPA 86.4 s, clear ~93.3 s (range > TA DMOD)
 
 
 def _wait_for_tcp(port: int, process, timeout_s: float = 30.0) -> None:
@@ -77,8 +77,9 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
     for msg in collisions:
         if not levels or levels[-1] != msg.threat_level:
             levels.append(msg.threat_level)
+    # TA, RA, then TA again while the opening range is inside the TA DMOD (closing or not), then clear
     assert levels == [mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW, mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,
-                      mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE], err
+                      mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW, mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE], err
     ta = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW)
     ra = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH)
     assert ta.action == mavlink2.MAV_COLLISION_ACTION_REPORT and ra.action == mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND

@@ -34,13 +34,16 @@ def test_daa_head_on_at_3000_ft_alerts_at_the_hand_computed_times(tmp_path):
         assert reader.fieldnames[:3] == ["time_s", "intruder", "advisory"]
         rows = list(reader)
     firsts = [r for i, r in enumerate(rows) if i == 0 or rows[i - 1]["advisory"] != r["advisory"]]
-    assert [r["advisory"] for r in firsts] == ["TA", "RA", "NONE"]
+    assert [r["advisory"] for r in firsts] == ["TA", "RA", "TA", "NONE"]
     assert {r["sensitivity_level"] for r in rows} == {"4"}
     assert all(r["ra"] and r["ra_sense"] in ("climb", "descend") for r in rows if r["advisory"] == "RA")
-    ta, ra, clear = (float(r["time_s"]) for r in firsts)
+    ta, ra, ra_end, clear = (float(r["time_s"]) for r in firsts)
     assert ta == pytest.approx(modified_tau_crossing(30.0, 0.48 * NM), abs=1.0)  # SL4 TA: tau 30 s, DMOD 0.48 nm
     assert ra == pytest.approx(modified_tau_crossing(20.0, 0.35 * NM), abs=1.0)  # SL4 RA: tau 20 s, DMOD 0.35 nm
-    assert clear == pytest.approx(RANGE0 / CLOSING, abs=1.0)  # range diverges after CPA
+    # After CPA the range opens, but inside DMOD the pair is still a threat (DAIDALUS TCAS2D.horizontal_RA):
+    # RA until the range passes the RA DMOD, TA until it passes the TA DMOD.
+    assert ra_end == pytest.approx((RANGE0 + 0.35 * NM) / CLOSING, abs=1.0)
+    assert clear == pytest.approx((RANGE0 + 0.48 * NM) / CLOSING, abs=1.0)
 
 
 @pytest.mark.parametrize("name", ["head-on", "crossing-90", "overtaking", "climbing-intruder"])
