@@ -38,7 +38,7 @@ def test_open_loop_replay_reports_the_unresolved_miss():
     assert miss.vmd_with_m == miss.vmd_without_m == pytest.approx(0.0, abs=1e-6)
 
 
-def test_fifty_generated_encounters_flown_through_the_whole_stack_are_never_worse():
+def test_thirty_generated_encounters_flown_through_the_whole_stack_are_never_worse():
     # The property of tests/test_ra_properties.py through MAVLink, the IMM tracker and the core
     # (sitl replay --fly-ras, exact states): flying the RAs never leaves a smaller true vertical miss at the
     # horizontal CPA than not flying them, least over the intruders that got an RA.
@@ -50,7 +50,7 @@ def test_fifty_generated_encounters_flown_through_the_whole_stack_are_never_wors
     config = load_config(overrides=["zenoh.enabled=false"])
     rng = np.random.default_rng(2026)
     flown_any = 0
-    for k in range(50):
+    for k in range(30):  # ~2 s each: the property test covers 2000 at the RA logic's level
         scenario = to_scenario(random_encounter(rng, t_cpa_s=(25.0, 40.0), duration_s=48.0), f"generated-{k}")
         result = replay(scenario, config, PRESETS["none"], respond=True)
         ra_names = {result.names[c.intruder.address] for c in result.changes if c.level is AdvisoryLevel.RA}
@@ -60,4 +60,4 @@ def test_fifty_generated_encounters_flown_through_the_whole_stack_are_never_wors
         flown_any += 1
         flown, unflown = min(m.vmd_with_m for m in misses), min(m.vmd_without_m for m in misses)
         assert flown >= unflown - 15 * FT, (k, scenario, misses)
-    assert flown_any >= 10  # the set exercises the RA logic
+    assert flown_any >= 6  # the set exercises the RA logic

@@ -6,7 +6,7 @@ nothing"), flown by the point-mass vertical simulation tests/ra_sim.py (written 
 2. The first RA never crosses a threat's altitude when the non-crossing sense reaches ALIM with the
    corrective standard response (hand-coded closed form, ra_sim.corrective_separation) and that is no worse
    than doing nothing.
-A handful of the same encounters also go through the whole stack (`sitl replay --fly-ras`) in
+Thirty such encounters also go through the whole stack (`sitl replay --fly-ras`) in
 tests/test_closed_loop.py.
 """
 
