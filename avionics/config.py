@@ -31,6 +31,41 @@ class MavlinkConfig:
     heartbeat_hz: float = 1.0
     collision_refresh_s: float = 1.0  # re-send an active COLLISION this often
     statustext: bool = True
+    # MAVLink 2 signing (docs/mavlink.md, "Signing"): a file holding the 32-byte key as 64 hex characters;
+    # "" = off. With a key our frames are signed, and wrong-key and replayed frames are rejected.
+    signing_key_file: str = ""
+    signing_required: bool = True  # with a key: unsigned frames rejected (false: accepted, counted)
+    # Whose ADSB_VEHICLE is used: "SYS" (any component) or "SYS:COMP" ids; empty = source_system, any component.
+    traffic_sources: tuple[int | str, ...] = ()
+
+
+def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
+    """mavlink.traffic_sources as (system, component or None for any); the default is (source_system, any)."""
+    if not m.traffic_sources:
+        return ((m.source_system, None),)
+    out = []
+    for i, entry in enumerate(m.traffic_sources):
+        system, sep, component = str(entry).strip().partition(":")
+        try:
+            ids = (int(system), int(component) if sep else None)
+        except ValueError:
+            ids = None
+        if ids is None or not 1 <= ids[0] <= 255 or (ids[1] is not None and not 0 <= ids[1] <= 255):
+            raise ConfigError(f"mavlink.traffic_sources[{i}]: {entry!r} is not \"SYS\" or \"SYS:COMP\" "
+                              "(system 1..255, component 0..255)")
+        out.append(ids)
+    return tuple(out)
+
+
+def _validate_mavlink(m: MavlinkConfig) -> None:
+    traffic_source_ids(m)
+    if m.signing_key_file:
+        from avionics.io.signing import SigningKeyError, load_key
+
+        try:
+            load_key(m.signing_key_file)
+        except SigningKeyError as exc:
+            raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -328,6 +363,7 @@ def validate(config: Config) -> Config:
     if config.zenoh.mode not in ("peer", "client", "router"):
         raise ConfigError(f"zenoh.mode: {config.zenoh.mode!r} is not peer, client or router")
     _validate_zenoh(config.zenoh)
+    _validate_mavlink(config.mavlink)
     positive = [
         ("mavlink.heartbeat_hz", config.mavlink.heartbeat_hz),
         ("mavlink.collision_refresh_s", config.mavlink.collision_refresh_s),

@@ -4,6 +4,12 @@ ADSB_VEHICLE: a field is used only when its ADSB_FLAGS bit says valid *and* it h
 (INT32_MAX, UINT16_MAX, INT16_MAX) and a physical value. A field flagged valid that fails those checks is
 counted as rejected ("adsb.<field>_invalid"); the report itself is rejected only without a usable position
 or identity. GLOBAL_POSITION_INT and SCALED_PRESSURE are taken only from our own vehicle's system id.
+
+Trusted sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's system, any
+component); others count adsb.untrusted_source. An intruder (address and address source) belongs to the first
+sender (system, component) that reported it, for as long as its track can live: the same intruder from a
+second sender is never merged into that track but dropped (adsb.second_sender), and the intruder is flagged
+spoof-suspected (spoof_suspected, shown in status and on its track).
 """
 
 from __future__ import annotations
@@ -11,7 +17,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from avionics.config import Config
+from avionics.config import Config, traffic_source_ids
 from avionics.core.atmosphere import pressure_altitude_m
 from avionics.core.types import (
     AddressSource, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
@@ -33,6 +39,7 @@ SOURCE_UAT = 32768
 ALTITUDE_TYPES = {0: AltitudeDatum.PRESSURE, 1: AltitudeDatum.GEOMETRIC}  # ADSB_ALTITUDE_TYPE
 MAX_ICAO = 0xFFFFFF
 MIN_HEIGHT_ABOVE_HOME_M = -9000.0  # a home on a summit above a valley flight; anything lower is corrupt
+SENDER_MARGIN_S = 1.0  # an intruder stays its first sender's this long after its track can have been deleted
 
 
 def _lat_lon(prefix: str, lat_e7: int, lon_e7: int, counters: Counter) -> tuple[float, float] | None:
@@ -55,6 +62,14 @@ class MessageDecoder:
     def __init__(self, config: Config, counters: Counter):
         self.config = config
         self.counters = counters
+        sources = traffic_source_ids(config.mavlink)
+        self._trusted_systems = {s for s, c in sources if c is None}
+        self._trusted_senders = {(s, c) for s, c in sources if c is not None}
+        # intruder -> (its first sender, when that sender last reported it); kept while its track can live.
+        self._senders: dict[IntruderKey, tuple[tuple[int, int], float]] = {}
+        self._sender_expiry_s = config.tracking.delete_after_s + SENDER_MARGIN_S
+        self._next_prune_s = 0.0
+        self.spoof_suspected: set[IntruderKey] = set()  # intruders also reported by a second sender
         self._handlers = {
             "ADSB_VEHICLE": self._adsb_vehicle,
             "GLOBAL_POSITION_INT": self._global_position_int,
@@ -73,13 +88,42 @@ class MessageDecoder:
 
     # -- intruders -------------------------------------------------------------------------------------------
     def _adsb_vehicle(self, msg, now_s: float) -> IntruderReport | None:
-        cfg = self.config.input
         flags = msg.flags
+        sender = (msg.get_srcSystem(), msg.get_srcComponent())
+        if sender[0] not in self._trusted_systems and sender not in self._trusted_senders:
+            return self._reject("adsb.untrusted_source")
         if msg.ICAO_address > MAX_ICAO:
             return self._reject("adsb.address_out_of_range")
         source = AddressSource.UAT if flags & SOURCE_UAT else AddressSource.ES1090
         if source is AddressSource.ES1090 and msg.ICAO_address == self.config.vehicle.own_icao != 0:
             return self._reject("adsb.own_address")
+        key = IntruderKey(msg.ICAO_address, source)
+        if not self._first_sender(key, sender, now_s):
+            return self._reject("adsb.second_sender")
+        report = self._adsb_report(msg, key, now_s)
+        if report is not None:
+            self._senders[key] = (sender, now_s)  # only a usable report makes or keeps the sender the owner
+        return report
+
+    def _first_sender(self, key: IntruderKey, sender: tuple[int, int], now_s: float) -> bool:
+        """Is sender the one this intruder belongs to (or may it become so)? A second sender flags it."""
+        if now_s >= self._next_prune_s:  # bounded memory under address churn
+            self._next_prune_s = now_s + self._sender_expiry_s
+            for k in [k for k, (_, last) in self._senders.items() if now_s - last > self._sender_expiry_s]:
+                del self._senders[k]
+                self.spoof_suspected.discard(k)
+        owner = self._senders.get(key)
+        if owner is None or owner[0] == sender:
+            return True
+        if now_s - owner[1] > self._sender_expiry_s:  # its track is gone: a new sender may begin a new one
+            self.spoof_suspected.discard(key)
+            return True
+        self.spoof_suspected.add(key)
+        return False
+
+    def _adsb_report(self, msg, key: IntruderKey, now_s: float) -> IntruderReport | None:
+        cfg = self.config.input
+        flags = msg.flags
         if not flags & VALID_COORDS:
             return self._reject("adsb.no_position")
         position = _lat_lon("adsb", msg.lat, msg.lon, self.counters)
@@ -142,7 +186,7 @@ class MessageDecoder:
                 squawk = msg.squawk
 
         return IntruderReport(
-            key=IntruderKey(msg.ICAO_address, source), time_s=now_s - msg.tslc, received_s=now_s,
+            key=key, time_s=now_s - msg.tslc, received_s=now_s,
             lat_deg=position[0], lon_deg=position[1], altitude_m=altitude_m, altitude_datum=datum,
             velocity_en_mps=velocity, vertical_rate_mps=vertical_rate, callsign=callsign, squawk=squawk,
             emitter_type=msg.emitter_type, simulated=bool(flags & SIMULATED),

@@ -1,0 +1,192 @@
+"""Trusted traffic sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's
+system, any component), and an intruder belongs to the first sender that reported it. The head-on encounter is
+flown through real pymavlink framing (sitl's autopilot and ADS-B receiver, FrameScanner, DaaNode) with a second
+MAVLink system sending the intruder's address at 5 Hz from somewhere harmless: it can neither take over the
+track nor suppress the RA. A fabricated intruder from an untrusted system gets nothing."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+
+import avionics.io  # noqa: F401  (MAVLINK20=1 before pymavlink is imported)
+import pytest
+from pymavlink.dialects.v20 import common as m2
+
+from avionics.config import ConfigError, load_config, traffic_source_ids
+from avionics.core.types import AddressSource, IntruderKey
+from avionics.io.decode import MessageDecoder
+from avionics.io.framing import FrameScanner
+from avionics.io.zenoh_bus import to_json
+from avionics.node import DaaNode
+from sitl.autopilot import Packer, adsb_vehicle, schedule
+from sitl.impairments import PRESETS
+from sitl.scenario import load_encounter
+from sitl.trajectory import KinematicState
+
+SCENARIO = load_encounter("head-on")
+INTRUDER = SCENARIO.intruders[0]
+KEY = IntruderKey(INTRUDER.icao_address, INTRUDER.address_source)
+DURATION_S = 75.0  # TA at ~55 s, RA at ~65 s
+
+
+def spoof_report(t: float):
+    """The intruder's address, reported 20 km east of its real path, flying away: no threat at all."""
+    _, (traj,) = SCENARIO.trajectories()
+    real = traj.state_at(t)
+    fake = KinematicState(t_s=t, lat_deg=real.lat_deg, lon_deg=real.lon_deg + 0.27, alt_msl_m=real.alt_msl_m + 900.0,
+                          vel_east_mps=60.0, vel_north_mps=0.0, vel_up_mps=0.0)
+    return adsb_vehicle(fake, INTRUDER.icao_address, INTRUDER.altitude_datum, INTRUDER.address_source,
+                        INTRUDER.callsign, INTRUDER.emitter_type)
+
+
+def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10.0, spoof_hz: float = 5.0,
+        real_intruder: bool = True, intruder_sender: tuple[int, int] | None = None):
+    """Fly the head-on on a 0.1 s grid through FrameScanner and DaaNode, as sitl.replay does. spoofer: the
+    (system, component) of a second sender of the intruder's address; intruder_sender: who sends the real
+    intruder's reports (default: the autopilot's ADS-B receiver, system 1 component 156)."""
+    node = DaaNode(config)
+    scanner = FrameScanner(node.counters)
+    packer = Packer()
+    fake_sender = m2.MAVLink(None, *spoofer) if spoofer else None
+    other = m2.MAVLink(None, *intruder_sender) if intruder_sender else None
+    events = schedule(SCENARIO, PRESETS["none"], duration_s=DURATION_S)
+    if not real_intruder:
+        events = [e for e in events if e.msg.get_type() != "ADSB_VEHICLE"]
+    changes, tracks, collisions, i = [], [], [], 0
+    period = round(10 / spoof_hz)
+    for k in range(int(DURATION_S * 10) + 1):
+        t = k / 10
+        datagram = b""
+        while i < len(events) and events[i].deliver_s <= t + 1e-9:
+            msg = events[i].msg
+            is_adsb = msg.get_type() == "ADSB_VEHICLE"
+            datagram += bytes(msg.pack(other)) if other is not None and is_adsb else packer.pack(msg)
+            i += 1
+        if fake_sender is not None and t >= spoof_from_s and k % period == 0:
+            datagram += bytes(spoof_report(t).pack(fake_sender))
+        result = node.handle(scanner.feed(datagram, end_of_datagram=True), t)
+        changes.extend((t, a) for a in result.changes)
+        collisions.extend(m for m in node.mavlink_out if m.get_type() == "COLLISION")
+        tracks.extend(p for s, p in node.zenoh_out if s.startswith("tracks/"))
+        node.mavlink_out.clear()
+        node.zenoh_out.clear()
+    return node, changes, tracks, collisions
+
+
+def onsets(changes) -> list[tuple[float, str, str]]:
+    return [(t, str(a.intruder), a.level.name) for t, a in changes]
+
+
+@pytest.fixture(scope="module")
+def clean():
+    node, changes, tracks, _ = fly(load_config())
+    assert [level for _, _, level in onsets(changes)][:2] == ["TA", "RA"]
+    return node, changes, tracks
+
+
+@pytest.mark.parametrize("sources, spoofer, trusted", [
+    ((), (2, 156), False),  # default: only our vehicle's system is trusted; system 2 is not
+    (("1", "2"), (2, 156), True),  # both systems trusted: system 2 is a second sender of the address
+    (("1:156",), (1, 99), False),  # our system, another component, with only the receiver trusted
+    ((), (1, 99), True),  # our system, another component, any component trusted: a second sender
+])
+def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the_ra(clean, sources, spoofer,
+                                                                                     trusted):
+    clean_node, clean_changes, clean_tracks = clean
+    overrides = [f"mavlink.traffic_sources={json.dumps(list(sources))}"]
+    node, changes, tracks, collisions = fly(load_config(overrides=overrides), spoofer=spoofer)
+    assert onsets(changes) == onsets(clean_changes)  # same TA and RA, at the same times
+    assert [c.threat_level for c in collisions] and max(c.threat_level for c in collisions) == 2
+    track = node.core.tracker.tracks[KEY]
+    clean_track = clean_node.core.tracker.tracks[KEY]
+    assert track.n_updates == clean_track.n_updates  # every real report, and no other, in its history
+    assert [p["lon_deg"] for p in tracks] == pytest.approx([p["lon_deg"] for p in clean_tracks])
+    spoofed = int((DURATION_S - 10.0) * 5) + 1
+    if trusted:
+        assert node.counters["adsb.second_sender"] == spoofed and not node.counters["adsb.untrusted_source"]
+        assert node.status(DURATION_S)["spoof_suspected"] == [str(KEY)]
+        assert tracks[-1]["spoof_suspected"] is True and not any(p["spoof_suspected"] for p in tracks[:19])
+        status = [p for s, p in _status_payloads(node)]
+        assert status and status[-1]["spoof_suspected"] == [str(KEY)]
+        assert status[-1]["counters"]["adsb.second_sender"] == spoofed
+    else:
+        assert node.counters["adsb.untrusted_source"] == spoofed and not node.counters["adsb.second_sender"]
+        assert node.status(DURATION_S)["spoof_suspected"] == []  # never seen: nothing to suspect
+        assert not any(p["spoof_suspected"] for p in tracks)
+    json.loads(to_json(tracks[-1]))
+
+
+def _status_payloads(node):
+    node.zenoh_out.clear()
+    node._status.next_s = None  # due now
+    node.handle([], DURATION_S)
+    return [(s, p) for s, p in node.zenoh_out if s == "status"]
+
+
+def test_a_fabricated_intruder_from_an_untrusted_system_gets_nothing():
+    """The head-on intruder's reports, but sent by system 2 only: no track, no advisory, no COLLISION."""
+    node, changes, tracks, collisions = fly(load_config(), intruder_sender=(2, 156))
+    assert changes == [] and tracks == [] and collisions == []
+    assert node.core.tracker.tracks == {} and node.counters["track.initiated"] == 0
+    assert node.counters["adsb.untrusted_source"] == node.counters["rx.adsb_vehicle"] > 70
+
+
+def test_the_same_intruder_from_a_trusted_other_system_is_used_when_configured():
+    node, changes, _, _ = fly(load_config(overrides=['mavlink.traffic_sources=["2:156"]']),
+                              intruder_sender=(2, 156))
+    assert [a.level.name for _, a in changes][:2] == ["TA", "RA"]
+    assert not node.counters["adsb.untrusted_source"]
+
+
+# -- the decoder's rules --------------------------------------------------------------------------------------
+def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = False):
+    flags = 0x1FF | (0x8000 if uat else 0)
+    msg = m2.MAVLink_adsb_vehicle_message(address, 474000000, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
+                                          flags, 7000)
+    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+
+
+def test_sources_match_a_whole_system_or_one_component():
+    decoder = MessageDecoder(load_config(overrides=['mavlink.traffic_sources=["3", "1:156", 7]']), Counter())
+    assert decoder.decode(_adsb(3, 42, 0x1), 0.0) is not None
+    assert decoder.decode(_adsb(1, 156, 0x2), 0.0) is not None
+    assert decoder.decode(_adsb(7, 0, 0x3), 0.0) is not None
+    assert decoder.decode(_adsb(1, 1, 0x4), 0.0) is None  # our system, but only component 156 is trusted
+    assert decoder.decode(_adsb(4, 156, 0x5), 0.0) is None
+    assert decoder.counters["adsb.untrusted_source"] == 2
+
+
+def test_the_first_sender_owns_an_intruder_until_its_track_can_no_longer_exist():
+    config = load_config()
+    decoder = MessageDecoder(config, Counter())
+    expiry = config.tracking.delete_after_s + 1.0
+    assert decoder.decode(_adsb(1, 156), 0.0) is not None
+    assert decoder.decode(_adsb(1, 157), 0.5) is None and decoder.counters["adsb.second_sender"] == 1
+    assert decoder.spoof_suspected == {IntruderKey(0xA1B2C3, AddressSource.ES1090)}
+    # the same number as a UAT address is another aircraft, and another sender may own it
+    assert decoder.decode(_adsb(1, 157, uat=True), 1.0) is not None
+    assert decoder.decode(_adsb(1, 156), 1.0) is not None  # the owner goes on
+    assert decoder.decode(_adsb(1, 157), 1.0 + expiry - 0.1) is None
+    # the owner silent for longer than a track can live: the address is free again, no longer suspected
+    assert decoder.decode(_adsb(1, 157), 1.0 + expiry + 0.1) is not None
+    assert decoder.spoof_suspected == set()
+    assert decoder.decode(_adsb(1, 156), 1.0 + expiry + 0.2) is None  # and now the old owner is the second one
+
+
+def test_owners_of_silent_addresses_are_forgotten_under_address_churn():
+    config = load_config()
+    decoder = MessageDecoder(config, Counter())
+    for n in range(5000):
+        decoder.decode(_adsb(1, 156, address=n + 1), n * 0.01)
+    assert len(decoder._senders) <= (config.tracking.delete_after_s + 1.0) * 2 / 0.01 + 1
+
+
+@pytest.mark.parametrize("entry", ['"0"', '"256"', '"1:256"', '"1:"', '"x"', '"1:2:3"', "true"])
+def test_a_bad_traffic_source_is_a_configuration_error(entry):
+    with pytest.raises(ConfigError, match=r"mavlink\.traffic_sources"):
+        load_config(overrides=[f"mavlink.traffic_sources=[{entry}]"])
+
+
+def test_the_default_is_our_vehicles_system_any_component():
+    assert traffic_source_ids(load_config(overrides=["mavlink.source_system=7"]).mavlink) == ((7, None),)
