@@ -1,5 +1,8 @@
 """The monitor's zenoh side: one session, one subscriber for every vehicle's samples, a liveliness subscriber,
-and a worker that asks a vehicle's snapshot whenever it appears (start-up, late join, reconnection)."""
+and a worker that asks a vehicle's snapshot whenever it appears (start-up, late join, reconnection).
+
+Every sample and snapshot passes the schema check (schema.py) before it is applied: a bad one is counted in
+`FleetState.stats` (`rejected`, `rejected.<kind>`, `rejected.<kind>.<reason>`; `/api/stats`) and dropped."""
 
 from __future__ import annotations
 
@@ -13,6 +16,8 @@ import zenoh
 
 from avionics.config import ZenohConfig
 from avionics.io.zenoh_bus import open_session
+from avionics.monitor.schema import (MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejected, check_id, clean_sample,
+                                     clean_snapshot)
 from avionics.monitor.state import FleetState
 
 log = logging.getLogger("avionics.monitor")
@@ -53,24 +58,49 @@ class ZenohFeed:
         try:
             for sample in self._subscriber:  # ends when the subscriber is undeclared
                 try:
-                    if sample.kind != zenoh.SampleKind.PUT:
-                        continue
-                    parts = str(sample.key_expr).split("/")
-                    if len(parts) < 3 or parts[2] not in KINDS:
-                        continue
-                    payload = json.loads(sample.payload.to_bytes())
-                    if isinstance(payload, dict):
-                        self.state.apply(parts[1], parts[2], "/".join(parts[3:]), payload)
+                    self._apply_sample(sample)
                 except Exception:  # noqa: BLE001  (one bad sample must not stop the feed)
                     self.errors += 1
+                    if self.errors == 1:
+                        log.exception("monitor: applying a sample failed (further failures are only counted)")
         except Exception:  # noqa: BLE001  (the session closed under us)
             pass
+
+    def _apply_sample(self, sample: zenoh.Sample) -> None:
+        if sample.kind != zenoh.SampleKind.PUT:
+            return
+        parts = str(sample.key_expr).split("/")
+        if len(parts) < 3 or parts[2] not in KINDS:
+            return  # not a topic of the contract (e.g. a newer one): ignored, not an error
+        kind = parts[2]
+        try:
+            vehicle = check_id(parts[1])
+            per_intruder = kind in ("tracks", "advisories")
+            if len(parts) != (4 if per_intruder else 3):
+                raise Rejected("key")
+            name = check_id(parts[3]) if per_intruder else ""
+            raw = sample.payload.to_bytes()
+            if len(raw) > MAX_SAMPLE_BYTES:
+                raise Rejected("size")
+            try:
+                payload = json.loads(raw)
+            except (ValueError, RecursionError):
+                raise Rejected("json") from None
+            payload = clean_sample(kind, payload, name if per_intruder else None)
+        except Rejected as exc:
+            self.state.reject(kind, exc.reason)
+            return
+        self.state.apply(vehicle, kind, name, payload)
 
     def _on_alive(self, sample: zenoh.Sample) -> None:
         parts = str(sample.key_expr).split("/")
         if len(parts) != 3:
             return
-        vehicle = parts[1]
+        try:
+            vehicle = check_id(parts[1])
+        except Rejected as exc:
+            self.state.reject("alive", exc.reason)
+            return
         if sample.kind == zenoh.SampleKind.PUT:
             self.state.set_alive(vehicle, True)
             self.request_sync(vehicle)
@@ -91,13 +121,31 @@ class ZenohFeed:
             try:
                 for reply in self.session.get(f"{self.prefix}/{vehicle}/snapshot", timeout=self.query_timeout_s):
                     if reply.ok is not None:
-                        snap = json.loads(reply.ok.payload.to_bytes())
+                        snap = self._check_snapshot(reply.ok.payload.to_bytes())
             except Exception as exc:  # noqa: BLE001
                 self.errors += 1
                 log.debug("snapshot of %s failed: %s", vehicle, exc)
                 if self._stop.is_set():
                     return
+            # a rejected snapshot counts as none: the vehicle is synced from its live samples
             self.state.apply_snapshot(vehicle, snap)
+
+    def _check_snapshot(self, raw: bytes) -> dict | None:
+        dropped: dict = {}
+        try:
+            if len(raw) > MAX_SNAPSHOT_BYTES:
+                raise Rejected("size")
+            try:
+                snap = json.loads(raw)
+            except (ValueError, RecursionError):
+                raise Rejected("json") from None
+            snap = clean_snapshot(snap, dropped)
+        except Rejected as exc:
+            self.state.reject("snapshot", exc.reason)
+            return None
+        for reason, n in dropped.items():
+            self.state.reject("snapshot", reason, n)
+        return snap
 
     def close(self) -> None:
         self._stop.set()

@@ -8,6 +8,12 @@ Advisory log without losses: a vehicle is *synced* once its snapshot has been ap
 or after its liveliness token went away and came back, e.g. a router restart) its advisory samples update the
 current picture but are also buffered; the snapshot's change log fills the gap (deduplicated on
 (intruder, time_s)), then the buffered samples newer than the snapshot are replayed through change detection.
+
+Bounded: what the monitor keeps of an intruder (its track, advisory, change-detection baseline, tau/Pc history)
+goes when it has not been heard for `forget_s` (monitor clock; its track leaves the display after `stale_s`),
+and a vehicle keeps at most `max_intruders` (the least recently heard goes first); at most `max_vehicles`
+vehicles (an offline one not heard for `vehicle_forget_s` goes, and makes room for a new one). Samples are
+checked before they get here (schema.py, in feed.py).
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections import Counter, deque
+from collections import Counter, OrderedDict, deque
 from dataclasses import dataclass, field
 
 from avionics.io.zenoh_bus import advisory_state
@@ -203,11 +209,18 @@ class VehicleState:
     last_time_s: float | None = None
     own_ver: int = 0
     status_ver: int = 0
-    last_sample_wall_s: float | None = None
+    last_sample_wall_s: float | None = None  # monitor clock of the last sample
+    heard_s: float | None = None  # monitor clock of the last sample, liveliness change or snapshot
+    heard: OrderedDict = field(default_factory=OrderedDict)  # intruder -> monitor clock, least recent first
 
 
 class FleetState:
-    def __init__(self, stale_s: float = 5.0, log_size: int = 1000, history_points: int = 600, clock=time.monotonic):
+    def __init__(self, stale_s: float = 5.0, log_size: int = 1000, history_points: int = 600, clock=time.monotonic,
+                 forget_s: float = 120.0, max_intruders: int = 2000, max_vehicles: int = 256,
+                 vehicle_forget_s: float = 3600.0):
+        """stale_s: a track not updated for this long leaves the picture; forget_s: an intruder not heard (track
+        or advisory) for this long is forgotten (history, advisory, baseline); max_intruders per vehicle, least
+        recently heard evicted first; max_vehicles, offline ones not heard for vehicle_forget_s dropped."""
         self.cond = threading.Condition()
         self.vehicles: dict[str, VehicleState] = {}
         self.version = 0
@@ -218,17 +231,73 @@ class FleetState:
         self.log_size = log_size
         self.history_points = history_points
         self.clock = clock
+        self.forget_s = max(forget_s, stale_s)
+        self.max_intruders = max(1, max_intruders)
+        self.max_vehicles = max(1, max_vehicles)
+        self.vehicle_forget_s = vehicle_forget_s
         self.stats: Counter = Counter()
         self.on_new_vehicle = None  # callback(vehicle_id) when a vehicle is first seen through data
 
     # -- writers -----------------------------------------------------------------------------------------------
-    def _vehicle(self, vid: str) -> tuple[VehicleState, bool]:
+    def _vehicle(self, vid: str) -> tuple[VehicleState | None, bool]:
+        """The vehicle, created if new; (None, False) when max_vehicles are held and none can make room."""
         v = self.vehicles.get(vid)
         if v is None:
+            if len(self.vehicles) >= self.max_vehicles and not self._evict_vehicle():
+                self.stats["dropped.vehicle_cap"] += 1
+                return None, False
             v = self.vehicles[vid] = VehicleState(vid)
             self.fleet_version += 1
-            return v, True
-        return v, False
+            new = True
+        else:
+            new = False
+        v.heard_s = self.clock()
+        return v, new
+
+    def _evict_vehicle(self) -> bool:
+        """Make room for a new vehicle: drop the least recently heard one that is not online."""
+        idle = [v for v in self.vehicles.values() if v.online is not True]
+        if not idle:
+            return False
+        self._drop_vehicle(min(idle, key=lambda v: v.heard_s if v.heard_s is not None else -math.inf).id)
+        self.stats["evicted.vehicles"] += 1
+        return True
+
+    def _drop_vehicle(self, vid: str) -> None:
+        del self.vehicles[vid]
+        self.fleet_version += 1
+        self._bump()
+
+    def _hear(self, v: VehicleState, name) -> None:
+        """An intruder was heard of: most recently heard now; beyond max_intruders the least recent goes."""
+        heard = v.heard
+        if name in heard:
+            heard.move_to_end(name)
+        else:
+            while len(heard) >= self.max_intruders:
+                self._forget(v, next(iter(heard)))
+                self.stats["evicted.intruders"] += 1
+        heard[name] = self.clock()
+
+    def _forget(self, v: VehicleState, name) -> None:
+        v.heard.pop(name, None)
+        v.history.pop(name, None)
+        v.advisories.pop(name, None)
+        v.baseline.pop(name, None)
+        if name in v.tracks:
+            del v.tracks[name]
+            v.removed.append((self._bump(), name))
+
+    def reject(self, kind: str, reason: str, n: int = 1) -> None:
+        """Count a sample (or snapshot element) the schema check refused (feed.py)."""
+        with self.cond:
+            self.stats["rejected"] += n
+            self.stats[f"rejected.{kind}"] += n
+            self.stats[f"rejected.{kind}.{reason}"] += n
+
+    def stats_copy(self) -> dict:
+        with self.cond:
+            return dict(self.stats)
 
     def _bump(self) -> int:
         self.version += 1
@@ -242,6 +311,7 @@ class FleetState:
             v.baseline.clear()
             v.advisories.clear()
             v.history.clear()
+            v.heard.clear()
             for name in list(v.tracks):
                 del v.tracks[name]
                 v.removed.append((self._bump(), name))
@@ -254,6 +324,8 @@ class FleetState:
         new = False
         with self.cond:
             v, new = self._vehicle(vid)
+            if v is None:
+                return
             v.last_sample_wall_s = self.clock()
             self.stats[f"samples.{kind}"] += 1
             if isinstance(payload.get("schema"), int) and payload["schema"] > KNOWN_SCHEMA:
@@ -283,6 +355,7 @@ class FleetState:
             self.on_new_vehicle(vid)
 
     def _set_track(self, v: VehicleState, name: str, payload: dict) -> None:
+        self._hear(v, name)
         entry = v.tracks.get(name)
         if entry is not None and (entry["raw"].get("time_s") or 0.0) > (payload.get("time_s") or 0.0) + 1e-9:
             return  # older than what we have (a snapshot raced a live sample)
@@ -291,6 +364,7 @@ class FleetState:
         self._history(v, name, view, payload.get("time_s"))
 
     def _set_advisory(self, v: VehicleState, name: str, payload: dict) -> None:
+        self._hear(v, name)
         current = v.advisories.get(name)
         if current is not None and (current.get("time_s") or 0.0) > (payload.get("time_s") or 0.0) + 1e-9:
             return
@@ -346,6 +420,8 @@ class FleetState:
         """The vehicle (re)appeared: buffer its advisories until its snapshot is applied."""
         with self.cond:
             v, _ = self._vehicle(vid)
+            if v is None:
+                return
             if v.synced:
                 v.synced = False
                 v.buffer.clear()
@@ -353,6 +429,8 @@ class FleetState:
     def set_alive(self, vid: str, alive: bool) -> None:
         with self.cond:
             v, _ = self._vehicle(vid)
+            if v is None:
+                return
             if v.online != alive:
                 v.online = alive
                 v.changed_online_wall_s = time.time()
@@ -368,6 +446,8 @@ class FleetState:
         """Apply a snapshot reply (None: the vehicle has no snapshot queryable), then replay the buffer."""
         with self.cond:
             v, _ = self._vehicle(vid)
+            if v is None:
+                return
             if snap is not None:
                 self.stats["snapshots"] += 1
                 v.snapshots += 1
@@ -396,6 +476,7 @@ class FleetState:
                     if name not in latest or (p.get("time_s") or 0) >= (latest[name].get("time_s") or 0):
                         latest[name] = p
                 for name, p in latest.items():
+                    self._hear(v, name)
                     base = v.baseline.get(name)
                     if base is None or (p.get("time_s") or 0) > base[1]:
                         v.baseline[name] = (advisory_state(p), p.get("time_s") or 0.0)
@@ -411,18 +492,38 @@ class FleetState:
             self.cond.notify_all()
 
     def expire(self) -> int:
-        """Drop tracks not updated for stale_s (monitor clock). Returns how many."""
+        """Drop tracks not updated for stale_s, forget intruders not heard for forget_s and offline vehicles not
+        heard for vehicle_forget_s (monitor clock). Returns how many tracks left the picture."""
         now = self.clock()
-        n = 0
+        n = forgotten = 0
         with self.cond:
-            for v in self.vehicles.values():
+            for v in list(self.vehicles.values()):
                 for name in [k for k, e in v.tracks.items() if now - e["seen"] > self.stale_s]:
                     del v.tracks[name]
                     v.removed.append((self._bump(), name))
                     n += 1
-            if n:
+                cutoff = now - self.forget_s
+                while v.heard:
+                    name, t = next(iter(v.heard.items()))
+                    if t >= cutoff:
+                        break
+                    self._forget(v, name)
+                    forgotten += 1
+                if v.online is not True and v.heard_s is not None and now - v.heard_s > self.vehicle_forget_s:
+                    self._drop_vehicle(v.id)
+                    self.stats["expired.vehicles"] += 1
+            if forgotten:
+                self.stats["expired.intruders"] += forgotten
+            if n or forgotten:
                 self.cond.notify_all()
         return n
+
+    def memory(self) -> dict:
+        """What the picture holds (tests, /api/stats): vehicles, and per vehicle intruders by structure."""
+        with self.cond:
+            return {vid: {"heard": len(v.heard), "tracks": len(v.tracks), "advisories": len(v.advisories),
+                          "baseline": len(v.baseline), "history": len(v.history), "log": len(v.log),
+                          "buffer": len(v.buffer)} for vid, v in self.vehicles.items()}
 
     # -- readers -----------------------------------------------------------------------------------------------
     def wait(self, cursor: Cursor, timeout_s: float) -> bool:
@@ -466,10 +567,12 @@ class FleetState:
     def view(self, vid: str | None, cursor: Cursor | None = None) -> tuple[dict, Cursor]:
         """The selected vehicle's picture: everything (cursor None or another vehicle), or what changed since."""
         with self.cond:
+            v = self.vehicles.get(vid) if vid is not None else None
             full = cursor is None or cursor.vehicle != vid
+            if not full and v is not None and len(v.removed) == v.removed.maxlen and v.removed[0][0] > cursor.version:
+                full = True  # more removals since the cursor than remembered: start the reader afresh
             since = -1 if full else cursor.version
             log_since = -1 if full else cursor.log_seq
-            v = self.vehicles.get(vid) if vid is not None else None
             out: dict = {"type": "full" if full else "delta", "vehicle": vid, "version": self.version}
             if full or self.fleet_version > cursor.fleet_version:
                 out["fleet"] = self._fleet()

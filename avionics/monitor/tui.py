@@ -1,6 +1,10 @@
 """`avionics monitor --tui`: the same picture in a terminal (rich), for an ssh session.
 
 Keys (when stdin is a terminal): n / p next / previous vehicle, + / - range, t north-up / track-up, q quit.
+
+Every string that comes from a payload or a key expression (vehicle and intruder ids, callsigns, levels, RA words,
+reasons, warnings) goes to rich as a `Text`, which rich never parses for markup or emoji codes: a callsign `[/]`
+is shown as `[/]` (as a plain `str` cell it would be markup, and a stray closing tag raises MarkupError).
 """
 
 from __future__ import annotations
@@ -30,6 +34,11 @@ RANK = {"RA": 0, "TA": 1, "PROX": 2, "OTHER": 3}
 
 def _f(value, digits=0, scale=1.0) -> str:
     return "—" if value is None else f"{value / scale:.{digits}f}"
+
+
+def _plain(value, style: str = "") -> Text:
+    """Payload text for rich, shown as it is: a Text is not markup ("—" for none)."""
+    return Text("—" if value is None or value == "" else str(value), style=style)
 
 
 def _threat(t: dict) -> tuple:
@@ -83,7 +92,7 @@ class TuiView:
         for v in view.get("fleet", []):
             mark = "●" if v["online"] else "○" if v["online"] is False else "◌"
             style = "bold green" if v["online"] else "yellow" if v["online"] is False else "dim"
-            label = f"{mark} {v['id']}" + (" OFFLINE" if v["online"] is False else "")
+            label = f"{mark} {v['id']}" + (" OFFLINE" if v["online"] is False else "")  # Text.append: not markup
             if v["ra"]:
                 label += " RA"
             elif v["ta"]:
@@ -99,7 +108,7 @@ class TuiView:
                     f"ALT {_f(o.get('alt_msl_m'), 0, FT)} ft  TRK {trk}°  "
                     f"{'NORTH UP' if self.north_up else 'TRACK UP'}  {RANGES_NM[self.range_idx]} NM", style="cyan")
         if s.get("warnings"):
-            text.append("  " + " · ".join(s["warnings"]), style="yellow")
+            text.append("  " + " · ".join(str(w) for w in s["warnings"]), style="yellow")
         return Panel(text, box=box.SQUARE, padding=(0, 1))
 
     def _radar(self, view, tracks, w: int, h: int) -> Panel:
@@ -150,7 +159,7 @@ class TuiView:
             for c, style in row:
                 text.append(c, style=style)
             text.append("\n")
-        title = f"{self.vehicle or '—'}" + (" OFFLINE" if view.get("online") is False else "")
+        title = _plain(f"{self.vehicle or '—'}" + (" OFFLINE" if view.get("online") is False else ""))
         ra = next((t for t in tracks if t["level"] == "RA"), None)
         subtitle = None
         if ra:
@@ -172,11 +181,11 @@ class TuiView:
             table.add_column(name, justify=justify, no_wrap=True, min_width=width)
         for t in tracks[:rows]:
             adv = t["level"] + (f" {t['ra_words'] or t['ra_sense'] or ''}" if t["level"] == "RA" else "")
-            table.add_row(t["id"], t["callsign"] or "—", Text(GLYPH[t["sym"]], style=STYLE[t["sym"]]),
+            table.add_row(_plain(t["id"]), _plain(t["callsign"]), Text(GLYPH[t["sym"]], style=STYLE[t["sym"]]),
                           _f(t["range_m"], 2, NM), _f(t["bearing_deg"]),
                           "—" if t["rel_alt_m"] is None else f"{round(t['rel_alt_m'] / FT):+d}",
                           "↑" if t["vs"] == "up" else "↓" if t["vs"] == "down" else "", _f(t["tau_s"], 1),
-                          _f(t["pc"], 3), t["imm"] or "—",
+                          _f(t["pc"], 3), _plain(t["imm"]),
                           Text(adv, style={"RA": "bold red", "TA": "bold yellow"}.get(t["level"], "dim")))
         note = f"{min(rows, len(tracks))} of {len(tracks)}" if len(tracks) > rows else f"{len(tracks)}"
         return Panel(table, title=f"TRACKS ({note})", box=box.ROUNDED, border_style="grey50", padding=(0, 0))
@@ -188,12 +197,12 @@ class TuiView:
             table.add_column(name, no_wrap=True)
         for e in reversed(view.get("log", [])[-8:]):
             table.add_row(time.strftime("%H:%M:%S", time.localtime(e["received_wall_s"])), _f(e["time_s"], 1),
-                          e["intruder"] or "—", e["callsign"] or "—",
-                          Text(e["level"] or "—", style={"RA": "bold red", "TA": "bold yellow"}.get(e["level"], "")),
-                          e["ra_words"] or (e["ra_sense"] or "—"),
+                          _plain(e["intruder"]), _plain(e["callsign"]),
+                          _plain(e["level"], style={"RA": "bold red", "TA": "bold yellow"}.get(e["level"], "")),
+                          _plain(e["ra_words"] or e["ra_sense"]),
                           "—" if e["target_vertical_rate_mps"] is None else f"{e['target_vertical_rate_mps'] / FPM:+.0f}",
-                          _f(e["range_m"], 2, NM), _f(e["tau_s"], 1), _f(e["pc"], 3), e["reason"] or "—",
-                          e["source"])
+                          _f(e["range_m"], 2, NM), _f(e["tau_s"], 1), _f(e["pc"], 3), _plain(e["reason"]),
+                          _plain(e["source"]))
         return Panel(table, title="ADVISORY LOG", box=box.ROUNDED, border_style="grey50", padding=(0, 0))
 
 

@@ -1,0 +1,326 @@
+"""What the monitor accepts from zenoh: a schema check on every sample and snapshot before it reaches the
+picture (state.py), the page or the terminal view.
+
+Anyone who can reach the zenoh network can publish under `daa/**` (no credentials without TLS), so a sample is
+data to check, not to trust. Each payload kind has a table of the fields the monitor knows (docs/zenoh.md):
+type, range and string length. A sample with a known field of the wrong type, out of range, not finite, too long,
+or a string with control or bidi-override characters is *rejected* whole (clean_sample raises Rejected, whose
+`reason` names the field: the feed counts it in `/api/stats` and drops it). Fields the monitor does not know
+are kept only when they are short scalars or short lists of them (at most MAX_UNKNOWN_FIELDS, so a newer schema's
+extra fields and the benchmark's tags pass) and otherwise dropped, which bounds what a sample can make the monitor
+hold.
+
+Every known field is optional and may be null (older schemas lack fields; the contract uses null for unknown
+and infinite values). Enumerations (`level`, `advisory`, `ra_sense`, ...) are checked as bounded strings, not
+against their current values: a future level is shown as text rather than losing the sample, and the page and
+the terminal view render every payload string as text, never as markup. Fields the monitor does not display
+(e.g. `spoof_suspected`, `daa_available`) are not in the tables, so a change to their form never costs a sample.
+"""
+
+from __future__ import annotations
+
+import re
+
+MAX_SAMPLE_BYTES = 256 * 1024  # one track is ~1.2 kB, a status with every counter a few kB
+MAX_SNAPSHOT_BYTES = 32 * 1024 * 1024  # a vehicle's whole picture: thousands of tracks and the change log
+MAX_ID_LEN = 64  # vehicle and intruder ids (key expression chunks), callsigns, enumerations
+MAX_TEXT_LEN = 256  # reasons, RA words, warnings
+MAX_LIST = 10_000  # list fields (datum_mismatch_intruders) and snapshot lists
+MAX_MAP = 4_096  # counters
+MAX_UNKNOWN_FIELDS = 32
+MAX_UNKNOWN_LIST = 64
+# C0/C1 controls (terminal escapes, newlines), and bidi overrides / isolates (text that displays reversed)
+_BAD_CHARS = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+
+
+class Rejected(ValueError):
+    """A sample the monitor does not accept; `reason` is a short, bounded name (a field, `json`, `size`, ...)."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+class _Bad(Exception):
+    pass
+
+
+def text_ok(value, max_len: int = MAX_ID_LEN) -> bool:
+    return type(value) is str and len(value) <= max_len and not _BAD_CHARS.search(value)
+
+
+def check_id(value) -> str:
+    """A vehicle or intruder id taken from a key expression: 1..MAX_ID_LEN printable characters."""
+    if not value or not text_ok(value, MAX_ID_LEN):
+        raise Rejected("key")
+    return value
+
+
+# -- field checks: each returns the value (None allowed) or raises _Bad --------------------------------------------
+# The common checks also carry a spec, (code, a, b), which _clean runs inline (the feed checks every sample).
+def _num(lo: float, hi: float):
+    def check(x):
+        if x is None:
+            return None
+        t = type(x)
+        if (t is float or t is int) and lo <= x <= hi:  # NaN and infinities fail the comparison
+            return x
+        raise _Bad
+
+    check.spec = ("n", lo, hi)
+    return check
+
+
+def _int(lo: int, hi: int):
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is int and lo <= x <= hi:
+            return x
+        raise _Bad
+
+    check.spec = ("i", lo, hi)
+    return check
+
+
+def _bool(x):
+    if x is None or type(x) is bool:
+        return x
+    raise _Bad
+
+
+_bool.spec = ("b", 0, 0)
+
+
+def _str(max_len: int = MAX_ID_LEN):
+    def check(x):
+        if x is None or text_ok(x, max_len):
+            return x
+        raise _Bad
+
+    check.spec = ("s", max_len, 0)
+    return check
+
+
+def _vec3(limit: float):
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is list and len(x) == 3:
+            for c in x:
+                t = type(c)
+                if not ((t is float or t is int) and -limit <= c <= limit):
+                    raise _Bad
+            return x
+        raise _Bad
+
+    return check
+
+
+def _map(value_check, max_items: int, key_len: int = MAX_ID_LEN):
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is not dict or len(x) > max_items:
+            raise _Bad
+        for k, v in x.items():
+            if not text_ok(k, key_len):
+                raise _Bad
+            value_check(v)
+        return x
+
+    return check
+
+
+def _list(item_check, max_items: int = MAX_LIST):
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is not list or len(x) > max_items:
+            raise _Bad
+        for v in x:
+            if v is None:
+                raise _Bad
+            item_check(v)
+        return x
+
+    return check
+
+
+def _object(fields: dict):
+    fields = _compile(fields)
+
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is not dict:
+            raise _Bad
+        return _clean(fields, x)
+
+    return check
+
+
+def _scalar_ok(v) -> bool:
+    t = type(v)
+    if v is None or t is bool or t is int:
+        return True
+    if t is float:
+        return v == v and v not in (float("inf"), float("-inf"))
+    return t is str and text_ok(v, MAX_TEXT_LEN)
+
+
+def _unknown_ok(v) -> bool:
+    if type(v) is list:
+        return len(v) <= MAX_UNKNOWN_LIST and all(_scalar_ok(x) for x in v)
+    return _scalar_ok(v)
+
+
+def _compile(fields: dict) -> dict:
+    """name -> (code, a, b, check): code n/i/b/s is checked inline by _clean, f calls check."""
+    return {k: (*getattr(check, "spec", ("f", 0, 0)), check) for k, check in fields.items()}
+
+
+def _clean(fields: dict, payload: dict) -> dict:
+    out = {}
+    unknown = 0
+    bad = _BAD_CHARS.search
+    for k, v in payload.items():
+        spec = fields.get(k)
+        if spec is not None:
+            if v is None:
+                out[k] = None
+                continue
+            code, a, b, check = spec
+            t = type(v)
+            if code == "n":
+                if (t is float or t is int) and a <= v <= b:
+                    out[k] = v
+                    continue
+            elif code == "s":
+                if t is str and len(v) <= a and not bad(v):
+                    out[k] = v
+                    continue
+            elif code == "i":
+                if t is int and a <= v <= b:
+                    out[k] = v
+                    continue
+            elif code == "b":
+                if t is bool:
+                    out[k] = v
+                    continue
+            else:
+                try:
+                    out[k] = check(v)
+                    continue
+                except _Bad:
+                    pass
+                except Rejected as exc:  # a nested object's field
+                    raise Rejected(f"{k}.{exc.reason}") from None
+            raise Rejected(k)
+        elif unknown < MAX_UNKNOWN_FIELDS and text_ok(k) and _unknown_ok(v):
+            out[k] = v
+            unknown += 1
+    return out
+
+
+# -- the contract (docs/zenoh.md), with generous physical bounds -----------------------------------------------------
+TIME = _num(-1e6, 1e10)
+DURATION = _num(-1e7, 1e7)
+DIST = _num(0.0, 1e8)
+SIGNED_DIST = _num(-1e8, 1e8)
+ALT = _num(-2_000.0, 100_000.0)
+SPEED = _num(0.0, 10_000.0)
+RATE = _num(-10_000.0, 10_000.0)
+ANGLE = _num(-360.0, 720.0)
+PROB = _num(-1e-6, 1.0 + 1e-6)
+ID = _str(MAX_ID_LEN)
+TEXT = _str(MAX_TEXT_LEN)
+
+COMMON = {
+    "schema": _int(0, 1_000_000), "vehicle": ID, "time_s": TIME,
+}
+INTRUDER = {
+    **COMMON, "intruder": ID, "address": _int(0, 0xFFFFFF), "address_source": ID, "callsign": ID,
+    "range_m": DIST, "t_cpa_s": DURATION, "hmd_m": DIST, "vmd_m": SIGNED_DIST, "range_tau_s": DURATION,
+    "mod_tau_s": DURATION, "vertical_tau_s": DURATION, "altitude_datum": ID, "datum_mismatch": _bool,
+    "pc_ta": PROB, "pc_ra": PROB, "pc_now": PROB, "pc_max": PROB, "pc_within": PROB, "pc": PROB,
+    "t_pc_max_s": DURATION, "pc_within_age_s": DURATION, "sensitivity_level": _int(0, 1_000),
+}
+TRACK = {
+    **INTRUDER, "squawk": _int(0, 9_999), "emitter_type": _int(0, 255), "simulated": _bool, "model": ID,
+    "last_report_s": TIME, "age_s": DURATION, "updates": _int(0, 10**15),
+    "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "altitude_m": ALT,
+    "velocity_enu_mps": _vec3(10_000.0), "ground_speed_mps": SPEED, "track_deg": ANGLE, "vertical_rate_mps": RATE,
+    "position_sigma_m": DIST, "velocity_sigma_mps": SPEED, "advisory": ID,
+    "mode_probabilities": _map(PROB, 16), "most_likely_mode": ID, "imm_mode": ID, "turn_rate_dps": RATE,
+    "vertical_mode_probabilities": _map(PROB, 16), "vertical_mode": ID,
+    "vb_noise": _map(_num(0.0, 1e8), 16),
+}
+ADVISORY = {
+    **INTRUDER, "level": ID, "reason": TEXT, "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
+    "ra_strength": ID, "ra_words": TEXT, "target_vertical_rate_mps": RATE, "ra_reversed": _bool,
+    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST,
+}
+OWNSHIP = {
+    **COMMON, "valid": _bool, "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "alt_msl_m": ALT,
+    "pressure_altitude_m": ALT, "height_above_home_m": _num(-100_000.0, 100_000.0),
+    "velocity_enu_mps": _vec3(10_000.0), "ground_speed_mps": SPEED, "track_deg": ANGLE, "vertical_rate_mps": RATE,
+}
+STATUS = {
+    **COMMON, "version": ID, "ownship": _object(OWNSHIP), "ownship_valid": _bool,
+    "pressure_altitude_available": _bool, "datum_mismatch_intruders": _list(ID), "sensitivity_level": _int(0, 1_000),
+    "tracks": _int(0, 10**9), "advisories": _map(_int(0, 10**9), 16), "warnings": _list(TEXT, 64),
+    "counters": _map(_num(-1e18, 1e18), MAX_MAP, 128),
+}
+KIND_FIELDS = {kind: _compile(fields) for kind, fields in
+               (("tracks", TRACK), ("advisories", ADVISORY), ("ownship", OWNSHIP), ("status", STATUS))}
+
+
+def clean_sample(kind: str, payload, name: str | None = None) -> dict:
+    """The checked payload of one sample of `kind` (tracks | advisories | ownship | status), or Rejected.
+    name: the intruder id from the key expression; the payload's `intruder` must match it (or is set to it)."""
+    if type(payload) is not dict:
+        raise Rejected("type")
+    out = _clean(KIND_FIELDS[kind], payload)
+    if name is not None:
+        intruder = out.get("intruder")
+        if intruder is None:
+            out["intruder"] = name
+        elif intruder != name:
+            raise Rejected("intruder_key")  # the page would show one id and remove another
+    return out
+
+
+def clean_snapshot(snap, rejected: dict | None = None) -> dict:
+    """A snapshot reply checked element by element: a bad track, advisory or change is left out (and counted in
+    `rejected`, reason -> n); a snapshot that is not an object, or whose ownship or status is bad, is Rejected."""
+    if type(snap) is not dict:
+        raise Rejected("type")
+    out = {}
+    for key in ("schema", "time_s"):
+        try:
+            out[key] = COMMON[key](snap.get(key))
+        except _Bad:
+            raise Rejected(key) from None
+    for key, kind in (("ownship", "ownship"), ("status", "status")):
+        value = snap.get(key)
+        out[key] = None if value is None else clean_sample(kind, value)
+    for key, kind in (("tracks", "tracks"), ("advisories", "advisories"), ("advisory_changes", "advisories")):
+        items = snap.get(key)
+        if items is None:
+            out[key] = []
+            continue
+        if type(items) is not list or len(items) > MAX_LIST:
+            raise Rejected(key)
+        good = []
+        for item in items:
+            try:
+                p = clean_sample(kind, item)
+                check_id(p.get("intruder"))  # a snapshot element names its intruder
+                good.append(p)
+            except Rejected as exc:
+                if rejected is not None:
+                    reason = f"{key}.{exc.reason}"
+                    rejected[reason] = rejected.get(reason, 0) + 1
+        out[key] = good
+    return out
