@@ -5,10 +5,90 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
+import traceback
+from pathlib import Path
 
 from avionics import __version__
 from avionics.config import ConfigError, as_dict, load_config
+
+# Exit codes (README): 0 success, 1 a link, zenoh session or listening socket could not be opened, 2 configuration,
+# scenario or file error. Every error these cover is one line on stderr, `PROG: message`. Named by module so that
+# a command that never imported pymavlink or zenoh does not import them to classify its error (an exception of a
+# class can only exist once its module is loaded).
+ERRORS = (  # (module, class, exit code, prefix of the line)
+    ("avionics.config", "ConfigError", 2, "configuration error: "),
+    ("avionics.demo", "ScenarioError", 2, ""),
+    ("avionics.io.link", "LinkError", 1, ""),
+    ("avionics.io.zenoh_bus", "ZenohBusError", 1, ""),
+    ("avionics.monitor.app", "HttpServerError", 1, ""),
+    ("avionics.demo", "OnboardError", 1, ""),
+)
+EXIT_INTERNAL = 70  # EX_SOFTWARE: anything else is a bug, shown with its traceback and one summary line
+EXIT_INTERRUPTED = 130  # Ctrl-C
+
+
+def _one_line(exc: BaseException) -> str:
+    return " | ".join(line.strip() for line in str(exc).splitlines() if line.strip()) or type(exc).__name__
+
+
+def classify(exc: BaseException) -> tuple[int, str] | None:
+    """(exit code, prefix) of an expected error, None for an unexpected one."""
+    for module, name, code, prefix in ERRORS:
+        cls = getattr(sys.modules.get(module), name, None)
+        if cls is not None and isinstance(exc, cls):
+            return code, prefix
+    return None
+
+
+def call(prog: str, func, args) -> int:
+    """Run one command and return its exit code: an expected error is one line on stderr; an unexpected one
+    keeps its traceback, followed by one line that says it is a bug."""
+    try:
+        return func(args)
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001  (expected errors by type, in ERRORS; the rest is reported as a bug)
+        known = classify(exc)
+        if known is None:
+            traceback.print_exc()
+            print(f"{prog}: internal error (a bug; traceback above): {type(exc).__name__}: {_one_line(exc)}",
+                  file=sys.stderr)
+            return EXIT_INTERNAL
+        code, prefix = known
+        print(f"{prog}: {prefix}{_one_line(exc)}", file=sys.stderr)
+        return code
+
+
+def check_output_file(path: str, option: str) -> None:
+    """ConfigError (exit 2) when a file cannot be written at path, before any work is done for it."""
+    target = Path(path)
+    parent = target.parent
+    if target.is_dir():
+        raise ConfigError(f"{option} {path!r}: is a directory")
+    if not parent.is_dir():
+        raise ConfigError(f"{option} {path!r}: no such directory {str(parent)!r}")
+    if not os.access(target if target.exists() else parent, os.W_OK):
+        raise ConfigError(f"{option} {path!r}: permission denied")
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """Usage errors in one line too (argparse prints the whole usage first); exit 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def port_number(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"port {port} is outside 1..65535")
+    return port
 
 
 def _config_args(parser: argparse.ArgumentParser) -> None:
@@ -30,6 +110,8 @@ def cmd_run(args) -> int:
     from avionics.runner import run
 
     config = _load(args)
+    if args.tlog_out:
+        check_output_file(args.tlog_out, "--tlog-out")
     logging.getLogger("avionics").info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__,
                                        config.mavlink.connection,
                                        list(config.zenoh.listen) if config.zenoh.enabled else "off",
@@ -72,7 +154,7 @@ def _tls(args, listening: bool) -> dict:
 
 def cmd_monitor(args) -> int:
     from avionics.config import validate, Config
-    from avionics.monitor.app import run_monitor
+    from avionics.monitor.app import run_monitor  # checks the endpoints and --http before opening anything
     from avionics.monitor.feed import monitor_zenoh_config
 
     cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen, **_tls(args, False))
@@ -83,15 +165,17 @@ def cmd_monitor(args) -> int:
 
 def cmd_router(args) -> int:
     from avionics.config import validate, Config
+    from avionics.monitor.app import check_endpoints
     from avionics.monitor.router import router_config, run_router
 
     cfg = router_config(args.listen or ["tcp/127.0.0.1:7447"], args.connect, **_tls(args, True))
+    check_endpoints(cfg)
     validate(Config(zenoh=cfg))
     return run_router(cfg)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="avionics", description="Onboard detect-and-avoid for UAVs.")
+    parser = OneLineParser(prog="avionics", description="Onboard detect-and-avoid for UAVs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -108,8 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="fly the SITL head-on encounter against the onboard process on loopback")
     p.add_argument("--scenario", default="head-on", help="built-in encounter (sitl list) or scenario file")
-    p.add_argument("--port", type=int, default=14650, help="loopback UDP port of the MAVLink link")
-    p.add_argument("--zenoh-port", type=int, default=17447, help="loopback TCP port of the zenoh session")
+    p.add_argument("--port", type=port_number, default=14650, help="loopback UDP port of the MAVLink link")
+    p.add_argument("--zenoh-port", type=port_number, default=17447, help="loopback TCP port of the zenoh session")
     p.add_argument("--noise", choices=("default", "none"), default="default", help="ADS-B impairments")
     p.set_defaults(func=cmd_demo)
 
@@ -148,19 +232,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
-    try:
-        return args.func(args)
-    except ConfigError as exc:
-        print(f"avionics: configuration error: {exc}", file=sys.stderr)
-        return 2
-    except Exception as exc:  # noqa: BLE001  (one clear line for link/zenoh errors, not a traceback)
-        from avionics.io.link import LinkError
-        from avionics.io.zenoh_bus import ZenohBusError
-
-        if isinstance(exc, (LinkError, ZenohBusError)):
-            print(f"avionics: {exc}", file=sys.stderr)
-            return 1
-        raise
+    return call("avionics", args.func, args)
 
 
 if __name__ == "__main__":

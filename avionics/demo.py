@@ -4,12 +4,17 @@ The onboard process (`avionics run`, a child process) listens for MAVLink on udp
 publishes on zenoh at tcp/127.0.0.1:ZENOH_PORT. This process is the SITL autopilot with its ADS-B receiver:
 it flies the encounter in real time, and prints the advisory timeline as it arrives, from the COLLISION
 messages the autopilot receives and the advisory JSON a zenoh subscriber receives.
+
+It fails fast, in one line: a bad scenario before anything starts (ScenarioError, exit 2), a port in use before
+the onboard process starts (LinkError / ZenohBusError, exit 1), and an onboard process that exits during the
+flight stops the flight at once (OnboardError, exit 1).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import signal
 import socket
 import subprocess
 import sys
@@ -21,6 +26,60 @@ from avionics.core.units import FT
 
 DEMO_START_S = {"head-on": 40.0}  # skip the quiet minute of the head-on: TA ~15 s into the demo
 THREAT = {0: "NONE", 1: "TA  ", 2: "RA  "}
+START_TIMEOUT_S = 30.0  # for the onboard process to listen on its zenoh port
+
+
+class ScenarioError(ValueError):
+    """The encounter cannot be loaded: an unknown name, or a scenario file that cannot be read or parsed."""
+
+
+class OnboardError(RuntimeError):
+    """The onboard process did not start, or exited before the demo stopped it."""
+
+
+def load_scenario(spec: str):
+    """sitl.scenario.load_encounter, with its ValueError (every bad name, file or field) as a ScenarioError."""
+    from sitl.scenario import load_encounter
+
+    try:
+        return load_encounter(spec)
+    except ValueError as exc:
+        message = str(exc)
+        raise ScenarioError(message if spec in message else f"scenario {spec!r}: {message}") from exc
+
+
+def check_ports_free(port: int, zenoh_port: int) -> None:
+    """Bind both loopback ports once, as the onboard process will: a port in use is an error now, not after a
+    flight with nobody listening (or with somebody else's process answering)."""
+    from avionics.io.link import LinkError
+    from avionics.io.zenoh_bus import ZenohBusError
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # as the link: without SO_REUSEADDR
+        try:
+            probe.bind(("127.0.0.1", port))
+        except OSError as exc:
+            raise LinkError(f"demo: MAVLink UDP port 127.0.0.1:{port} is in use ({exc.strerror}); "
+                            f"pick another with --port") from exc
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as zenoh's listener: TIME_WAIT is free
+        try:
+            probe.bind(("127.0.0.1", zenoh_port))
+        except OSError as exc:
+            raise ZenohBusError(f"demo: zenoh TCP port 127.0.0.1:{zenoh_port} is in use ({exc.strerror}); "
+                                f"pick another with --zenoh-port") from exc
+
+
+def _onboard_failure(returncode: int, stderr: str, when: str) -> OnboardError:
+    """One line: how the onboard process ended, and its own one-line error (`avionics: ...`) if it printed one
+    (its other stderr lines are log lines)."""
+    errors = [line.strip() for line in stderr.splitlines() if line.startswith("avionics: ")]
+    if returncode < 0:
+        number = -returncode
+        how = f"was killed by {signal.Signals(number).name if number in signal.valid_signals() else number}"
+    else:
+        how = f"exited with code {returncode}"
+    reason = f": {errors[-1].removeprefix('avionics: ').replace('; traceback above', '')}" if errors else ""
+    return OnboardError(f"demo: the onboard process (avionics run) {how} {when}{reason}")
 
 
 def _listening(port: int) -> bool:
@@ -28,71 +87,104 @@ def _listening(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
+def _start_onboard(port: int, endpoint: str, duration_s: float) -> subprocess.Popen:
+    return subprocess.Popen([
+        sys.executable, "-m", "avionics.cli", "--quiet", "run", "--connection", f"udpin:127.0.0.1:{port}",
+        "--set", f'zenoh.listen=["{endpoint}"]', "--duration", f"{duration_s + 5:.0f}", "--counters",
+    ], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_listening(onboard: subprocess.Popen, zenoh_port: int, endpoint: str) -> None:
+    """The onboard process is up once its zenoh endpoint listens; OnboardError if it exits or takes too long."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while not _listening(zenoh_port):
+        if onboard.poll() is not None:
+            raise _onboard_failure(onboard.returncode, onboard.communicate()[1], "at start-up")
+        if time.monotonic() > deadline:
+            raise OnboardError(f"demo: the onboard process did not listen on {endpoint} within "
+                               f"{START_TIMEOUT_S:.0f} s")
+        time.sleep(0.1)
+
+
+def _stop(onboard: subprocess.Popen) -> tuple[str, str]:
+    """SIGTERM (the onboard process then prints its counters); SIGKILL if it has not exited within 15 s."""
+    if onboard.poll() is None:
+        onboard.terminate()
+    try:
+        return onboard.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        onboard.kill()
+        return onboard.communicate()
+
+
 def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17447, noise: str = "default") -> int:
     from avionics.io.zenoh_bus import open_session
     from sitl.impairments import PRESETS
     from sitl.live import fly
-    from sitl.scenario import load_encounter
 
-    scenario = load_encounter(scenario_name)
+    scenario = load_scenario(scenario_name)
     start = DEMO_START_S.get(scenario_name, 0.0)
     duration = scenario.duration_s - start
     endpoint = f"tcp/127.0.0.1:{zenoh_port}"
-    onboard = subprocess.Popen([
-        sys.executable, "-m", "avionics.cli", "--quiet", "run", "--connection", f"udpin:127.0.0.1:{port}",
-        "--set", f'zenoh.listen=["{endpoint}"]', "--duration", f"{duration + 5:.0f}", "--counters",
-    ], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    print(f"avionics demo: '{scenario.name}' from t={start:.0f} s for {duration:.0f} s of real time\n"
-          f"  onboard DAA process pid {onboard.pid}: MAVLink udpin:127.0.0.1:{port}, zenoh {endpoint}\n"
-          f"  SITL autopilot + ADS-B receiver (this process): ownship 5 Hz, ADS-B 1 Hz, noise '{noise}'\n")
-    deadline = time.monotonic() + 30.0
-    while not _listening(zenoh_port):  # the onboard process is up once its zenoh endpoint listens
-        if onboard.poll() is not None or time.monotonic() > deadline:
-            onboard.kill()
-            print(f"onboard process did not start:\n{onboard.communicate()[1]}", file=sys.stderr)
-            return 1
-        time.sleep(0.1)
-    lock = threading.Lock()
-    zenoh_advisories = []
-    session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))
-
-    def on_advisory(sample) -> None:
-        payload = json.loads(sample.payload.to_bytes())
-        with lock:
-            previous = zenoh_advisories[-1] if zenoh_advisories else {}
-            if (previous.get("level"), previous.get("ra_words")) != (payload["level"], payload.get("ra_words")):
-                tau = "--" if payload["mod_tau_s"] is None else f"{payload['mod_tau_s']:4.1f} s"
-                vmd = "?" if payload["vmd_m"] is None else f"{payload['vmd_m'] / FT:+5.0f} ft"
-                ra = f" {payload['ra_words']}" if payload.get("ra_words") else ""
-                pc = "" if payload.get("pc_ra") is None else f"  Pc(RA) {payload['pc_ra']:.2f}"
-                print(f"  zenoh      {payload['level']:4s}{ra} {payload['intruder']}  reason {payload['reason']:9s} "
-                      f"mod tau {tau}  range {payload['range_m']:6.0f} m  CPA in {payload['t_cpa_s']:5.1f} s  "
-                      f"HMD {payload['hmd_m']:5.0f} m  VMD {vmd}{pc}", flush=True)
-            zenoh_advisories.append(payload)
-
-    subscriber = session.declare_subscriber("daa/*/advisories/**", on_advisory)
-    last_level: dict[int, int] = {}
-
-    def on_receive(received) -> None:
-        msg = received.msg
-        if msg.get_type() == "COLLISION" and last_level.get(msg.id) != msg.threat_level:
-            last_level[msg.id] = msg.threat_level
-            alt = "?" if math.isnan(msg.altitude_minimum_delta) else f"{msg.altitude_minimum_delta:+.0f} m"
-            with lock:
-                print(f"t={received.time_s:6.1f} s  COLLISION {THREAT[msg.threat_level]} id {msg.id:06X} "
-                      f"action {msg.action}  CPA in {msg.time_to_minimum_delta:5.1f} s  "
-                      f"horizontal {msg.horizontal_minimum_delta:5.0f} m  vertical {alt}", flush=True)
-
+    check_ports_free(port, zenoh_port)
+    onboard = _start_onboard(port, endpoint, duration)
     try:
-        recording = fly(scenario, f"udpout:127.0.0.1:{port}", PRESETS[noise], start_s=start,
-                        duration_s=duration, on_receive=on_receive)
+        print(f"avionics demo: '{scenario.name}' from t={start:.0f} s for {duration:.0f} s of real time\n"
+              f"  onboard DAA process pid {onboard.pid}: MAVLink udpin:127.0.0.1:{port}, zenoh {endpoint}\n"
+              f"  SITL autopilot + ADS-B receiver (this process): ownship 5 Hz, ADS-B 1 Hz, noise '{noise}'\n",
+              flush=True)
+        _wait_listening(onboard, zenoh_port, endpoint)
+        # The flight stops as soon as the onboard process exits: nothing would answer for the rest of it.
+        onboard_exited = threading.Event()
+        threading.Thread(target=lambda: (onboard.wait(), onboard_exited.set()), name="demo-onboard-watch",
+                         daemon=True).start()
+        lock = threading.Lock()
+        zenoh_advisories = []
+        session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))
+
+        def on_advisory(sample) -> None:
+            payload = json.loads(sample.payload.to_bytes())
+            with lock:
+                previous = zenoh_advisories[-1] if zenoh_advisories else {}
+                if (previous.get("level"), previous.get("ra_words")) != (payload["level"], payload.get("ra_words")):
+                    tau = "--" if payload["mod_tau_s"] is None else f"{payload['mod_tau_s']:4.1f} s"
+                    vmd = "?" if payload["vmd_m"] is None else f"{payload['vmd_m'] / FT:+5.0f} ft"
+                    ra = f" {payload['ra_words']}" if payload.get("ra_words") else ""
+                    pc = "" if payload.get("pc_ra") is None else f"  Pc(RA) {payload['pc_ra']:.2f}"
+                    print(f"  zenoh      {payload['level']:4s}{ra} {payload['intruder']}  reason "
+                          f"{payload['reason']:9s} mod tau {tau}  range {payload['range_m']:6.0f} m  "
+                          f"CPA in {payload['t_cpa_s']:5.1f} s  HMD {payload['hmd_m']:5.0f} m  VMD {vmd}{pc}",
+                          flush=True)
+                zenoh_advisories.append(payload)
+
+        subscriber = session.declare_subscriber("daa/*/advisories/**", on_advisory)
+        last_level: dict[int, int] = {}
+
+        def on_receive(received) -> None:
+            msg = received.msg
+            if msg.get_type() == "COLLISION" and last_level.get(msg.id) != msg.threat_level:
+                last_level[msg.id] = msg.threat_level
+                alt = "?" if math.isnan(msg.altitude_minimum_delta) else f"{msg.altitude_minimum_delta:+.0f} m"
+                with lock:
+                    print(f"t={received.time_s:6.1f} s  COLLISION {THREAT[msg.threat_level]} id {msg.id:06X} "
+                          f"action {msg.action}  CPA in {msg.time_to_minimum_delta:5.1f} s  "
+                          f"horizontal {msg.horizontal_minimum_delta:5.0f} m  vertical {alt}", flush=True)
+
+        try:
+            recording = fly(scenario, f"udpout:127.0.0.1:{port}", PRESETS[noise], start_s=start,
+                            duration_s=duration, on_receive=on_receive, stop=onboard_exited)
+            died = onboard_exited.is_set()  # read before we stop it ourselves
+        finally:
+            out, err = _stop(onboard)
+            subscriber.undeclare()
+            session.close()
+        if died:
+            raise _onboard_failure(onboard.returncode, err, "during the flight")
+        if onboard.returncode not in (0, -signal.SIGTERM):
+            raise _onboard_failure(onboard.returncode, err, "when stopped")
     finally:
-        onboard.terminate()
-        out, err = onboard.communicate(timeout=15)
-        subscriber.undeclare()
-        session.close()
-    if onboard.returncode not in (0, -15):
-        print(f"onboard process failed ({onboard.returncode}):\n{err}", file=sys.stderr)
+        if onboard.poll() is None:  # an error on the way (zenoh session, Ctrl-C): no orphan onboard process
+            _stop(onboard)
     counters = json.loads(out) if out.strip() else {}
     collisions = recording.of_type("COLLISION")
     print(f"\nSITL sent {recording.sent} MAVLink messages; received {len(collisions)} COLLISION, "

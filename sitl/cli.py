@@ -6,13 +6,14 @@ import argparse
 import json
 import sys
 
+from avionics.cli import OneLineParser, call, check_output_file
 from sitl.impairments import PRESETS
 
 
 def _scenario(spec: str):
-    from sitl.scenario import load_encounter
+    from avionics.demo import load_scenario  # ScenarioError (exit 2) for a bad name or file
 
-    return load_encounter(spec)
+    return load_scenario(spec)
 
 
 def cmd_list(args) -> int:
@@ -30,6 +31,9 @@ def cmd_replay(args) -> int:
     from sitl.replay import replay
 
     config = load_config(args.config, list(args.set) + ["zenoh.enabled=false"])
+    for path, option in ((args.misses, "--misses"), (args.out, "--out")):
+        if path:
+            check_output_file(path, option)  # before the run, not after it
     result = replay(_scenario(args.encounter), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras)
     if args.misses:
         result.write_misses_csv(args.misses)
@@ -71,7 +75,7 @@ def cmd_live(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sitl", description="Simulated ownship and ADS-B traffic over MAVLink.")
+    parser = OneLineParser(prog="sitl", description="Simulated ownship and ADS-B traffic over MAVLink.")
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the built-in encounters").set_defaults(func=cmd_list)
 
@@ -103,11 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, OSError) as exc:
-        print(f"sitl: {exc}", file=sys.stderr)
-        return 2
+    return call("sitl", args.func, args)  # exit codes as avionics: 1 link, 2 configuration, scenario or file
 
 
 if __name__ == "__main__":
