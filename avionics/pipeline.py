@@ -6,13 +6,24 @@ ingest (validated inputs) -> track (ownship filter, one track per intruder) -> a
 The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
 Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
 intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too.
+
+Fault containment (docs/architecture.md, "Failure states"): the stages are vectorised over intruders, so one
+intruder's bad numbers (a NaN state, a covariance that is not positive definite) can make a whole call raise.
+Each stage call (track update, prediction, conflict probabilities, advisory logic) is guarded: when it raises,
+it is run again for each intruder alone; an intruder that still raises (or whose predicted state or geometry is
+not finite) fails: counted `fault.<stage>`, logged once with its traceback, its track dropped, and its advisory
+ends in the failed state (level NONE, reason `fault`), announced like any change. The others go on. An
+exception outside these boundaries fails the step (`fault.step`): every active advisory ends with reason
+`fault` and the next step starts again.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Iterable
 
 import numpy as np
@@ -35,6 +46,9 @@ from avionics.tracking.imm_tracker import make_tracker
 
 
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
+FAULT = "fault"  # the reason of an advisory whose intruder failed in a stage (docs/zenoh.md, Advisory reasons)
+
+log = logging.getLogger("avionics.pipeline")
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,6 +62,17 @@ class StepResult:
 class _Assessment:
     advisory: Advisory
     state: AdvisoryState = field(default_factory=AdvisoryState)
+
+
+@dataclass
+class Fault:
+    """An intruder (or the whole step) that failed in a stage: no advisory can be computed for it."""
+
+    stage: str  # "track", "predict", "conflict", "advisory", "resolution"; "step" for the whole step
+    since_s: float
+    last_s: float
+    error: str  # "LinAlgError: matrix is not positive definite"
+    count: int = 1
 
 
 class DaaCore:
@@ -68,6 +93,11 @@ class DaaCore:
         self.level: SensitivityLevel | None = None
         self._last_full_assessment_s = -math.inf
         self._last_ownship: OwnshipState | None = None
+        self.faults: dict[IntruderKey, Fault] = {}  # intruders in the failed state (track dropped)
+        self.step_fault: Fault | None = None  # the last step failed outside the per-intruder boundaries
+        self._pending: list[Advisory] = []  # failed-state advisories found outside step(), announced by the next
+        self._traced: set[tuple[str, str]] = set()  # (stage, exception type) already logged with a traceback
+        self._ownship_faulted = False  # the ownship filter failed and no fix has gone in since
 
     # -- ingest --------------------------------------------------------------------------------------------
     def _en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
@@ -76,37 +106,91 @@ class DaaCore:
         east, north = self.plane.to_en(lat_deg, lon_deg)
         return float(east), float(north)
 
-    def _ingest_reports(self, reports: list[tuple[IntruderReport, float, float]], dirty: set[IntruderKey]) -> None:
+    def _ingest_reports(self, now_s: float, reports: list[tuple[IntruderReport, float, float]],
+                        dirty: set[IntruderKey], changes: list[Advisory]) -> None:
         """A step's intruder reports in one vectorised tracker call: under load the live link hands over a
-        backlog at once, and the per-call cost is paid once per step instead of once per report."""
+        backlog at once, and the per-call cost is paid once per step instead of once per report. When that call
+        raises, each intruder's reports go in alone and an intruder whose update still raises fails."""
         if not reports:
             return
         items, easts, norths = zip(*reports)
-        took = self.tracker.ingest_many(list(items), easts, norths)
+        try:
+            took = self.tracker.ingest_many(list(items), easts, norths)
+        except Exception as exc:  # noqa: BLE001  (stage boundary: isolate the intruder, below)
+            self._batch_failed("track", exc)
+            self._ingest_alone(now_s, items, easts, norths, dirty, changes)
+            return
         dirty.update(r.key for r, ok in zip(items, took) if ok)
 
+    def _ingest_alone(self, now_s, items, easts, norths, dirty, changes) -> None:
+        by_key: dict[IntruderKey, list[int]] = {}
+        for i, r in enumerate(items):
+            by_key.setdefault(r.key, []).append(i)
+        for key, idx in by_key.items():
+            track = self.tracker.tracks.get(key)
+            # the failed batch call may have applied some reports already: they are not applied twice
+            idx = [i for i in idx if track is None or items[i].time_s > track.last_report_s + 1e-6]
+            try:
+                if idx:
+                    self.tracker.ingest_many([items[i] for i in idx], [easts[i] for i in idx], [norths[i] for i in idx])
+            except Exception as exc:  # noqa: BLE001
+                self._fail(now_s, key, "track", exc, changes)
+                continue
+            if key in self.tracker.tracks:
+                dirty.add(key)
+
     def _ingest(self, item: Input, reports: list[tuple[IntruderReport, float, float]]) -> None:
+        if not _finite_input(item):  # no NaN or inf goes into a filter (the tangent plane included)
+            self.counters["input.non_finite"] += 1
+            return
         if isinstance(item, IntruderReport):  # positions in arrival order: the first of any aircraft fixes the plane
             reports.append((item, *self._en(item.lat_deg, item.lon_deg)))
         elif isinstance(item, OwnshipFix):
-            if not self.ownship.update_fix(item, *self._en(item.lat_deg, item.lon_deg)):
-                self.counters["ownship.out_of_order"] += 1
+            try:
+                if not self.ownship.update_fix(item, *self._en(item.lat_deg, item.lon_deg)):
+                    self.counters["ownship.out_of_order"] += 1
+                self._ownship_faulted = False
+            except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
+                self._ownship_failed(item.time_s, exc)
         elif isinstance(item, OwnshipPressure):
-            if not self.ownship.update_pressure(item):
-                self.counters["ownship_pressure.before_first_fix"] += 1
+            try:
+                if not self.ownship.update_pressure(item):
+                    self.counters["ownship_pressure.before_first_fix"] += 1
+            except Exception as exc:  # noqa: BLE001
+                self._ownship_failed(item.time_s, exc)
         else:
             raise TypeError(f"not a core input: {item!r}")
 
+    def _ownship_failed(self, now_s: float, exc: Exception) -> None:
+        """The ownship filter raised: it restarts empty, so ownship is unknown (every advisory ends with reason
+        no_ownship, DAA unavailable) until the next fix starts it again."""
+        self.counters["fault.ownship"] += 1
+        self.ownship = OwnshipFilter(self.config.altitude, self.config.input)
+        if self._ownship_faulted:  # logged once until a fix goes in again
+            return
+        self._ownship_faulted = True
+        trace = ("ownship", type(exc).__name__) not in self._traced
+        self._traced.add(("ownship", type(exc).__name__))
+        log.error("t=%.2f the ownship filter failed (%s: %s): restarted, ownship unknown until the next fix", now_s,
+                  type(exc).__name__, exc, exc_info=exc if trace else None)
+
     # -- step ------------------------------------------------------------------------------------------------
     def step(self, now_s: float, inputs: Iterable[Input] = ()) -> StepResult:
+        changes, self._pending = self._pending, []
+        try:
+            return self._step(now_s, inputs, changes)
+        except Exception as exc:  # noqa: BLE001  (the step's boundary: the process goes on, the next step retries)
+            return self._step_failed(now_s, exc, changes)
+
+    def _step(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> StepResult:
         dirty: set[IntruderKey] = set()
         reports: list[tuple[IntruderReport, float, float]] = []
         for item in inputs:
             self._ingest(item, reports)
-        self._ingest_reports(reports, dirty)
-        changes: list[Advisory] = []
+        self._ingest_reports(now_s, reports, dirty, changes)
         period = 1.0 / self.config.advisory.assessment_hz
-        if now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S:
+        full = now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S
+        if full:
             self._last_full_assessment_s = now_s
             for key in self.tracker.prune(now_s):
                 self._ra_threats.pop(key, None)
@@ -115,10 +199,14 @@ class DaaCore:
                 gone = self.assessments.pop(key, None)
                 if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
                     changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
+            self._expire_faults(now_s)
             keys = sorted(self.tracker.tracks)
         else:
-            keys = sorted(dirty)
+            keys = sorted(k for k in dirty if k in self.tracker.tracks)
         assessed = self._assess(now_s, keys, changes, dirty) if keys else []
+        if full and self.step_fault is not None:  # a whole assessment went through again
+            log.warning("t=%.2f the DAA step works again after %d failed step(s)", now_s, self.step_fault.count)
+            self.step_fault = None
         return StepResult(now_s, changes, assessed)
 
     def _ownship_altitudes(self, own: OwnshipState, datum: AltitudeDatum | None) -> tuple[float, bool]:
@@ -131,7 +219,11 @@ class DaaCore:
 
     def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
                 updated: set[IntruderKey] = frozenset()) -> list[Advisory]:
-        own = self.ownship.state_at(now_s)
+        try:
+            own = self.ownship.state_at(now_s)
+        except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
+            self._ownship_failed(now_s, exc)
+            own = None
         self._last_ownship = own
         if own is None:
             self.level = None  # no ownship altitude: no sensitivity level either
@@ -144,92 +236,106 @@ class DaaCore:
         inhibits = self.inhibits.update(agl)
         ra_allowed = cfg.advisory.ra_enabled and not inhibits.ra
 
-        xs, ps = self.tracker.predict(keys, now_s)
-        tracks = [self.tracker.tracks[k] for k in keys]
-        own_alt = np.empty(len(keys))
-        mismatch = np.zeros(len(keys), bool)
-        has_alt = np.array([t.altitude_valid(now_s, cfg.tracking.max_coast_s) for t in tracks], bool)
-        for i, track in enumerate(tracks):
-            own_alt[i], mismatch[i] = self._ownship_altitudes(own, track.datum)
-        mismatch &= has_alt
+        # Stage boundaries (module docstring): an intruder that fails a stage is out of `keys` from there on
+        # (prediction, conflict) or in `failed` (the advisory logic, whose arrays keep every row).
+        full = len(keys) == len(self.tracker.tracks) and now_s == self._last_full_assessment_s
+        keys, xs, ps = self._predicted(now_s, keys, changes)
+        ev = self._evaluated(now_s, keys, xs, ps, own, level, ra_allowed, full, changes) if keys else None
+        if ev is None:
+            return []
+        keys, xs, tracks, has_alt, mismatch = ev.keys, ev.xs, ev.tracks, ev.has_alt, ev.mismatch
+        geometry, threat_eligible, pc_ta, pc_ra, pc = ev.geometry, ev.threat_eligible, ev.pc_ta, ev.pc_ra, ev.pc
+        within_age = ev.within_age
         self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
-        # Unknown intruder altitude: zeros keep the arithmetic finite; has_alt masks them in detect().
-        geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
-                                 np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
-        margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
-        threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
-        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter, threat_eligible)
-        pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin)
-        within_age = self.conflict.within_age(now_s, keys)
-        candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
-        candidates = self.gate.persist(keys, candidates, pc_ta, pc_ra, updated)
-        was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
-                           for k in keys], bool)
-        continued = np.zeros(len(keys), bool)  # RA threats kept although the RA tests no longer hold
-        if ra_allowed and level.ra_tau_s is not None:
-            continued = ra_continues(geometry, level, was_ra, cfg.advisory.hmd_filter) & has_alt & threat_eligible
-            continued &= candidates < int(AdvisoryLevel.RA)
-            candidates = np.where(continued, int(AdvisoryLevel.RA), candidates)
-        stale = np.array([now_s - t.last_report_s > cfg.tracking.max_coast_s for t in tracks], bool)
+        failed: set[IntruderKey] = set()
+        candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
 
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
                    AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
         mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
         states = []
         for i, key in enumerate(keys):
-            entry = self.assessments.get(key)
-            state = entry.state if entry else AdvisoryState()
-            candidate = AdvisoryLevel(NONE if stale[i] else int(candidates[i]))
-            state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
-            states.append((state, candidate, entry.advisory if entry else None))
-            if state.level is AdvisoryLevel.RA:
-                self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
-            else:
-                self._ra_threats.pop(key, None)
-        resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
-                                             level.alim_m or 0.0, inhibits, float(own.x[2]))
-        blocked = self.resolution.blocked if resolution is None else ""
+            states.append(None)
+            if key in failed:
+                continue
+            try:
+                entry = self.assessments.get(key)
+                state = entry.state if entry else AdvisoryState()
+                candidate = AdvisoryLevel(NONE if stale[i] else int(candidates[i]))
+                state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
+                states[i] = (state, candidate, entry.advisory if entry else None)
+                if state.level is AdvisoryLevel.RA:
+                    self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
+                else:
+                    self._ra_threats.pop(key, None)
+            except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory logic)
+                self._fail(now_s, key, "advisory", exc, changes, failed)
+        try:
+            resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
+                                                 level.alim_m or 0.0, inhibits, float(own.x[2]))
+            blocked = self.resolution.blocked if resolution is None else ""
+        except Exception as exc:  # noqa: BLE001  (one manoeuvre for every RA threat: they all fail with it)
+            for key in sorted(self._ra_threats):
+                self._fail(now_s, key, "resolution", exc, changes, failed)
+            resolution, blocked = None, ""
         out = []
         for i, key in enumerate(keys):
-            state, candidate, previous = states[i]
-            if blocked and state.level is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
-                state.level = AdvisoryLevel.TA
-            threat = self._ra_threats.get(key) if state.level is AdvisoryLevel.RA else None
-            dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
-            advisory = Advisory(
-                intruder=key, level=state.level, time_s=now_s,
-                reason=(blocked if blocked and key in self._ra_threats else
-                        resolution.reason if threat is not None and resolution.reason else
-                        "closing" if threat is not None and continued[i] else
-                        self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod)),
-                sensitivity_level=level.sl,
-                range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
-                t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
-                vmd_m=float(geometry.vmd_m[i]) if has_alt[i] else None,
-                range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
-                vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
-                altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
-                pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
-                pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
-                t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
-                pc_within_age_s=_finite_or_none(within_age[i]),
-                **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
-            )
-            self.assessments[key] = _Assessment(advisory, state)
+            if key in failed:
+                continue
+            try:
+                advisory = self._advisory(now_s, i, key, states[i], level, geometry, mod_tau, continued, stale,
+                                          has_alt, tracks, mismatch, pc_ta, pc_ra, pc, within_age, resolution, blocked)
+            except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory)
+                self._fail(now_s, key, "advisory", exc, changes, failed)
+                continue
+            previous = states[i][2]
+            self.assessments[key] = _Assessment(advisory, states[i][0])
+            if key in self.faults:  # it failed before; its new track was assessed: it is back
+                fault = self.faults.pop(key)
+                self.counters["fault.recovered"] += 1
+                log.warning("t=%.2f intruder %s assessed again after its %s fault", now_s, key, fault.stage)
             if previous is None and advisory.level is not AdvisoryLevel.NONE or \
                     previous is not None and previous.ra_key() != advisory.ra_key():
                 changes.append(advisory)
             out.append(advisory)
         return out
 
-    def _conflict_probabilities(self, now_s, keys, xs, ps, own, geometry, level, has_alt, margin):
+    def _advisory(self, now_s, i, key, state_entry, level, geometry, mod_tau, continued, stale, has_alt, tracks,
+                  mismatch, pc_ta, pc_ra, pc, within_age, resolution, blocked) -> Advisory:
+        """Intruder i's advisory from the step's arrays (the advisory logic's last part, per intruder)."""
+        state, candidate, previous = state_entry
+        if blocked and state.level is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
+            state.level = AdvisoryLevel.TA
+        threat = self._ra_threats.get(key) if state.level is AdvisoryLevel.RA else None
+        dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
+        return Advisory(
+            intruder=key, level=state.level, time_s=now_s,
+            reason=(blocked if blocked and key in self._ra_threats else
+                    resolution.reason if threat is not None and resolution.reason else
+                    "closing" if threat is not None and continued[i] else
+                    self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod)),
+            sensitivity_level=level.sl,
+            range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
+            t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
+            vmd_m=float(geometry.vmd_m[i]) if has_alt[i] else None,
+            range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
+            vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
+            altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
+            pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
+            pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
+            t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
+            pc_within_age_s=_finite_or_none(within_age[i]),
+            **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
+        )
+
+    def _conflict_probabilities(self, now_s, keys, xs, ps, own, geometry, level, has_alt, margin, full):
         """Pc of the TA and RA volumes at the predicted CPA (advisory/gating.py), for gating; and the conflict
         stage's probabilities of the [conflict] zone (conflict/assess.py: now, max over the lookahead and
         its time, within the lookahead) for the outputs, under Hwang's scheduling conditions."""
         rel_x = xs - own.x
         rel_x[:, 2] = geometry.sz_m  # the datum-matched relative altitude
         rel_p = ps + own.p
-        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin, own.x[3:5])
+        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin, own.x[3:5], full)
         # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
@@ -241,10 +347,11 @@ class DaaCore:
         pc_ra = pc[1] * has_alt if level.ra_tau_s is not None else np.zeros(len(keys))
         return pc[0], pc_ra, zone
 
-    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin, own_velocity) -> dict:
+    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin, own_velocity, full) -> dict:
         """The conflict stage runs on the full-assessment ticks only (its scheduler then decides which pairs
-        are due); an assessment between ticks, for a fresh report, reuses the intruder's last values."""
-        if len(keys) == len(self.tracker.tracks) and now_s == self._last_full_assessment_s:
+        are due); an assessment between ticks, for a fresh report, reuses the intruder's last values. full: this
+        is a full assessment (decided before any intruder failed, so that one retried alone runs the stage too)."""
+        if full:
             return self.conflict.assess(now_s, keys, rel_x, rel_p, has_alt, margin, own_vel=own_velocity)
         return self.conflict.last(keys)
 
@@ -273,7 +380,206 @@ class DaaCore:
             out.append(entry.advisory)
         return out
 
+    # -- stage boundaries ------------------------------------------------------------------------------------
+    def _contained(self, stage: str, now_s: float, keys: list[IntruderKey], changes: list[Advisory], run,
+                   combine=None):
+        """run(idx) for the rows idx (an int array) of keys, vectorised. When it raises, each intruder is run
+        alone; those that raise alone fail. Returns (rows that went through, result for those rows): the
+        results of the lone runs joined by combine, or (without combine) one more vectorised run over them."""
+        rows = np.arange(len(keys))
+        try:
+            return rows, run(rows)
+        except Exception as exc:  # noqa: BLE001
+            self._batch_failed(stage, exc)
+        ok, parts = [], []
+        for i in rows:
+            try:
+                parts.append(run(np.array([i])))
+            except Exception as exc:  # noqa: BLE001
+                self._fail(now_s, keys[i], stage, exc, changes)
+            else:
+                ok.append(i)
+        ok = np.array(ok, int)
+        if not len(ok):
+            return ok, None
+        return ok, (combine(parts) if combine is not None else run(ok))
+
+    def _predicted(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory]):
+        """The prediction stage: keys that went through, states (N, 6), covariances (N, 6, 6), all finite."""
+        def run(rows):
+            return self.tracker.predict([keys[i] for i in rows], now_s)
+
+        rows, res = self._contained("predict", now_s, keys, changes, run,
+                                    combine=lambda parts: tuple(np.concatenate(a) for a in zip(*parts)))
+        if res is None:
+            return [], np.empty((0, 6)), np.empty((0, 6, 6))
+        xs, ps = res
+        finite = np.isfinite(xs).all(axis=1) & np.isfinite(ps).all(axis=(1, 2))
+        if not finite.all():
+            for i in np.flatnonzero(~finite):
+                self._fail(now_s, keys[rows[i]], "predict", FloatingPointError("predicted state is not finite"),
+                           changes)
+            rows, xs, ps = rows[finite], xs[finite], ps[finite]
+        return [keys[i] for i in rows], xs, ps
+
+    def _evaluated(self, now_s, keys, xs, ps, own, level, ra_allowed, full, changes) -> SimpleNamespace | None:
+        """The conflict stage (geometry, detection, probabilities, the criterion) for the intruders whose
+        numbers go through it finite; None when none does."""
+        def run(rows):
+            return self._evaluate(now_s, [keys[i] for i in rows], xs[rows], ps[rows], own, level, ra_allowed, full)
+
+        rows, ev = self._contained("conflict", now_s, keys, changes, run)
+        if ev is not None and not ev.finite.all():
+            for i in np.flatnonzero(~ev.finite):
+                self._fail(now_s, keys[rows[i]], "conflict", FloatingPointError("conflict geometry is not finite"),
+                           changes)
+            rows = rows[ev.finite]
+            ev = run(rows) if len(rows) else None  # raises again only if the rest fails together: the step fails
+        return ev
+
+    def _evaluate(self, now_s, keys, xs, ps, own, level, ra_allowed, full) -> SimpleNamespace:
+        cfg = self.config
+        tracks = [self.tracker.tracks[k] for k in keys]
+        own_alt = np.empty(len(keys))
+        mismatch = np.zeros(len(keys), bool)
+        has_alt = np.array([t.altitude_valid(now_s, cfg.tracking.max_coast_s) for t in tracks], bool)
+        for i, track in enumerate(tracks):
+            own_alt[i], mismatch[i] = self._ownship_altitudes(own, track.datum)
+        mismatch &= has_alt
+        # Unknown intruder altitude: zeros keep the arithmetic finite; has_alt masks them in detect().
+        geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
+                                 np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
+        margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
+        threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
+        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter, threat_eligible)
+        pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
+                                                        full)
+        within_age = self.conflict.within_age(now_s, keys)
+        candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
+        g = geometry  # taus may be infinite (not closing), never NaN; everything else is finite
+        finite = np.isfinite(np.stack([g.range_m, g.s_dot_v, g.closure_rate_mps, g.t_cpa_s, g.hmd_m, g.sz_m, g.vz_mps,
+                                       g.vmd_m, pc_ta, pc_ra, pc["pc_now"], pc["pc_max"], pc["t_pc_max_s"]])).all(axis=0)
+        finite &= ~np.isnan(np.stack([g.range_tau_s, g.vertical_tau_s])).any(axis=0)
+        return SimpleNamespace(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, mismatch=mismatch, geometry=geometry,
+                               threat_eligible=threat_eligible, candidates=candidates, pc_ta=pc_ta, pc_ra=pc_ra, pc=pc,
+                               within_age=within_age, finite=finite)
+
+    def _decided(self, now_s, keys, ev, level, ra_allowed, updated, failed, changes):
+        """The advisory logic's vectorised part (persistence, RA continuation, staleness) over every row; a row
+        whose intruder fails here is in `failed` and its values are NONE."""
+        cfg = self.config
+        candidates, geometry, has_alt = ev.candidates, ev.geometry, ev.has_alt
+
+        def run(rows):
+            ks = [keys[i] for i in rows]
+            cands = self.gate.persist(ks, candidates[rows], ev.pc_ta[rows], ev.pc_ra[rows], updated)
+            was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
+                               for k in ks], bool)
+            continued = np.zeros(len(ks), bool)  # RA threats kept although the RA tests no longer hold
+            if ra_allowed and level.ra_tau_s is not None:
+                g = geometry if len(rows) == len(keys) else _rows(geometry, rows)
+                continued = ra_continues(g, level, was_ra, cfg.advisory.hmd_filter) & has_alt[rows] & \
+                    ev.threat_eligible[rows]
+                continued &= cands < int(AdvisoryLevel.RA)
+                cands = np.where(continued, int(AdvisoryLevel.RA), cands)
+            stale = np.array([now_s - ev.tracks[i].last_report_s > cfg.tracking.max_coast_s for i in rows], bool)
+            return cands, continued, stale
+
+        # persistence keeps a history per intruder: after a failed vectorised call the lone runs are the result
+        # (those intruders before the one that raised may have had this report counted twice, this once)
+        rows, res = self._contained("advisory", now_s, keys, changes, run,
+                                    combine=lambda parts: tuple(np.concatenate(a) for a in zip(*parts)))
+        n = len(keys)
+        cands, continued, stale = np.zeros(n, int), np.zeros(n, bool), np.zeros(n, bool)
+        if res is not None:
+            cands[rows], continued[rows], stale[rows] = res
+        failed.update(keys[i] for i in set(range(n)) - set(rows.tolist()))
+        return cands, continued, stale
+
+    def _batch_failed(self, stage: str, exc: Exception) -> None:
+        """A vectorised stage call raised: it is retried per intruder (counted; traceback logged once)."""
+        self.counters[f"fault.{stage}.batch"] += 1
+        if (stage + ".batch", type(exc).__name__) not in self._traced:  # then counted only
+            self._traced.add((stage + ".batch", type(exc).__name__))
+            log.warning("%s stage raised for a batch of intruders (%s: %s): retried per intruder", stage,
+                        type(exc).__name__, exc, exc_info=exc)
+
+    def _fail(self, now_s: float, key: IntruderKey, stage: str, exc: Exception, changes: list[Advisory],
+              failed: set | None = None) -> None:
+        """Intruder key failed in stage: counted, logged once (with the traceback the first time this stage
+        raised this exception type), track dropped, advisory to the failed state (announced once per fault)."""
+        self.counters[f"fault.{stage}"] += 1
+        if failed is not None:
+            failed.add(key)
+        fault = self.faults.get(key)
+        error = f"{type(exc).__name__}: {exc}"
+        if fault is None:
+            entry = self.assessments.get(key)
+            advisory = (_with_level(entry.advisory, now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
+                        else _blank_advisory(key, now_s, FAULT, self.level.sl if self.level else 0))
+            changes.append(advisory)
+            self.faults[key] = Fault(stage, now_s, now_s, error)
+            trace = (stage, type(exc).__name__) not in self._traced
+            self._traced.add((stage, type(exc).__name__))
+            log.error("t=%.2f intruder %s failed in the %s stage (%s): no advisory for it; the others go on",
+                      now_s, key, stage, error, exc_info=exc if trace else None)
+        else:
+            fault.stage, fault.last_s, fault.error, fault.count = stage, now_s, error, fault.count + 1
+        self._drop_track(key)
+
+    def _drop_track(self, key: IntruderKey) -> None:
+        """Forget an intruder in every stage: its next report starts a new track."""
+        tracker = self.tracker
+        gone = [tracker.tracks.pop(key, None)]
+        competitors = getattr(tracker, "competitors", None)  # the IMM tracker's competing tracks
+        if competitors is not None:
+            gone.append(competitors.pop(key, None))
+        release = getattr(tracker, "_release", None)  # the IMM tracker's filter-bank slots
+        if release is not None:
+            for track in gone:
+                if track is not None:
+                    release(track)
+        self._ra_threats.pop(key, None)
+        self.gate.forget(key)
+        self.conflict.forget(key)
+        self.assessments.pop(key, None)
+
+    def _expire_faults(self, now_s: float) -> None:
+        """A failed intruder not heard of again (no track) for tracking.delete_after_s is gone."""
+        horizon = self.config.tracking.delete_after_s
+        for key in [k for k, f in self.faults.items() if k not in self.tracker.tracks and now_s - f.last_s > horizon]:
+            del self.faults[key]
+
+    def _step_failed(self, now_s: float, exc: Exception, changes: list[Advisory]) -> StepResult:
+        """Outside the per-intruder boundaries: every active advisory ends with reason fault; DAA unavailable
+        until a whole assessment goes through again."""
+        self.counters["fault.step"] += 1
+        if self.step_fault is None:
+            self.step_fault = Fault("step", now_s, now_s, f"{type(exc).__name__}: {exc}")
+            trace = ("step", type(exc).__name__) not in self._traced
+            self._traced.add(("step", type(exc).__name__))
+            log.error("t=%.2f the DAA step failed (%s: %s): every advisory ends (reason fault)", now_s,
+                      type(exc).__name__, exc, exc_info=exc if trace else None)
+        else:
+            self.step_fault.last_s, self.step_fault.count = now_s, self.step_fault.count + 1
+        try:
+            self._drop_all(now_s, sorted(self.assessments), FAULT, changes)
+        except Exception:  # noqa: BLE001
+            log.exception("ending the advisories after a failed step failed too")
+        return StepResult(now_s, changes, [])
+
     # -- views for the shell -------------------------------------------------------------------------------
+    def predict_tracks(self, keys: list[IntruderKey], now_s: float):
+        """Contained prediction for the shell (track publication): (keys that went through, xs, ps). An intruder
+        that fails here fails as in step(); its failed-state advisory comes with the next step's changes."""
+        return self._predicted(now_s, keys, self._pending)
+
+    def end_all(self, now_s: float, reason: str) -> list[Advisory]:
+        """End every active advisory now with reason (e.g. "shutdown"); the ended ones, for announcing."""
+        changes: list[Advisory] = []
+        self._drop_all(now_s, sorted(self.assessments), reason, changes)
+        return changes
+
     def advisories(self) -> dict[IntruderKey, Advisory]:
         return {k: a.advisory for k, a in self.assessments.items()}
 
@@ -288,6 +594,41 @@ def _ra_fields(r, threat) -> dict:
     return dict(ra_sense=r.sense_against(threat).value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
                 ra_separation_m=r.separation_m)
+
+
+def _rows(geometry, rows):
+    """The rows of a PairGeometry."""
+    from dataclasses import fields, replace
+
+    return replace(geometry, **{f.name: getattr(geometry, f.name)[rows] for f in fields(geometry)
+                                if getattr(geometry, f.name) is not None})
+
+
+def _finite_input(item) -> bool:
+    """Every number of a core input is finite (the decoder guarantees it for MAVLink; other callers may not)."""
+    isfinite = math.isfinite
+    if not isfinite(item.time_s):
+        return False
+    if isinstance(item, IntruderReport):
+        return isfinite(item.lat_deg) and isfinite(item.lon_deg) and \
+            (item.altitude_m is None or isfinite(item.altitude_m)) and \
+            (item.vertical_rate_mps is None or isfinite(item.vertical_rate_mps)) and \
+            (item.velocity_en_mps is None or all(isfinite(v) for v in item.velocity_en_mps))
+    if isinstance(item, OwnshipFix):
+        return isfinite(item.lat_deg) and isfinite(item.lon_deg) and isfinite(item.alt_msl_m) and \
+            isfinite(item.height_above_home_m) and all(isfinite(v) for v in item.velocity_ned_mps)
+    if isinstance(item, OwnshipPressure):
+        return isfinite(item.pressure_altitude_m)
+    return True  # not a core input: _ingest says so
+
+
+def _blank_advisory(key: IntruderKey, now_s: float, reason: str, sensitivity_level: int) -> Advisory:
+    """The advisory of an intruder never assessed: level NONE, geometry unknown (NaN; null on zenoh)."""
+    nan = math.nan
+    return Advisory(intruder=key, level=AdvisoryLevel.NONE, time_s=now_s, reason=reason,
+                    sensitivity_level=sensitivity_level, range_m=nan, closure_rate_mps=nan, t_cpa_s=nan, hmd_m=nan,
+                    vmd_m=None, range_tau_s=math.inf, mod_tau_s=math.inf, vertical_tau_s=math.inf,
+                    altitude_datum=None, datum_mismatch=False)
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -26,6 +26,12 @@ SEVERITY = {
     AdvisoryLevel.RA: mavlink2.MAV_SEVERITY_CRITICAL,
 }
 STATUSTEXT_LEN = 50
+# An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as
+# "DAA UNAVAILABLE", at warning severity, never as "CLEAR OF CONFLICT".
+UNAVAILABLE_REASONS = ("no_ownship", "fault", "shutdown")
+# Why DAA is unavailable (DaaNode.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
+UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude": "no pressure altitude",
+                     "fault": "fault", "shutdown": "shutdown"}
 
 
 def collision(advisory: Advisory):
@@ -44,6 +50,8 @@ def collision(advisory: Advisory):
 def advisory_text(advisory: Advisory, callsign: str | None = None) -> str:
     """One line for a pilot's ground station, at most 50 characters: "RA CLIMB 1500 FPM ABC123"."""
     who = callsign or str(advisory.intruder)
+    if advisory.level is AdvisoryLevel.NONE and advisory.reason in UNAVAILABLE_REASONS:
+        return f"DAA UNAVAILABLE {who} ({advisory.reason})"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.NONE:
         return f"CLEAR OF CONFLICT {who} ({advisory.reason})"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.RA and advisory.ra_words:
@@ -86,12 +94,27 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
         callsign=(callsign or "").encode("ascii", "replace")[:9])
 
 
+def advisory_severity(advisory: Advisory) -> int:
+    """STATUSTEXT severity of an advisory change: by level; an end for lack of DAA is a warning."""
+    if advisory.level is AdvisoryLevel.NONE and advisory.reason in UNAVAILABLE_REASONS:
+        return mavlink2.MAV_SEVERITY_WARNING
+    return SEVERITY[advisory.level]
+
+
+def availability_text(reason: str | None, detail: str = "") -> str:
+    """"DAA UNAVAILABLE <why>[ <detail>]" (reason from DaaNode.unavailable_reason), or "DAA AVAILABLE"."""
+    if reason is None:
+        return "DAA AVAILABLE"
+    return " ".join(w for w in ("DAA UNAVAILABLE", UNAVAILABLE_WORDS.get(reason, reason), detail) if w)[:STATUSTEXT_LEN]
+
+
 def statustext(text: str, severity: int):
     return mavlink2.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:STATUSTEXT_LEN])
 
 
-def heartbeat():
+def heartbeat(system_status: int = mavlink2.MAV_STATE_ACTIVE):
+    """Our HEARTBEAT. system_status: MAV_STATE_ACTIVE while DAA works, MAV_STATE_CRITICAL while it is
+    unavailable, MAV_STATE_POWEROFF in the last one before the process exits."""
     return mavlink2.MAVLink_heartbeat_message(
-        mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0,
-        mavlink2.MAV_STATE_ACTIVE, 3,
+        mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, system_status, 3,
     )

@@ -59,10 +59,11 @@ TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s"
 
 def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
                   lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None,
-                  modes: dict | None = None) -> dict:
+                  modes: dict | None = None, spoof_suspected: bool = False) -> dict:
     """modes: the tracker's mode_infos entry for this track (IMM filters; None for the CV filter): filter
     name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s, positive right),
-    vertical mode, VB noise estimate (docs/tracking.md)."""
+    vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink sender also
+    reported this intruder (its reports are dropped; docs/mavlink.md, "Trusted sources")."""
     ve, vn, vu = (float(v) for v in x[3:6])
     return {
         "schema": SCHEMA_VERSION,
@@ -74,6 +75,7 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "squawk": track.squawk,
         "emitter_type": track.emitter_type,
         "simulated": track.simulated,
+        "spoof_suspected": spoof_suspected,
         "model": "cv-kalman",  # an IMM filter's modes overwrite this with the filter's name
         "time_s": now_s,
         "last_report_s": track.last_report_s,
