@@ -177,7 +177,7 @@ def test_pymavlink_parse_buffer_loses_a_frame_that_the_scanner_recovers():
     """Why FrameScanner exists: a garbage 0xFD followed by a length makes pymavlink swallow that many bytes,
     and the valid HEARTBEAT inside them is gone."""
     hb, pressure = pack(heartbeat(7)), pack(m2.MAVLink_scaled_pressure_message(1000, 1013.25, 0.0, 2000))
-    junk = bytes([0xFD, 40, 0, 0, 0, 1, 1, 0, 0, 0])  # a v2 header (msgid 0) claiming a 40-byte payload
+    junk = bytes([0xFD, 9, 0, 0, 0, 1, 1, 0, 0, 0])  # a v2 HEARTBEAT header with its 9-byte payload length
     stream = junk + hb + pressure
 
     parser = m2.MAVLink(None)
@@ -271,7 +271,7 @@ def test_garbage_header_no_frame_can_have_does_not_hold_back_the_stream(junk):
 
 
 def test_plausible_garbage_header_waits_for_its_length_then_lets_go():
-    junk = bytes([0xFD, 0x20, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00])  # a HEARTBEAT claiming 32 bytes
+    junk = bytes([0xFD, 0x20, 0x00, 0x00, 0x00, 0x01, 0x01, 0xF6, 0x00, 0x00])  # ADSB_VEHICLE (38 at most): 32 bytes
     hb, more = pack(heartbeat(4)), pack(heartbeat(5))
     s, counters = scanner()
     assert s.feed(junk + hb) == []  # it might be a frame still arriving

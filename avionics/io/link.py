@@ -2,25 +2,79 @@
 
 pymavlink supplies the transports (udpin/udpout/tcp/tcpin/serial/.tlog); frames are extracted by our
 FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbage never costs valid frames.
+With a MAVLink 2 signing key, every frame we send is signed and every frame received is checked
+(avionics/io/signing.py) before it is used; a replayed log's timestamps are checked before they become time.
 """
 
 from __future__ import annotations
 
+import math
+import os
 import select
 import socket
 import struct
 import time
-from collections import Counter
+from collections import Counter, deque
 from pathlib import Path
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
 from pymavlink import mavutil
 from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
+from avionics.config import ConfigError
 from avionics.io.framing import FrameScanner
+from avionics.io.signing import Signing, SigningKeyError, load_key
 
 READ_CHUNK = 65536
 MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
+# Overload on UDP (receive()): the socket is drained into a backlog (cheap), then datagrams are framed for at
+# most STEP_BUDGET_S per call, small ones (real MAVLink traffic: a frame is at most 280 bytes) before large ones,
+# and the rest waits for the next call, which does not wait for the socket. Beyond MAX_BACKLOG_BYTES the oldest
+# large datagrams (then small ones) are dropped and counted: link.dropped_datagrams, link.dropped_bytes.
+STEP_BUDGET_S = 0.010
+SMALL_DATAGRAM = 2048
+MAX_BACKLOG_BYTES = 1 << 20
+RECEIVE_BUFFER_BYTES = 4 << 20  # SO_RCVBUF asked for (the kernel caps it at net.core.rmem_max)
+SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40)  # Linux: the socket's drop count with each datagram
+_DROPS_CMSG_SPACE = socket.CMSG_SPACE(4) if hasattr(socket, "CMSG_SPACE") else 0
+
+# A .tlog's 8-byte timestamps become the replay's clock; a corrupted one must not (LogClock).
+LOG_STAMP_MAX_S = 4102444800.0  # 2100-01-01 (microseconds since 1970; synthetic logs may start near 0)
+LOG_STAMP_STEP_S = 5.0  # a jump further than this ahead waits for the next frame to confirm it
+
+
+def _enable_drop_counter(sock: socket.socket) -> bool:
+    """Ask for the kernel's receive-queue drop count (SO_RXQ_OVFL) and a larger receive buffer."""
+    try:
+        if sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF) < RECEIVE_BUFFER_BYTES:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER_BYTES)
+    except OSError:
+        pass
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+        return _DROPS_CMSG_SPACE > 0 and hasattr(sock, "recvmsg")
+    except OSError:
+        return False
+
+
+def udp_kernel_drops(sock: socket.socket) -> int | None:
+    """Datagrams the kernel dropped for this socket (receive buffer full), from /proc/net/udp[6]; None when
+    not available. The same count SO_RXQ_OVFL reports."""
+    try:
+        inode = str(os.fstat(sock.fileno()).st_ino)
+    except OSError:
+        return None
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        try:
+            with open(table) as f:
+                next(f)
+                for line in f:
+                    fields = line.split()
+                    if len(fields) >= 13 and fields[9] == inode:
+                        return int(fields[12])
+        except (OSError, StopIteration, ValueError):
+            continue
+    return None
 
 
 class LinkError(RuntimeError):
@@ -43,13 +97,70 @@ def _check_udp_port_free(connection: str) -> None:
             raise LinkError(f"cannot open MAVLink connection {connection!r}: UDP port {port} is in use ({exc})") from exc
 
 
+class LogClock:
+    """Checks a log's timestamps before they become the replay's time; rejected frames count tlog.bad_timestamp.
+
+    After 2100: rejected. At most LOG_STAMP_STEP_S from the last one: accepted, never
+    going back (a small step back is held at the last time). Further ahead (a gap in the log, or corruption),
+    and the first frame of the log: held until the next frame confirms it (within LOG_STAMP_STEP_S of it);
+    unconfirmed, it is rejected. Further back: rejected. One corrupted stamp therefore costs one frame, not the
+    rest of the log nor a time step of years for the tracker."""
+
+    def __init__(self, counters: Counter):
+        self.counters = counters
+        self.last_s: float | None = None
+        self.held = None  # a frame whose timestamp waits for confirmation
+
+    def _reject(self) -> None:
+        self.counters["tlog.bad_timestamp"] += 1
+
+    def feed(self, msg) -> list:
+        """The frames msg releases, with msg._timestamp as the replay should use it."""
+        t = getattr(msg, "_timestamp", None)
+        if not isinstance(t, (int, float)) or not math.isfinite(t) or not 0.0 <= t <= LOG_STAMP_MAX_S:
+            self._reject()
+            return []
+        out = []
+        if self.held is not None:
+            held, self.held = self.held, None
+            if abs(t - held._timestamp) <= LOG_STAMP_STEP_S:
+                self.last_s = held._timestamp  # confirmed: the log really goes on there
+                out.append(held)
+            else:
+                self._reject()
+        if self.last_s is None or t - self.last_s > LOG_STAMP_STEP_S:
+            self.held = msg
+            return out
+        if t < self.last_s - LOG_STAMP_STEP_S:
+            self._reject()
+            return out
+        msg._timestamp = self.last_s = max(t, self.last_s)
+        out.append(msg)
+        return out
+
+    def end(self) -> None:
+        """At the end of the log a held frame was never confirmed."""
+        if self.held is not None:
+            self._reject()
+            self.held = None
+
+
 class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
-                 baud: int = 57600, tlog_out: str | Path | None = None):
+                 baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
+                 signing_required: bool = True):
         self.connection = connection
         self.counters = counters
         self.is_log = connection.lower().endswith((".tlog", ".raw", ".mavlink")) and \
             not connection.startswith(("udp", "tcp"))
+        self.signing: Signing | None = None
+        if signing_key_file:  # a bad key stops us before any socket is opened
+            try:
+                key = load_key(signing_key_file)
+            except SigningKeyError as exc:
+                raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
+            # A log has no clock of its own: its streams are judged against each other, not against today.
+            self.signing = Signing(key, counters, signing_required, clock=None if self.is_log else time.time)
         _check_udp_port_free(connection)
         try:
             self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
@@ -61,18 +172,32 @@ class MavlinkLink:
             self.conn.retries = 0  # reconnects after EOF: one attempt, not seconds of sleeping inside receive()
         self.scanner = FrameScanner(counters, source_system, source_component)
         self.mav = mavlink2.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
+        if self.signing is not None:
+            self.signing.attach(self.mav)  # what we send is signed
+        self._log_clock = LogClock(counters) if self.is_log else None
+        self._log_ready: deque = deque()
+        self._log_done = False
         self._tlog = open(tlog_out, "ab") if tlog_out else None
+        # Overload (UDP, see STEP_BUDGET_S): datagrams read and not framed yet; the kernel's drop counter.
+        self.step_budget_s = STEP_BUDGET_S
+        self.max_backlog_bytes = MAX_BACKLOG_BYTES
+        self._small: deque = deque()
+        self._large: deque = deque()
+        self._backlog_bytes = 0
+        self._drops_cmsg = self.datagrams and _enable_drop_counter(self.conn.port)
+        self._next_drops_poll = 0.0
 
     def receive(self, timeout_s: float) -> list:
         """Messages that arrived within timeout_s (may be empty). Log replay returns (msg) with
         msg._timestamp set from the log."""
         if self.is_log:
-            msg = self.conn.recv_msg()
-            return [msg] if msg is not None else []
+            return self._receive_log()
         fd = self._wait_fd()
         if fd is None:
             time.sleep(timeout_s)
             return []
+        if self.datagrams:
+            return self._receive_datagrams(fd, timeout_s)
         readable, _, _ = select.select([fd], [], [], max(timeout_s, 0.0))
         if not readable:
             return []
@@ -88,11 +213,109 @@ class MavlinkLink:
                 break
             msgs = self.scanner.feed(bytes(data) if isinstance(data, (bytes, bytearray)) else data.encode(),
                                      end_of_datagram=self.datagrams)
-            self._record(msgs)
-            out.extend(msgs)
+            self._record(msgs)  # everything received, as received: a replay checks signatures again
+            out.extend(self._authentic(msgs))
             if not self.datagrams:
                 break
         return out
+
+    # -- UDP: a bounded step whatever arrives (see STEP_BUDGET_S) ------------------------------------------------
+    def _receive_datagrams(self, fd, timeout_s: float) -> list:
+        """Drain the socket into the backlog, then frame it within the step's time budget."""
+        backlog = bool(self._small or self._large)
+        readable, _, _ = select.select([fd], [], [], 0.0 if backlog else max(timeout_s, 0.0))
+        if readable:
+            self._read_datagrams()
+        return self._frame_backlog()
+
+    def _read_datagrams(self) -> None:
+        conn = self.conn
+        sock = conn.port
+        for _ in range(MAX_DATAGRAMS_PER_RECEIVE):
+            try:
+                if self._drops_cmsg:
+                    data, ancillary, _, address = sock.recvmsg(READ_CHUNK, _DROPS_CMSG_SPACE)
+                else:
+                    data, address = sock.recvfrom(READ_CHUNK)
+                    ancillary = ()
+            except (BlockingIOError, InterruptedError, ConnectionRefusedError):
+                break  # nothing more queued (or an ICMP error from an earlier send, as pymavlink ignores)
+            except OSError:
+                self.counters["link.receive_error"] += 1
+                break
+            for level, kind, value in ancillary:
+                if level == socket.SOL_SOCKET and kind == SO_RXQ_OVFL and len(value) >= 4:
+                    self._note_kernel_drops(struct.unpack("=I", value[:4])[0])
+            if conn.udp_server:  # what pymavlink's recv() does: replies go to every sender
+                conn.clients.add(address)
+                conn.clients_last_alive[address] = time.time()
+            elif conn.broadcast:
+                conn.last_address = address
+            self.counters["link.datagrams"] += 1
+            (self._small if len(data) <= SMALL_DATAGRAM else self._large).append(data)
+            self._backlog_bytes += len(data)
+            while self._backlog_bytes > self.max_backlog_bytes:  # oldest large ones first
+                dropped = (self._large or self._small).popleft()
+                self._backlog_bytes -= len(dropped)
+                self.counters["link.dropped_datagrams"] += 1
+                self.counters["link.dropped_bytes"] += len(dropped)
+        if not self._drops_cmsg and time.monotonic() >= self._next_drops_poll:
+            self._next_drops_poll = time.monotonic() + 1.0
+            self.poll_kernel_drops()
+
+    def _frame_backlog(self) -> list:
+        """Frame small datagrams, then large ones, until the budget is spent (at least one per call)."""
+        out, framed = [], 0
+        deadline = time.perf_counter() + self.step_budget_s
+        for queue in (self._small, self._large):
+            while queue and (not framed or time.perf_counter() < deadline):
+                data = queue.popleft()
+                self._backlog_bytes -= len(data)
+                msgs = self.scanner.feed(data, end_of_datagram=True)
+                self._record(msgs)  # everything received, as received: a replay checks signatures again
+                out.extend(self._authentic(msgs))
+                framed += 1
+        if self._small or self._large:
+            self.counters["link.deferred"] += 1  # a step that left datagrams for the next one
+        return out
+
+    def _note_kernel_drops(self, total: int) -> None:
+        """The kernel's count is cumulative for the socket; ours follows it (and only grows)."""
+        if total > self.counters["link.kernel_drops"]:
+            self.counters["link.kernel_drops"] = total
+
+    def poll_kernel_drops(self) -> None:
+        """Read the kernel's drop count now (/proc): SO_RXQ_OVFL only tells it with the next datagram."""
+        if self.datagrams:
+            total = udp_kernel_drops(self.conn.port)
+            if total is not None:
+                self._note_kernel_drops(total)
+
+    @property
+    def backlog(self) -> tuple[int, int]:
+        """(datagrams, bytes) read from the socket and not framed yet."""
+        return len(self._small) + len(self._large), self._backlog_bytes
+
+    def _authentic(self, msgs) -> list:
+        """With signing: only the frames whose signature (or, when allowed, absence of one) passes."""
+        if self.signing is None:
+            return msgs
+        return [m for m in msgs if self.signing.accept(m)]
+
+    def _receive_log(self) -> list:
+        """The next message of the log whose timestamp and signature pass ([] only at the end of the log:
+        the runner stops there)."""
+        while not self._log_ready:
+            msg = self.conn.recv_msg()
+            if msg is None:
+                self._log_clock.end()
+                self._log_done = True
+                return []
+            if msg.get_type() == "BAD_DATA":  # pymavlink's parser: bytes that are no frame (no usable time)
+                self.counters["tlog.bad_data"] += 1
+                continue
+            self._log_ready.extend(self._authentic(self._log_clock.feed(msg)))
+        return [self._log_ready.popleft()]
 
     def _wait_fd(self):
         """pymavlink's tcp client reconnects on EOF without updating conn.fd, and leaves no socket when that
@@ -139,12 +362,15 @@ class MavlinkLink:
     def send(self, msg) -> None:
         if self.is_log:
             return  # a log being replayed is read-only: outputs go to the tlog record and zenoh only
+        if self.signing is not None:
+            self.signing.before_send(self.mav)
         buf = msg.pack(self.mav)
         self.conn.write(buf)
         if self._tlog is not None:
             self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
 
     def close(self) -> None:
+        self.poll_kernel_drops()  # drops since the last datagram received are counted too
         if self._tlog is not None:
             self._tlog.close()
         if not (type(self.conn) is mavutil.mavtcp and self.conn.port is None):  # pymavlink would raise
@@ -153,4 +379,4 @@ class MavlinkLink:
     @property
     def at_end(self) -> bool:
         """A log replay has no more messages."""
-        return self.is_log and getattr(self.conn, "_eof", False)
+        return self.is_log and self._log_done and not self._log_ready

@@ -10,7 +10,10 @@ Key expressions (vehicle = config vehicle.id, intruder = "<source>-<ICAO hex>", 
 
 `ZenohBus.publish()` never blocks and never talks to zenoh: it files the sample (a few microseconds) and a
 publisher thread puts it. Advisories wait in an unbounded FIFO that is always drained first (an advisory
-change is never dropped); every other sample waits in one bounded FIFO that drops its oldest entry when full.
+change is never dropped); status and ownship samples wait in their own small FIFO, drained right after the
+advisories and before any track, so no number of tracks can starve them (dropped oldest-first only if the
+publisher cannot put even those, counted `zenoh.dropped_status`); track samples wait in one bounded FIFO that
+drops its oldest entry when full (`zenoh.dropped_updates`).
 A router or peer that goes away costs nothing on the loop: zenoh keeps retrying the connect endpoints, the
 token and the queryable come back with the link, and a monitor that lost samples meanwhile asks the snapshot.
 Peer mode on loopback with multicast and gossip scouting off unless configured otherwise; TLS from config.
@@ -42,6 +45,8 @@ SLICE_S = 0.0005
 PROBE_S = 0.0002
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed")
+VITAL_KINDS = ("status", "ownship")  # their own queue, ahead of the tracks
+VITAL_QUEUE = 32  # samples (16 status periods of status + ownship)
 
 
 class ZenohBusError(RuntimeError):
@@ -127,7 +132,8 @@ class ZenohBus:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._cond = threading.Condition(threading.Lock())
         self._advisories: deque = deque()  # never dropped
-        self._updates: deque = deque(maxlen=cfg.queue_size)  # tracks, ownship, status: oldest dropped
+        self._vital: deque = deque(maxlen=VITAL_QUEUE)  # status, ownship: drained before any track
+        self._updates: deque = deque(maxlen=cfg.queue_size)  # tracks: oldest dropped
         self._forget: set[str] = set()  # publishers to undeclare (tracks gone from the picture)
         self._busy = False  # the publisher thread holds samples it has not put yet
         self._closing = False
@@ -160,6 +166,17 @@ class ZenohBus:
             if kind == "advisories":
                 self._advisories.append((suffix, payload))
                 self._note_advisory(name, payload)
+            elif kind in VITAL_KINDS:
+                if len(self._vital) == self._vital.maxlen:
+                    self.stats["dropped_status"] += 1
+                    if self.counters is not None:
+                        self.counters["zenoh.dropped_status"] += 1
+                self._vital.append((suffix, payload))
+                if kind == "ownship":
+                    self._ownship = payload
+                else:
+                    self._status = payload
+                    self._prune(payload.get("time_s"))
             else:
                 if len(self._updates) == self._updates.maxlen:
                     self.stats["dropped_updates"] += 1
@@ -168,11 +185,6 @@ class ZenohBus:
                 self._updates.append((suffix, payload))
                 if kind == "tracks":
                     self._tracks[name] = payload
-                elif kind == "ownship":
-                    self._ownship = payload
-                elif kind == "status":
-                    self._status = payload
-                    self._prune(payload.get("time_s"))
             t = payload.get("time_s")
             if isinstance(t, (int, float)):
                 self._last_time_s = t if self._last_time_s is None else max(self._last_time_s, t)
@@ -206,7 +218,7 @@ class ZenohBus:
         """Wait until every queued sample has been put (for tests and shutdown). True if the queues emptied."""
         deadline = time.monotonic() + timeout_s
         with self._cond:
-            while self._advisories or self._updates or self._busy:
+            while self._advisories or self._vital or self._updates or self._busy:
                 left = deadline - time.monotonic()
                 if left <= 0 or not self._thread.is_alive():
                     return False
@@ -220,7 +232,7 @@ class ZenohBus:
 
     def queue_depths(self) -> dict:
         with self._cond:
-            return {"advisories": len(self._advisories), "updates": len(self._updates)}
+            return {"advisories": len(self._advisories), "status": len(self._vital), "updates": len(self._updates)}
 
     # -- the publisher thread ----------------------------------------------------------------------------------
     def _drain(self) -> None:
@@ -228,14 +240,16 @@ class ZenohBus:
             with self._cond:
                 self._busy = False
                 self._cond.notify_all()  # flush() waiters
-            while not (self._advisories or self._updates or self._forget or self._closing):
+            while not (self._advisories or self._vital or self._updates or self._forget or self._closing):
                 time.sleep(POLL_S)
-            if self._closing and not (self._advisories or self._updates):
+            if self._closing and not (self._advisories or self._vital or self._updates):
                 return
             self._await_idle()
             with self._cond:
                 batch = [(s, p, True) for s, p in self._advisories]
                 self._advisories.clear()
+                batch += [(s, p, False) for s, p in self._vital]  # status and ownship before any track
+                self._vital.clear()
                 for _ in range(min(len(self._updates), 64)):  # come back for advisories every 64 updates
                     s, p = self._updates.popleft()
                     batch.append((s, p, False))
@@ -275,10 +289,12 @@ class ZenohBus:
                     pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON,
                                                          congestion_control=zenoh.CongestionControl.BLOCK,
                                                          priority=zenoh.Priority.INTERACTIVE_HIGH)
-                else:
+                else:  # status and ownship ahead of tracks in zenoh's queues too
+                    vital = suffix in VITAL_KINDS
                     pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON,
                                                          congestion_control=zenoh.CongestionControl.DROP,
-                                                         priority=zenoh.Priority.DATA)
+                                                         priority=zenoh.Priority.DATA_HIGH if vital
+                                                         else zenoh.Priority.DATA)
                 self._publishers[key] = pub
             pub.put(to_json(payload))
             self.stats["published_advisories" if is_advisory else "published_updates"] += 1
@@ -299,8 +315,10 @@ class ZenohBus:
                 "advisories": list(self._active.values()),
                 "advisory_changes": list(self._changes),
                 "advisory_changes_total": self.changes_published,
-                "queue": {"advisories": len(self._advisories), "updates": len(self._updates),
-                          "updates_max": self.cfg.queue_size, "dropped_updates": self.stats["dropped_updates"]},
+                "queue": {"advisories": len(self._advisories), "status": len(self._vital),
+                          "updates": len(self._updates), "updates_max": self.cfg.queue_size,
+                          "dropped_updates": self.stats["dropped_updates"],
+                          "dropped_status": self.stats["dropped_status"]},
             }
         return picture
 
@@ -313,11 +331,19 @@ class ZenohBus:
 
     # -- lifecycle ---------------------------------------------------------------------------------------------
     def close(self, flush_timeout_s: float = 1.0) -> None:
-        """Put what is queued (up to flush_timeout_s), withdraw the token and queryable, close the session."""
-        self.flush(flush_timeout_s)
+        """Put what is queued (up to flush_timeout_s; advisories first, e.g. the shutdown NONEs), then withdraw
+        the liveliness token (subscribers see its DELETE: the vehicle's DAA is gone) and the queryable, close the
+        session. Samples still queued after the timeout are counted in stats["unflushed_at_close"]."""
+        try:
+            flushed = self.flush(flush_timeout_s)
+        except Exception:  # noqa: BLE001  (the token must go whatever happened to the queues)
+            flushed = False
         with self._cond:
+            if not flushed:
+                self.stats["unflushed_at_close"] += len(self._advisories) + len(self._vital) + len(self._updates)
             self._closing = True
             self._advisories.clear()
+            self._vital.clear()
             self._updates.clear()
             self._cond.notify_all()
         self._thread.join(timeout=2.0)
