@@ -1,6 +1,30 @@
+import os
 import socket
+import time
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# Every wait in the tests polls for its condition and returns as soon as it holds: the deadline only bounds how
+# long a failure takes to report. It is generous on purpose, so that a slow success on a loaded CI machine
+# (2 cores, other jobs running) is never reported as a failure. Durations and latencies are printed as
+# benchmark JSON, never asserted.
+DEADLINE_S = float(os.environ.get("AVIONICS_TEST_DEADLINE_S", "60"))
+
+# The same for property tests: hypothesis's per-example deadline (200 ms by default) and its too_slow health check
+# (data generation timed) are wall-clock checks. Off by default for every test; a test's own @settings still wins.
+settings.register_profile("load-proof", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("load-proof")
+
+
+def wait_for(predicate, timeout_s: float = DEADLINE_S, period_s: float = 0.02) -> bool:
+    """Poll predicate until it is true (returns True) or timeout_s has passed (returns its last value)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period_s)
+    return bool(predicate())
 
 
 def free_port(kind=socket.SOCK_STREAM) -> int:

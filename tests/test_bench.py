@@ -3,7 +3,11 @@
 import json
 import os
 
+import pytest
+
 from avionics.cli import main
+
+pytestmark = pytest.mark.live  # a real zenoh session on loopback, the live loop on the wall clock
 
 
 def test_bench_command_prints_both_modes_with_every_report_accounted_for(capsys):
@@ -14,6 +18,8 @@ def test_bench_command_prints_both_modes_with_every_report_accounted_for(capsys)
     assert [r["intruders"] for r in out["per_report"]] == [5] and [r["intruders"] for r in out["real_time"]] == [5]
     for run in out["per_report"] + out["real_time"]:
         assert run["reports"] == 10 and run["tracks"] == 5 and run["rejected"] == 0
-        assert 0 < run["latency_us_p50"] <= run["latency_us_p99"] <= run["latency_us_max"]
+        assert 0 < run["latency_us_p50"] <= run["latency_us_p99"] <= run["latency_us_max"]  # ordered, any size
     live = out["real_time"][0]
-    assert 0 < live["cpu_load"] < 1 and live["steps"] >= 10
+    # cpu_load is the loop's busy share of the wall time (a fraction, whatever the load); steps and the largest
+    # batch depend on how promptly the loop was woken: it ran in steps, each taking what had arrived.
+    assert 0 < live["cpu_load"] <= 1 and 1 <= live["steps"] and 1 <= live["largest_batch"] <= live["reports"]

@@ -9,6 +9,7 @@ import threading
 import time
 
 import avionics.io  # noqa: F401
+import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from avionics.config import ZenohConfig
@@ -16,11 +17,14 @@ from avionics.io.zenoh_bus import open_session
 from sitl.impairments import PRESETS
 from sitl.live import fly
 from sitl.scenario import load_encounter
+from tests.conftest import DEADLINE_S, wait_for
+
+pytestmark = pytest.mark.live  # a child process, UDP and zenoh on loopback
 
 START_S, END_S = 46.0, 100.0  # head-on: TA ~55 s, RA ~65 s, CPA 86.4 s, clear ~93.3 s (range > TA DMOD)
 
 
-def _wait_for_tcp(port: int, process, timeout_s: float = 30.0) -> None:
+def _wait_for_tcp(port: int, process, timeout_s: float = DEADLINE_S) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         assert process.poll() is None, process.communicate()[1]
@@ -36,7 +40,7 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
     onboard = subprocess.Popen(
         [sys.executable, "-m", "avionics.cli", "run", "--connection", f"udpin:127.0.0.1:{udp_port}",
          "--set", f'zenoh.listen=["{endpoint}"]', "--set", "vehicle.id=testuav",
-         "--duration", str(END_S - START_S + 10)],
+         "--duration", str(END_S - START_S + 10 + 2 * DEADLINE_S)],  # ended by the test; a backstop only
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     received = {"advisories": [], "status": []}
     lock = threading.Lock()
@@ -63,12 +67,15 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
                 raw.sendto(bytes([0xFD, 0x40, 0, 0, 0xFE, 0x20, 1, 2]) + bad, ("127.0.0.1", udp_port))
         recording = fly(load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["default"], seed=3,
                         start_s=START_S, duration_s=END_S - START_S)
-        time.sleep(1.5)
+        with lock:  # the status as of the end of the flight: published while ownship was still flowing
+            status_at_end = len(received["status"])
+        # The clear (NONE) went out at ~93 s, before the flight ended: wait until it is here, however loaded.
+        wait_for(lambda: [p["level"] for _, _, p in received["advisories"]][-1:] == ["NONE"])
         for sub in subscribers:
             sub.undeclare()
     finally:
         onboard.terminate()
-        _, err = onboard.communicate(timeout=20)
+        _, err = onboard.communicate(timeout=DEADLINE_S)
         if session is not None:
             session.close()
 
@@ -91,7 +98,8 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
     with lock:
         advisories = [p for _, _, p in received["advisories"]]
         encodings = {e for _, e, _ in received["advisories"]}
-        status = received["status"][-1][2]
+        assert status_at_end, "no status arrived during the flight"
+        status = received["status"][status_at_end - 1][2]
     assert [a["level"] for a in advisories if a["level"] != "NONE"][:1] == ["TA"]
     assert "RA" in [a["level"] for a in advisories] and advisories[-1]["level"] == "NONE"
     assert all(a["intruder"] == "1090es-A10001" and a["vehicle"] == "testuav" for a in advisories)

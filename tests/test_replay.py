@@ -25,6 +25,7 @@ def modified_tau_crossing(tau_s: float, dmod_m: float) -> float:
     return (RANGE0 - r) / CLOSING
 
 
+@pytest.mark.live  # the `sitl replay` command in a process of its own
 def test_daa_head_on_at_3000_ft_alerts_at_the_hand_computed_times(tmp_path):
     out = tmp_path / "advisories.csv"
     subprocess.run([sys.executable, "-m", "sitl.cli", "replay", str(DATA / "head_on_3000ft.daa"),

@@ -14,8 +14,10 @@ from avionics.io.link import LinkError, MavlinkLink
 from sitl.autopilot import Packer, schedule
 from sitl.impairments import PRESETS
 from sitl.scenario import load_encounter
+from tests.conftest import DEADLINE_S
 
 
+@pytest.mark.live  # `avionics run` in a process of its own
 def test_tlog_replay_runs_the_encounter_and_sends_nothing(tmp_path):
     # Record a head-on as a .tlog (8-byte big-endian microsecond stamp + frame), then replay it.
     path = tmp_path / "flight.tlog"
@@ -24,7 +26,7 @@ def test_tlog_replay_runs_the_encounter_and_sends_nothing(tmp_path):
         for event in schedule(load_encounter("head-on"), PRESETS["none"], duration_s=100.0):
             fh.write(int(event.deliver_s * 1e6 + 1_000_000).to_bytes(8, "big") + packer.pack(event.msg))
     out = subprocess.run([sys.executable, "-m", "avionics.cli", "run", "--connection", str(path), "--no-zenoh",
-                          "--counters"], capture_output=True, text=True, timeout=120)
+                          "--counters"], capture_output=True, text=True, timeout=5 * DEADLINE_S)
     assert out.returncode == 0, out.stderr
     counters = json.loads(out.stdout[out.stdout.index("{"):])
     assert counters["rx.adsb_vehicle"] == 100 and counters["rx.global_position_int"] == 501
@@ -32,6 +34,7 @@ def test_tlog_replay_runs_the_encounter_and_sends_nothing(tmp_path):
     assert "RA " in out.stderr
 
 
+@pytest.mark.live  # binds a real UDP port
 def test_a_udp_port_in_use_is_a_clear_error(udp_port):
     first = MavlinkLink(f"udpin:127.0.0.1:{udp_port}", Counter(), 1, 191)
     try:

@@ -14,6 +14,7 @@ import zenoh
 from avionics.config import ConfigError, ZenohConfig, load_config
 from avionics.io.zenoh_bus import ZenohBus, ZenohBusError, advisory_state, open_session, session_config
 from avionics.monitor.feed import wait_for
+from tests.conftest import DEADLINE_S
 
 LOOPBACK_ONLY = dict(listen=(), connect=())
 
@@ -26,6 +27,7 @@ def track(intruder, t):
     return {"schema": 2, "vehicle": "v", "intruder": intruder, "time_s": t, "lat_deg": 47.0, "lon_deg": 8.0}
 
 
+@pytest.mark.live
 def test_publish_never_blocks_drops_oldest_updates_and_never_an_advisory(monkeypatch):
     cfg = ZenohConfig(queue_size=50, **LOOPBACK_ONLY)
     counters = Counter()
@@ -33,37 +35,51 @@ def test_publish_never_blocks_drops_oldest_updates_and_never_an_advisory(monkeyp
     put = []
     gate = threading.Event()
 
-    def slow_put(suffix, payload, is_advisory):  # a link that stalls, then crawls
+    def slow_put(suffix, payload, is_advisory):  # a link that stalls (until the gate opens), then crawls
         gate.wait()
         time.sleep(0.0002)
         put.append((suffix, payload["time_s"], is_advisory))
 
     monkeypatch.setattr(bus, "_put", slow_put)
-    try:
-        calls = []
+    calls = []
+
+    def loop():  # the onboard loop, publishing while the link is stalled for good
         for k in range(5000):
             t0 = time.perf_counter()
             bus.publish(f"tracks/t{k % 500}", track(f"t{k % 500}", k * 0.001))
             if k % 50 == 0:
                 bus.publish(f"advisories/a{k // 50 % 7}", adv(f"a{k // 50 % 7}", ("TA", "RA", "NONE")[k // 350 % 3], k * 0.001))
             calls.append(time.perf_counter() - t0)
-        calls.sort()
+
+    try:
+        publisher = threading.Thread(target=loop, daemon=True)
+        publisher.start()
+        publisher.join(DEADLINE_S)
+        # Never blocks: every publish() returned while not one sample could go out (a blocking publish() would
+        # wait on the gate, which only opens below).
+        finished, went_out = not publisher.is_alive(), len(put)
         depths = bus.queue_depths()
         gate.set()
-        assert bus.flush(20.0)
+        publisher.join(DEADLINE_S)
+        assert finished and went_out == 0 and len(calls) == 5000
+        assert bus.flush(DEADLINE_S)
     finally:
+        gate.set()
         bus.close()
+    calls.sort()
     advisories = [p for p in put if p[2]]
     updates = [p for p in put if not p[2]]
     assert len(advisories) == 100 and [t for _, t, _ in advisories] == sorted(t for _, t, _ in advisories)
     assert depths["updates"] == 50  # bounded, while every advisory waited
     assert counters["zenoh.dropped_updates"] == bus.stats["dropped_updates"] == 5000 - len(updates)
     assert updates[-1][1] == pytest.approx(4.999)  # the newest track update survived (drop-oldest)
-    print(f"publish() while the link is stalled: p50 {calls[len(calls) // 2] * 1e6:.1f} us, "
-          f"p99 {calls[int(len(calls) * 0.99)] * 1e6:.1f} us, max {calls[-1] * 1e6:.1f} us")
-    assert calls[int(len(calls) * 0.99)] < 0.002
+    # The cost of a call is a measurement (docs/monitor.md), not asserted: it depends on the machine's load.
+    print("benchmark " + json.dumps({"publish_while_stalled_us": {
+        "p50": round(calls[len(calls) // 2] * 1e6, 1), "p99": round(calls[int(len(calls) * 0.99)] * 1e6, 1),
+        "max": round(calls[-1] * 1e6, 1), "n": len(calls)}}))
 
 
+@pytest.mark.live
 def test_change_log_counts_changes_not_refreshes_and_prunes_gone_tracks():
     bus = ZenohBus(ZenohConfig(**LOOPBACK_ONLY), "v")
     try:
@@ -86,6 +102,7 @@ def test_change_log_counts_changes_not_refreshes_and_prunes_gone_tracks():
         bus.close()
 
 
+@pytest.mark.live
 def test_snapshot_queryable_and_liveliness_token_over_loopback(tcp_port):
     endpoint = f"tcp/127.0.0.1:{tcp_port}"
     bus = ZenohBus(ZenohConfig(listen=(endpoint,), connect=()), "uav9")
@@ -95,13 +112,13 @@ def test_snapshot_queryable_and_liveliness_token_over_loopback(tcp_port):
         sub = monitor.liveliness().declare_subscriber("daa/*/alive", lambda s: events.append((s.kind, str(s.key_expr),
                                                                                               time.monotonic())),
                                                       history=True)
-        assert wait_for(lambda: events, 3.0)
+        assert wait_for(lambda: events, DEADLINE_S)
         assert events[0][:2] == (zenoh.SampleKind.PUT, "daa/uav9/alive")
         bus.publish("ownship", {"schema": 2, "vehicle": "uav9", "time_s": 5.0, "valid": True})
         bus.publish("advisories/x", adv("x", "TA", 5.0))
         bus.publish("tracks/x", track("x", 5.0))
-        bus.flush()
-        replies = list(monitor.get("daa/uav9/snapshot", timeout=3.0))
+        assert bus.flush(DEADLINE_S)
+        replies = list(monitor.get("daa/uav9/snapshot", timeout=DEADLINE_S))  # ends at the reply
         snap = json.loads(replies[0].ok.payload.to_bytes())
         assert str(replies[0].ok.encoding) == "application/json"
         assert snap["vehicle"] == "uav9" and snap["ownship"]["time_s"] == 5.0
@@ -109,9 +126,9 @@ def test_snapshot_queryable_and_liveliness_token_over_loopback(tcp_port):
         assert [c["level"] for c in snap["advisory_changes"]] == ["TA"]
         closed = time.monotonic()
         bus.close()
-        assert wait_for(lambda: len(events) == 2, 2.0)
+        assert wait_for(lambda: len(events) == 2, DEADLINE_S)
         assert events[1][:2] == (zenoh.SampleKind.DELETE, "daa/uav9/alive")
-        print(f"liveliness DELETE seen {1e3 * (events[1][2] - closed):.1f} ms after ZenohBus.close()")
+        print("benchmark " + json.dumps({"liveliness_delete_after_close_ms": round(1e3 * (events[1][2] - closed), 1)}))
         sub.undeclare()
     finally:
         bus.close()
@@ -141,6 +158,7 @@ def test_bad_zenoh_configuration_is_a_clear_error(override, message):
         load_config(overrides=[override])
 
 
+@pytest.mark.live
 @pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl CLI not installed (needed to make test certificates)")
 def test_tls_endpoints_from_configuration(tmp_path, tcp_port):
     def run(*args):
@@ -162,7 +180,7 @@ def test_tls_endpoints_from_configuration(tmp_path, tcp_port):
     got = []
     try:
         sub = monitor.declare_subscriber("daa/tlsuav/**", lambda s: got.append(json.loads(s.payload.to_bytes())))
-        assert wait_for(lambda: (bus.publish("status", {"schema": 2, "time_s": 1.0}), bus.flush(), got)[2], 5.0, 0.2)
+        assert wait_for(lambda: (bus.publish("status", {"schema": 2, "time_s": 1.0}), bus.flush(), got)[2], DEADLINE_S, 0.2)
         sub.undeclare()
         # A client that does not trust our CA cannot connect at all.
         with pytest.raises(ZenohBusError, match="cannot open zenoh session"):
