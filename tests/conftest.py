@@ -1,6 +1,5 @@
 import os
 import socket
-import time
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -19,12 +18,9 @@ settings.load_profile("load-proof")
 
 def wait_for(predicate, timeout_s: float = DEADLINE_S, period_s: float = 0.02) -> bool:
     """Poll predicate until it is true (returns True) or timeout_s has passed (returns its last value)."""
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period_s)
-    return bool(predicate())
+    from avionics.monitor.feed import wait_for as poll
+
+    return poll(predicate, timeout_s, period_s)
 
 
 def free_port(kind=socket.SOCK_STREAM) -> int:

@@ -403,18 +403,7 @@ def test_vehicles_are_capped_and_offline_ones_expire():
 # -- (a) the page in a real browser: payload markup is text, no script runs -------------------------------------------
 def _browser_or_skip():
     """tests/test_monitor_live.py's helper: skip without Chromium on a developer machine, fail in CI."""
-    try:
-        from tests.test_monitor_live import browser_or_skip
-    except ImportError:  # the helper moved: the same policy, here
-        from avionics.monitor.browser import Browser, why_unavailable
-
-        def browser_or_skip():
-            reason = why_unavailable()
-            if reason is not None:
-                if os.environ.get("CI"):
-                    pytest.fail(f"browser test cannot run in CI: {reason}")
-                pytest.skip(reason)
-            return Browser(1600, 1000)
+    from test_monitor_live import browser_or_skip
 
     return browser_or_skip()
 
