@@ -190,7 +190,9 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     print(f"\nSITL sent {recording.sent} MAVLink messages; received {len(collisions)} COLLISION, "
           f"{len(recording.of_type('STATUSTEXT'))} STATUSTEXT, {len(recording.of_type('HEARTBEAT'))} HEARTBEAT; "
           f"zenoh advisories received: {len(zenoh_advisories)}")
-    rejected = {k: v for k, v in counters.items() if not k.startswith(("rx.", "track.", "assessment."))}
+    # what was received or accepted is not a rejection (the rest are the counted refusals and drops)
+    accepted = ("rx.", "track.", "assessment.", "link.datagrams", "signing.accepted")
+    rejected = {k: v for k, v in counters.items() if not k.startswith(accepted)}
     print(f"onboard input counters: { {k: v for k, v in counters.items() if k.startswith('rx.')} }; "
           f"rejections: {rejected or 'none'}")
     levels = [THREAT[r.msg.threat_level].strip() for r in collisions]
