@@ -77,45 +77,29 @@ def _raise_for_b_after(now):
     return lambda keys: now[0] > FAIL_AFTER_S and B in keys
 
 
+# stage -> (the object and method the stage calls, how to find the intruder keys among its arguments)
+_STAGE_CALLS = {
+    "track": (lambda core: core.tracker, "ingest_many", lambda args: [r.key for r in args[0]]),
+    "predict": (lambda core: core.tracker, "predict", lambda args: args[0]),
+    "conflict": (lambda core: core.conflict, "within_age", lambda args: args[1]),
+    "advisory": (lambda core: core.gate, "persist", lambda args: args[0]),
+}
+
+
 def _inject(core: DaaCore, stage: str, now: list):
     """Make `stage` raise numpy's LinAlgError whenever B is among the intruders it is called for (after
     FAIL_AFTER_S), as a singular covariance does inside the vectorised filters."""
     hit = _raise_for_b_after(now)
     boom = np.linalg.LinAlgError("injected: matrix is not positive definite")
-    if stage == "track":
-        real = core.tracker.ingest_many
+    owner_of, name, keys_of = _STAGE_CALLS[stage]
+    owner = owner_of(core)
+    real = getattr(owner, name)
 
-        def ingest_many(reports, easts, norths):
-            if hit([r.key for r in reports]):
-                raise boom
-            return real(reports, easts, norths)
-        core.tracker.ingest_many = ingest_many
-    elif stage == "predict":
-        real = core.tracker.predict
-
-        def predict(keys, t_s):
-            if hit(keys):
-                raise boom
-            return real(keys, t_s)
-        core.tracker.predict = predict
-    elif stage == "conflict":
-        real = core.conflict.within_age
-
-        def within_age(now_s, keys):
-            if hit(keys):
-                raise boom
-            return real(now_s, keys)
-        core.conflict.within_age = within_age
-    elif stage == "advisory":
-        real = core.gate.persist
-
-        def persist(keys, *args):
-            if hit(keys):
-                raise boom
-            return real(keys, *args)
-        core.gate.persist = persist
-    else:
-        raise AssertionError(stage)
+    def failing(*args):
+        if hit(keys_of(args)):
+            raise boom
+        return real(*args)
+    setattr(owner, name, failing)
 
 
 @pytest.mark.parametrize("stage", ["track", "predict", "conflict", "advisory"])
