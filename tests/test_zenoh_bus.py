@@ -12,7 +12,7 @@ import pytest
 import zenoh
 
 from avionics.config import ConfigError, ZenohConfig, load_config
-from avionics.io.zenoh_bus import ZenohBus, ZenohBusError, advisory_state, open_session, session_config
+from avionics.io.zenoh_bus import UPDATES_PER_BATCH, ZenohBus, ZenohBusError, advisory_state, open_session, session_config
 from avionics.monitor.feed import wait_for
 from tests.conftest import DEADLINE_S
 
@@ -70,7 +70,9 @@ def test_publish_never_blocks_drops_oldest_updates_and_never_an_advisory(monkeyp
     advisories = [p for p in put if p[2]]
     updates = [p for p in put if not p[2]]
     assert len(advisories) == 100 and [t for _, t, _ in advisories] == sorted(t for _, t, _ in advisories)
-    assert depths["updates"] == 50  # bounded, while every advisory waited
+    # Bounded while every advisory waited: at most the queue (50) plus the one batch the publisher thread took
+    # before the link stalled. How much of it is which depends on scheduling.
+    assert depths["updates"] <= 50 and len(updates) <= 50 + UPDATES_PER_BATCH
     assert counters["zenoh.dropped_updates"] == bus.stats["dropped_updates"] == 5000 - len(updates)
     assert updates[-1][1] == pytest.approx(4.999)  # the newest track update survived (drop-oldest)
     # The cost of a call is a measurement (docs/monitor.md), not asserted: it depends on the machine's load.

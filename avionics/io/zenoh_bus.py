@@ -47,6 +47,7 @@ PROBE_S = 0.0002
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed")
 VITAL_KINDS = ("status", "ownship")  # their own queue, ahead of the tracks
 VITAL_QUEUE = 32  # samples (16 status periods of status + ownship)
+UPDATES_PER_BATCH = 64  # the publisher thread comes back for advisories after this many track updates
 
 
 class ZenohBusError(RuntimeError):
@@ -250,7 +251,7 @@ class ZenohBus:
                 self._advisories.clear()
                 batch += [(s, p, False) for s, p in self._vital]  # status and ownship before any track
                 self._vital.clear()
-                for _ in range(min(len(self._updates), 64)):  # come back for advisories every 64 updates
+                for _ in range(min(len(self._updates), UPDATES_PER_BATCH)):
                     s, p = self._updates.popleft()
                     batch.append((s, p, False))
                 forget = list(self._forget)
