@@ -112,10 +112,6 @@ def cmd_run(args) -> int:
     config = _load(args)
     if args.tlog_out:
         check_output_file(args.tlog_out, "--tlog-out")
-    logging.getLogger("avionics").info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__,
-                                       config.mavlink.connection,
-                                       list(config.zenoh.listen) if config.zenoh.enabled else "off",
-                                       config.vehicle.id)
     counters = run(config, duration_s=args.duration, tlog_out=args.tlog_out)
     if args.counters:
         print(json.dumps(dict(sorted(counters.items())), indent=1))

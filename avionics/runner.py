@@ -15,6 +15,7 @@ import threading
 import time
 from collections import Counter
 
+from avionics import __version__
 from avionics.config import Config
 from avionics.core.types import AdvisoryLevel
 from avionics.io.encode import UNAVAILABLE_REASONS, advisory_text
@@ -111,6 +112,9 @@ def run(config: Config, duration_s: float | None = None, tlog_out: str | None = 
             previous[signum] = signal.signal(signum, on_signal)
     try:
         runner = Runner(config, tlog_out=tlog_out, stop=stop)
+        # after the link and the zenoh session opened: a start-up error is the only line printed
+        log.info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__, config.mavlink.connection,
+                 list(config.zenoh.listen) if config.zenoh.enabled else "off", config.vehicle.id)
         try:
             runner.run(duration_s)
         except KeyboardInterrupt:

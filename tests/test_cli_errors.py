@@ -131,6 +131,13 @@ def test_sitl_live_bad_connection_string():
     assert_one_line_error(proc, 1, "sitl:", "cannot open MAVLink connection", "'bogus:foo'")
 
 
+@pytest.mark.parametrize("port", ["99999", "0"])
+def test_run_with_a_udp_port_out_of_range(port):
+    """One line (no start-up banner before it), exit 1."""
+    proc = cli("run", "--connection", f"udpin:127.0.0.1:{port}", "--no-zenoh", "--duration", "5")
+    assert_one_line_error(proc, 1, "avionics:", "cannot open MAVLink connection", f"UDP port {port} is not in 1..65535")
+
+
 def test_monitor_http_port_in_use(busy_tcp_port):
     zenoh_port = free_port(socket.SOCK_STREAM)
     proc = cli("monitor", "--http", f"127.0.0.1:{busy_tcp_port}", "--connect", f"tcp/127.0.0.1:{zenoh_port}",

@@ -90,6 +90,8 @@ def _check_udp_port_free(connection: str) -> None:
     host, _, port = address.rpartition(":")
     if not port.isdigit():
         return  # pymavlink will report the malformed string
+    if not 0 < int(port) < 65536:
+        raise LinkError(f"cannot open MAVLink connection {connection!r}: UDP port {port} is not in 1..65535")
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         try:
             probe.bind((host or "0.0.0.0", int(port)))
