@@ -173,6 +173,15 @@ class AltitudeConfig:
     # much: pressure and GNSS altitudes differ by up to a few hundred feet with temperature and weather.
     datum_mismatch_margin_m: float = 60.96  # 200 ft
     baro_offset_smoothing_s: float = 10.0  # time constant of the geometric - pressure altitude offset
+    # Barometer cross-check (tracking/baro_check.py; docs/altitude.md, "Barometer cross-check", has the sources).
+    baro_noise_sigma_m: float = 3.5  # pressure altitude 1-sigma: PX4 EKF2_BARO_NOISE (ArduPilot EK3_ALT_M_NSE 2-3)
+    baro_gate_sigmas: float = 5.0  # residual gate in sigmas: ArduPilot EK3_HGT_I_GATE default 500 (5 sigma)
+    baro_offset_drift_mps: float = 0.1  # how fast weather moves the offset (pressure gradients, tendencies)
+    baro_offset_drift_per_m: float = 0.2  # offset change per metre climbed: |T_ISA/T - 1| for T >= T_ISA/1.2
+    baro_offset_min_m: float = -1000.0  # QNH 1084.8 hPa (world record) = -579 m, plus the temperature term
+    baro_offset_max_m: float = 1700.0  # QNH 870 hPa (world record) = +1267 m, plus the temperature term
+    baro_stuck_tolerance_m: float = 1.0  # "no change": above a blocked port's sensor noise (MS5611: 0.1 m RMS)
+    baro_recovery_s: float = 5.0  # a faulty pressure is used again after this long plausible and consistent
 
 
 @dataclass(frozen=True)
@@ -359,6 +368,17 @@ def _validate_conflict(c: ConflictConfig) -> None:
         raise ConfigError("conflict.schedule_threshold: must be a probability in [0, 1]")
 
 
+def _validate_altitude(a: AltitudeConfig) -> None:
+    for name in ("baro_offset_smoothing_s", "baro_noise_sigma_m", "baro_gate_sigmas", "baro_stuck_tolerance_m"):
+        if getattr(a, name) <= 0:
+            raise ConfigError(f"altitude.{name}: must be > 0, got {getattr(a, name)}")
+    for name in ("datum_mismatch_margin_m", "baro_offset_drift_mps", "baro_offset_drift_per_m", "baro_recovery_s"):
+        if getattr(a, name) < 0:
+            raise ConfigError(f"altitude.{name}: must be >= 0, got {getattr(a, name)}")
+    if not a.baro_offset_min_m < a.baro_offset_max_m:
+        raise ConfigError("altitude.baro_offset_min_m must be < altitude.baro_offset_max_m")
+
+
 def validate(config: Config) -> Config:
     if config.zenoh.mode not in ("peer", "client", "router"):
         raise ConfigError(f"zenoh.mode: {config.zenoh.mode!r} is not peer, client or router")
@@ -406,8 +426,7 @@ def validate(config: Config) -> Config:
                           "(no '/', '*', '$', '?', '#')")
     if not 1 <= config.mavlink.source_system <= 255 or not 0 <= config.mavlink.source_component <= 255:
         raise ConfigError("mavlink.source_system must be in 1..255 and mavlink.source_component in 0..255")
-    if config.altitude.baro_offset_smoothing_s <= 0:
-        raise ConfigError("altitude.baro_offset_smoothing_s: must be > 0")
+    _validate_altitude(config.altitude)
     if not 0 <= config.vehicle.own_icao <= 0xFFFFFF:
         raise ConfigError(f"vehicle.own_icao: {config.vehicle.own_icao:#x} is not a 24-bit address")
     return config

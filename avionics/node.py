@@ -124,7 +124,8 @@ class DaaNode:
 
     # -- availability ----------------------------------------------------------------------------------------
     def unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:
-        """Why DAA cannot protect now: shutdown, no_ownship, fault, no_pressure_altitude; None when it can."""
+        """Why DAA cannot protect now: shutdown, no_ownship, fault, no_pressure_altitude; None when it can. A
+        faulty ownship pressure (status "pressure_fault") is no pressure altitude: no_pressure_altitude."""
         core = self.core
         if self._stopped:
             return "shutdown"
@@ -213,12 +214,14 @@ class DaaNode:
     def track_messages(self, now_s: float) -> list[tuple[str, dict]]:
         core = self.core
         keys = sorted(core.tracker.tracks)
-        if not keys or core.plane is None:
+        if not keys or core.frame.plane is None:
             return []
         keys, xs, ps = core.predict_tracks(keys, now_s)  # an intruder that fails here fails as in a step
         if not keys:
             return []
-        lats, lons = core.plane.to_geodetic(xs[:, 0], xs[:, 1])
+        lats, lons, velocities = core.frame.to_true(xs[:, 0], xs[:, 1], xs[:, 3:5])
+        xs = xs.copy()
+        xs[:, 3:5] = velocities  # published in true east/north at the aircraft (traces of p are unchanged)
         advisories = core.advisories()
         try:
             modes = core.tracker.mode_infos(keys, now_s)
@@ -241,7 +244,15 @@ class DaaNode:
         advisories = core.advisories().values()
         pressure_intruders = [str(k) for k, t in core.tracker.tracks.items() if t.datum is AltitudeDatum.PRESSURE]
         unavailable = self.unavailable_reason(now_s, own)
+        # The cross-check's verdict (tracking/baro_check.py), or the decoder's when it rejected our last
+        # SCALED_PRESSURE (not a number, or outside the range the ISA model inverts).
+        pressure_fault = core.ownship.pressure_fault
+        if pressure_fault is None and self.decoder.pressure_rejection is not None:
+            pressure_fault = "implausible"
         warnings = []
+        if pressure_fault is not None:
+            warnings.append(f"ownship pressure {pressure_fault}: readings not used; pressure-altitude traffic is "
+                            "compared with GNSS altitude until the pressure is plausible again")
         if own is None:
             warnings.append("no ownship position: no advisories")
         elif own.pressure_altitude_m is None and pressure_intruders:
@@ -256,15 +267,16 @@ class DaaNode:
             warnings.append("shutdown: no advisories")
         ownship = None
         if own is not None:
-            lat, lon = core.plane.to_geodetic(own.x[0], own.x[1])
+            lat, lon, (ve, vn) = core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
             ownship = {"lat_deg": float(lat), "lon_deg": float(lon), "alt_msl_m": float(own.x[2]),
                        "pressure_altitude_m": own.pressure_altitude_m,
                        "height_above_home_m": own.height_above_home_m,
-                       "velocity_enu_mps": [float(v) for v in own.x[3:6]]}
+                       "velocity_enu_mps": [float(ve), float(vn), float(own.x[5])]}
         return {
             "ownship": ownship,
             "ownship_valid": own is not None,
             "pressure_altitude_available": own is not None and own.pressure_altitude_m is not None,
+            "pressure_fault": pressure_fault,  # stuck | jump | implausible | None (docs/altitude.md)
             "datum_mismatch_intruders": sorted(str(a.intruder) for a in advisories if a.datum_mismatch),
             "sensitivity_level": core.level.sl if core.level else None,
             "tracks": len(core.tracker.tracks),

@@ -3,6 +3,9 @@
 ingest (validated inputs) -> track (ownship filter, one track per intruder) -> assess (CPA, tau)
 -> advise (sensitivity level, TA/RA tests, advisory state per intruder).
 
+Positions and velocities go into the tracking frame at ingest (core/frame.py: a tangent plane kept within 1 km of
+the ownship, every filter carried along when it moves), so the geometry holds anywhere the ownship flies.
+
 The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
 Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
 intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too.
@@ -22,7 +25,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from types import SimpleNamespace
 from typing import Iterable
 
@@ -37,7 +40,7 @@ from avionics.config import Config
 from avionics.conflict.assess import ConflictAssessor
 from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
-from avionics.core.geodesy import LocalTangentPlane
+from avionics.core.frame import FrameChange, TrackingFrame
 from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
@@ -86,8 +89,8 @@ class DaaCore:
         self._ra_threats: dict[IntruderKey, Threat] = {}
         self.gate = AlertGate(config.advisory)
         self.conflict = ConflictAssessor(config.conflict)
-        self.plane: LocalTangentPlane | None = None
-        self.ownship = OwnshipFilter(config.altitude, config.input)
+        self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
+        self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
         self.tracker = make_tracker(config.tracking, self.counters)  # tracking.filter: cv or an IMM
         self.assessments: dict[IntruderKey, _Assessment] = {}
         self.level: SensitivityLevel | None = None
@@ -100,20 +103,40 @@ class DaaCore:
         self._ownship_faulted = False  # the ownship filter failed and no fix has gone in since
 
     # -- ingest --------------------------------------------------------------------------------------------
-    def _en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
-        if self.plane is None:
-            self.plane = LocalTangentPlane(lat_deg, lon_deg)
-        east, north = self.plane.to_en(lat_deg, lon_deg)
-        return float(east), float(north)
+    def _in_plane(self, reports: list[IntruderReport]):
+        """Reports with their velocities in the frame's plane axes, and their plane positions."""
+        lats = np.fromiter((r.lat_deg for r in reports), float, len(reports))
+        lons = np.fromiter((r.lon_deg for r in reports), float, len(reports))
+        velocities = np.array([r.velocity_en_mps or (math.nan, math.nan) for r in reports], float)
+        easts, norths, velocities = self.frame.to_plane(lats, lons, velocities)
+        items = [r if r.velocity_en_mps is None else replace(r, velocity_en_mps=(float(v[0]), float(v[1])))
+                 for r, v in zip(reports, velocities)]
+        return items, easts.tolist(), norths.tolist()
 
-    def _ingest_reports(self, now_s: float, reports: list[tuple[IntruderReport, float, float]],
-                        dirty: set[IntruderKey], changes: list[Advisory]) -> None:
+    def _follow_ownship(self, fix: OwnshipFix) -> tuple[OwnshipFix, float, float]:
+        """Move the plane to the ownship when it has flown RECENTRE_M from its origin (every filter carried
+        along); the fix's position in the plane and its velocity in the plane's axes."""
+        change = self.frame.follow(fix.lat_deg, fix.lon_deg)
+        if change is not None:
+            self._carry(change)
+        vn, ve, vd = fix.velocity_ned_mps
+        east, north, (ve, vn) = self.frame.to_plane(fix.lat_deg, fix.lon_deg, (ve, vn))
+        return replace(fix, velocity_ned_mps=(float(vn), float(ve), vd)), float(east), float(north)
+
+    def _carry(self, change: FrameChange) -> None:
+        self.tracker.reframe(change)
+        self.ownship.reframe(change)
+        self.counters["plane.recentred"] += 1
+
+    def _ingest_reports(self, now_s: float, reports: list[IntruderReport], dirty: set[IntruderKey],
+                        changes: list[Advisory]) -> None:
         """A step's intruder reports in one vectorised tracker call: under load the live link hands over a
         backlog at once, and the per-call cost is paid once per step instead of once per report. When that call
-        raises, each intruder's reports go in alone and an intruder whose update still raises fails."""
+        raises, each intruder's reports go in alone and an intruder whose update still raises fails. Reports
+        go into the plane here, after the step's ownship fixes may have moved it."""
         if not reports:
             return
-        items, easts, norths = zip(*reports)
+        items, easts, norths = self._in_plane(reports)
         try:
             took = self.tracker.ingest_many(list(items), easts, norths)
         except Exception as exc:  # noqa: BLE001  (stage boundary: isolate the intruder, below)
@@ -139,15 +162,15 @@ class DaaCore:
             if key in self.tracker.tracks:
                 dirty.add(key)
 
-    def _ingest(self, item: Input, reports: list[tuple[IntruderReport, float, float]]) -> None:
+    def _ingest(self, item: Input, reports: list[IntruderReport]) -> None:
         if not _finite_input(item):  # no NaN or inf goes into a filter (the tangent plane included)
             self.counters["input.non_finite"] += 1
             return
-        if isinstance(item, IntruderReport):  # positions in arrival order: the first of any aircraft fixes the plane
-            reports.append((item, *self._en(item.lat_deg, item.lon_deg)))
+        if isinstance(item, IntruderReport):
+            reports.append(item)
         elif isinstance(item, OwnshipFix):
             try:
-                if not self.ownship.update_fix(item, *self._en(item.lat_deg, item.lon_deg)):
+                if not self.ownship.update_fix(*self._follow_ownship(item)):
                     self.counters["ownship.out_of_order"] += 1
                 self._ownship_faulted = False
             except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
@@ -165,7 +188,7 @@ class DaaCore:
         """The ownship filter raised: it restarts empty, so ownship is unknown (every advisory ends with reason
         no_ownship, DAA unavailable) until the next fix starts it again."""
         self.counters["fault.ownship"] += 1
-        self.ownship = OwnshipFilter(self.config.altitude, self.config.input)
+        self.ownship = OwnshipFilter(self.config.altitude, self.config.input, self.counters)
         if self._ownship_faulted:  # logged once until a fix goes in again
             return
         self._ownship_faulted = True
@@ -184,7 +207,7 @@ class DaaCore:
 
     def _step(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> StepResult:
         dirty: set[IntruderKey] = set()
-        reports: list[tuple[IntruderReport, float, float]] = []
+        reports: list[IntruderReport] = []
         for item in inputs:
             self._ingest(item, reports)
         self._ingest_reports(now_s, reports, dirty, changes)
@@ -324,7 +347,7 @@ class DaaCore:
             pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
             pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
             t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
-            pc_within_age_s=_finite_or_none(within_age[i]),
+            pc_within_age_s=_finite_or_none(within_age[i]), integrity=tracks[i].integrity.label,
             **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
         )
 
@@ -456,6 +479,15 @@ class DaaCore:
                                                         full)
         within_age = self.conflict.within_age(now_s, keys)
         candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
+        # ADS-B integrity (docs/tracking.md, "Integrity monitor"): a degraded track inside DMOD and ZTHR by its last
+        # reported position gets at least a TA, whatever its (possibly wrong) track says; unknown altitude counts
+        # as inside ZTHR, as TCAS treats a non-altitude-reporting intruder.
+        for i, track in enumerate(tracks):
+            rep = track.last_reported_enu
+            if track.integrity.degraded and rep is not None and \
+                    math.hypot(rep[0] - own.x[0], rep[1] - own.x[1]) <= level.ta_dmod_m and \
+                    (rep[2] is None or abs(rep[2] - own_alt[i]) <= level.ta_zthr_m + margin[i]):
+                candidates[i] = max(int(candidates[i]), int(AdvisoryLevel.TA))
         g = geometry  # taus may be infinite (not closing), never NaN; everything else is finite
         finite = np.isfinite(np.stack([g.range_m, g.s_dot_v, g.closure_rate_mps, g.t_cpa_s, g.hmd_m, g.sz_m, g.vz_mps,
                                        g.vmd_m, pc_ta, pc_ra, pc["pc_now"], pc["pc_max"], pc["t_pc_max_s"]])).all(axis=0)
@@ -598,8 +630,6 @@ def _ra_fields(r, threat) -> dict:
 
 def _rows(geometry, rows):
     """The rows of a PairGeometry."""
-    from dataclasses import fields, replace
-
     return replace(geometry, **{f.name: getattr(geometry, f.name)[rows] for f in fields(geometry)
                                 if getattr(geometry, f.name) is not None})
 
@@ -636,8 +666,6 @@ def _finite_or_none(value: float) -> float | None:
 
 
 def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:
-    from dataclasses import replace
-
     return replace(advisory, level=level, time_s=now_s, reason=reason, ra_sense=None, ra_strength=None,
                    ra_words=None, target_vertical_rate_mps=None, ra_reversed=False, ra_crossing=False,
                    ra_separation_m=None)

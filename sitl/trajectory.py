@@ -68,19 +68,9 @@ class Trajectory(Protocol):
 # --- plane <-> true (local) horizontal velocity ---------------------------------------------------------
 
 
-def _horizontal_axes(lat_deg: float, lon_deg: float) -> np.ndarray:
-    """ECEF unit vectors of local east (row 0) and north (row 1) at a point."""
-    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
-    sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
-    return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl]])
-
-
 def true_to_plane_matrix(plane: LocalTangentPlane, lat_deg: float, lon_deg: float) -> np.ndarray:
-    """2x2 Jacobian J of plane.to_en at the surface point (lat, lon): plane velocity = J @ true velocity.
-
-    to_en is the surface point's ECEF offset dotted with the plane's axes, so its derivative along the local
-    true east/north unit vectors is those axes dotted with the plane's: exact, not a small-angle rotation."""
-    return _horizontal_axes(plane.lat0_deg, plane.lon0_deg) @ _horizontal_axes(lat_deg, lon_deg).T
+    """2x2 Jacobian J of plane.to_en at the surface point (lat, lon): plane velocity = J @ true velocity."""
+    return plane.velocity_matrix(lat_deg, lon_deg)
 
 
 def true_velocity_to_plane(plane: LocalTangentPlane, lat_deg: float, lon_deg: float,

@@ -8,13 +8,15 @@ from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
 from avionics.pipeline import DaaCore
+from sitl.trajectory import plane_velocity_to_true
 
 PLANE = LocalTangentPlane(47.0, 8.0)
 
 
 @dataclass
 class Mover:
-    """Straight constant-velocity flight in the ENU plane: position (e, n, alt) at t=0, velocity (ve, vn, vu)."""
+    """Straight constant-velocity flight in the encounter's plane: position (e, n, alt) at t=0, velocity (ve, vn,
+    vu) in the plane's axes (reported as true east/north at the aircraft, as an aircraft would)."""
 
     p0: tuple[float, float, float]
     v: tuple[float, float, float]
@@ -50,28 +52,36 @@ class Encounter:
     key: IntruderKey = IntruderKey(0xABC123, AddressSource.ES1090)
     datum: AltitudeDatum | None = AltitudeDatum.PRESSURE
     pressure: bool = True  # ownship SCALED_PRESSURE available
+    report_from_s: float = 0.0
     report_until_s: float = float("inf")
     ownship_until_s: float = float("inf")
     overrides: list[str] = field(default_factory=list)
+    plane: LocalTangentPlane = PLANE  # where on Earth the encounter is flown
 
-    def run(self, duration_s: float, dt: float = 0.1):
-        """Step at dt, ownship at 5 Hz, intruder reports at 1 Hz; returns (core, [(t, change)])."""
-        core = DaaCore(load_config(overrides=self.overrides))
+    def core(self) -> DaaCore:
+        return DaaCore(load_config(overrides=self.overrides))
+
+    def run(self, duration_s: float, dt: float = 0.1, core: DaaCore | None = None):
+        """Step at dt, ownship at 5 Hz, intruder reports at 1 Hz (into `core`, or a new one); returns
+        (core, [(t, change)])."""
+        core = core if core is not None else self.core()
         changes = []
         for k in range(int(round(duration_s / dt)) + 1):
             t = round(k * dt, 6)
             inputs = []
             if abs(t * 5 - round(t * 5)) < 1e-6 and t <= self.ownship_until_s:
                 e, n, alt = self.ownship.at(t)
-                lat, lon = PLANE.to_geodetic(e, n)
-                ve, vn, vu = self.ownship.v
+                lat, lon = self.plane.to_geodetic(e, n)
+                vu = self.ownship.v[2]
+                ve, vn = plane_velocity_to_true(self.plane, lat, lon, *self.ownship.v[:2])
                 inputs.append(OwnshipFix(t, float(lat), float(lon), alt, alt, (vn, ve, -vu)))
                 if self.pressure:
                     inputs.append(OwnshipPressure(t, alt))
-            if abs(t - round(t)) < 1e-6 and t <= self.report_until_s:
+            if abs(t - round(t)) < 1e-6 and self.report_from_s <= t <= self.report_until_s:
                 e, n, alt = self.intruder.at(t)
-                lat, lon = PLANE.to_geodetic(e, n)
+                lat, lon = self.plane.to_geodetic(e, n)
                 ve, vn, vu = self.intruder.velocity(t)
+                ve, vn = plane_velocity_to_true(self.plane, lat, lon, ve, vn)
                 inputs.append(IntruderReport(self.key, t, t, float(lat), float(lon),
                                              alt if self.datum else None, self.datum, (ve, vn),
                                              vu if self.datum else None))

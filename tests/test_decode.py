@@ -345,12 +345,14 @@ def test_scaled_pressure_becomes_pressure_altitude():
     assert p.pressure_altitude_m == pytest.approx(914.4, abs=0.5)  # float32 on the wire
 
 
-@pytest.mark.parametrize("press_abs", [math.nan, math.inf, -math.inf, -1.0, 0.0, 5000.0],
-                         ids=["nan", "inf", "-inf", "negative", "zero", "above_sensor_range"])
-def test_invalid_scaled_pressure_is_rejected_once(press_abs):
+@pytest.mark.parametrize("press_abs, reason", [
+    (math.nan, "invalid"), (math.inf, "invalid"), (-math.inf, "invalid"), (-1.0, "out_of_range"),
+    (0.0, "out_of_range"), (1.0, "out_of_range"), (54.7, "out_of_range"), (5000.0, "out_of_range")],
+    ids=["nan", "inf", "-inf", "negative", "zero", "48_km", "above_20_km", "above_sensor_range"])
+def test_invalid_scaled_pressure_is_rejected_once(press_abs, reason):
     p, moved = decode(pressure(press_abs))
     assert p is None
-    assert moved == {"rx.scaled_pressure": 1, "pressure.invalid": 1}
+    assert moved == {"rx.scaled_pressure": 1, f"pressure.{reason}": 1}
 
 
 def test_scaled_pressure_from_another_system_is_ignored():

@@ -33,8 +33,20 @@ def ecef_to_geodetic(x, y, z):
     return np.degrees(lat), np.degrees(lon), h
 
 
+def horizontal_axes(lat_deg, lon_deg) -> np.ndarray:
+    """ECEF unit vectors of local true east (row 0) and north (row 1) at points: shape (..., 2, 3)."""
+    lat, lon = np.radians(lat_deg), np.radians(lon_deg)
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    zero = np.zeros_like(sl)
+    return np.stack([np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1)], -2)
+
+
 class LocalTangentPlane:
-    """East/North metres on the tangent plane at a reference point (on the ellipsoid surface)."""
+    """East/North metres on the tangent plane at a reference point (on the ellipsoid surface).
+
+    Plane axes are true east/north at the reference point only: elsewhere a true east/north velocity must be
+    turned into the plane's axes with velocity_matrix (by the meridian convergence, about the longitude
+    difference x sin(latitude), and scaled by the projection) before it is used with plane positions."""
 
     def __init__(self, lat0_deg: float, lon0_deg: float):
         self.lat0_deg = float(lat0_deg)
@@ -52,6 +64,13 @@ class LocalTangentPlane:
         enu = np.tensordot(self._rot, d, axes=1)
         return enu[0], enu[1]
 
+    def velocity_matrix(self, lat_deg, lon_deg) -> np.ndarray:
+        """The Jacobian J of to_en at surface points (..., 2, 2): plane velocity = J @ true (east, north) velocity.
+
+        to_en is the point's ECEF offset dotted with the plane's axes, so its derivative along the local true
+        east/north unit vectors is those vectors dotted with the plane's axes: exact, not a small-angle rotation."""
+        return self._rot[:2] @ np.swapaxes(horizontal_axes(lat_deg, lon_deg), -1, -2)
+
     def to_geodetic(self, east_m, north_m):
         """Inverse of to_en: the surface point whose projection onto the plane is (east, north).
 
@@ -66,6 +85,7 @@ class LocalTangentPlane:
         qa = np.sum(d * u_axis * u_axis)
         qb = np.sum(d[:, None] * c * u_axis[:, None], axis=0)
         qc = np.sum(d[:, None] * c * c, axis=0) - 1.0
-        u = (-qb + np.sqrt(qb * qb - qa * qc)) / qa  # the intersection nearest the plane
+        with np.errstate(invalid="ignore"):  # a point off the Earth's disc has no surface point: NaN
+            u = (-qb + np.sqrt(qb * qb - qa * qc)) / qa  # the intersection nearest the plane
         lat, lon, _ = ecef_to_geodetic(*(c + np.outer(u_axis, u)))
         return lat.reshape(east_m.shape), lon.reshape(east_m.shape)

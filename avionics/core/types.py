@@ -121,6 +121,8 @@ class Advisory:
     ra_reversed: bool = False
     ra_crossing: bool = False  # the sense takes ownship through the intruder's altitude
     ra_separation_m: float | None = None  # least projected vertical separation at CPA with the RA flown
+    # ADS-B integrity of the intruder's reports (tracking/integrity.py): "ok" or "degraded:<mode>"
+    integrity: str = "ok"
 
     def ra_key(self) -> tuple:
         """What a pilot would hear change: level, sense, strength, reversal."""

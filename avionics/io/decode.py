@@ -18,7 +18,7 @@ import math
 from collections import Counter
 
 from avionics.config import Config, traffic_source_ids
-from avionics.core.atmosphere import pressure_altitude_m
+from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.core.types import (
     AddressSource, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
@@ -70,6 +70,8 @@ class MessageDecoder:
         self._sender_expiry_s = config.tracking.delete_after_s + SENDER_MARGIN_S
         self._next_prune_s = 0.0
         self.spoof_suspected: set[IntruderKey] = set()  # intruders also reported by a second sender
+        # (time, reason) when our last SCALED_PRESSURE was rejected; None once one is accepted
+        self.pressure_rejection: tuple[float, str] | None = None
         self._handlers = {
             "ADSB_VEHICLE": self._adsb_vehicle,
             "GLOBAL_POSITION_INT": self._global_position_int,
@@ -217,9 +219,18 @@ class MessageDecoder:
         return OwnshipFix(now_s, position[0], position[1], msg.alt * 1e-3, msg.relative_alt * 1e-3, velocity)
 
     def _scaled_pressure(self, msg, now_s: float) -> OwnshipPressure | None:
+        """press_abs -> pressure altitude, only within the range the ISA model inverts correctly
+        (core/atmosphere.py); outside it the reading is rejected and counted, never extrapolated."""
         if not self._from_own_vehicle(msg, "pressure"):
             return None
-        try:
-            return OwnshipPressure(now_s, pressure_altitude_m(float(msg.press_abs)))
-        except ValueError:  # NaN, inf or beyond the atmosphere an aircraft flies in
-            return self._reject("pressure.invalid")
+        press_abs = float(msg.press_abs)
+        if not math.isfinite(press_abs):
+            return self._reject_pressure(now_s, "invalid")
+        if not MIN_VALID_HPA <= press_abs <= MAX_VALID_HPA:
+            return self._reject_pressure(now_s, "out_of_range")
+        self.pressure_rejection = None
+        return OwnshipPressure(now_s, pressure_altitude_m(press_abs))
+
+    def _reject_pressure(self, now_s: float, reason: str) -> None:
+        self.pressure_rejection = (now_s, reason)  # the status names it (node.py)
+        return self._reject(f"pressure.{reason}")

@@ -70,6 +70,13 @@ STRENGTH = {None: mavlink2.DAA_RA_STRENGTH_NONE, "preventive": mavlink2.DAA_RA_S
             "increase": mavlink2.DAA_RA_STRENGTH_INCREASE}
 
 
+# Advisory.integrity -> DAA_INTEGRITY (daa.xml; the modes of tracking/integrity.py)
+INTEGRITY = {"ok": mavlink2.DAA_INTEGRITY_OK, "degraded:position_loss": mavlink2.DAA_INTEGRITY_POSITION_LOSS,
+             "degraded:step": mavlink2.DAA_INTEGRITY_STEP, "degraded:ramp": mavlink2.DAA_INTEGRITY_RAMP,
+             "degraded:oscillation": mavlink2.DAA_INTEGRITY_OSCILLATION,
+             "degraded:inconsistent": mavlink2.DAA_INTEGRITY_INCONSISTENT}
+
+
 def _nan_if_none_or_inf(value: float | None) -> float:
     return math.nan if value is None or math.isinf(value) else value
 
@@ -83,7 +90,8 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
              | (mavlink2.DAA_ADVISORY_FLAGS_CROSSING if advisory.ra_crossing else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_DATUM_MISMATCH if advisory.datum_mismatch else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN if advisory.vmd_m is None else 0)
-             | (mavlink2.DAA_ADVISORY_FLAGS_UAT if advisory.intruder.source.value == "uat" else 0))
+             | (mavlink2.DAA_ADVISORY_FLAGS_UAT if advisory.intruder.source.value == "uat" else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED if advisory.integrity != "ok" else 0))
     return mavlink2.MAVLink_daa_advisory_message(
         id=advisory.intruder.address, level=int(advisory.level), sense=SENSE[advisory.ra_sense],
         strength=STRENGTH[advisory.ra_strength], flags=flags, sensitivity_level=advisory.sensitivity_level,
@@ -91,7 +99,7 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
         time_to_cpa=advisory.t_cpa_s, horizontal_miss=advisory.hmd_m,
         vertical_miss=_nan_if_none_or_inf(advisory.vmd_m), tau=_nan_if_none_or_inf(advisory.range_tau_s),
         mod_tau=_nan_if_none_or_inf(advisory.mod_tau_s), pc=_nan_if_none_or_inf(pc),
-        callsign=(callsign or "").encode("ascii", "replace")[:9])
+        callsign=(callsign or "").encode("ascii", "replace")[:9], integrity=INTEGRITY.get(advisory.integrity, 0))
 
 
 def advisory_severity(advisory: Advisory) -> int:

@@ -49,6 +49,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "ra_reversed": advisory.ra_reversed,
         "ra_crossing": advisory.ra_crossing,
         "ra_separation_m": advisory.ra_separation_m,
+        "integrity": advisory.integrity,
     }
 
 
@@ -92,6 +93,8 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
         "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
+        "integrity": track.integrity.label,  # "ok" | "degraded:<mode>" (docs/tracking.md, "Integrity monitor")
+        "integrity_fault_m": track.integrity.fault_m if track.integrity.degraded else None,
         **{name: getattr(advisory, name) if advisory else None for name in TRACK_ASSESSMENT_FIELDS},
         **(modes or {}),
     }

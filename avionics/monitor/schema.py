@@ -254,12 +254,12 @@ TRACK = {
     "position_sigma_m": DIST, "velocity_sigma_mps": SPEED, "advisory": ID,
     "mode_probabilities": _map(PROB, 16), "most_likely_mode": ID, "imm_mode": ID, "turn_rate_dps": RATE,
     "vertical_mode_probabilities": _map(PROB, 16), "vertical_mode": ID,
-    "vb_noise": _map(_num(0.0, 1e8), 16),
+    "vb_noise": _map(_num(0.0, 1e8), 16), "integrity": ID, "integrity_fault_m": DIST,
 }
 ADVISORY = {
     **INTRUDER, "level": ID, "reason": TEXT, "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
     "ra_strength": ID, "ra_words": TEXT, "target_vertical_rate_mps": RATE, "ra_reversed": _bool,
-    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST,
+    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST, "integrity": ID,
 }
 OWNSHIP = {
     **COMMON, "valid": _bool, "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "alt_msl_m": ALT,

@@ -15,6 +15,9 @@ equivalence  The standard IMM against filterpy's IMMEstimator, identical models,
 replay       `sitl replay` TA/RA onsets with the default ADS-B noise against noise-free, per filter, on the
              built-in encounters, several seeds (the default-filter decision of docs/tracking.md).
 bench        avionics.tracking.bench (us per track update, N = 1..1000, filterpy in the same run).
+integrity    ADS-B integrity monitor (tracking/integrity.py): Dai et al.'s failure modes (loss, step, ramp,
+             oscillation) and a frozen position injected into random encounters (default 100 per mode), detection
+             rate and delay per mode; false detections on clean tracks per track-hour; the frozen 150 kt case.
 """
 
 from __future__ import annotations
@@ -420,9 +423,251 @@ def replay_onsets(filters=("cv", "imm", "rmimm", "vb-imm"), seeds=(7, 1, 2, 3, 4
     return out
 
 
+# --- integrity monitor ------------------------------------------------------------------------------------
+
+INTEGRITY_MODES = ("loss", "step", "ramp", "oscillation", "frozen")
+RC_NIC7_M = 370.4  # DO-260B NIC 7 containment radius (0.2 NM), the least 14 CFR 91.227 accepts
+INTEGRITY_TARGET_S = 5.0
+# Fault magnitudes (docs/tracking.md, "Integrity monitor"): every fault takes the reported position outside the NIC 7
+# containment radius, i.e. a failure the transmitting aircraft's own integrity monitoring should have announced.
+STEP_M = (RC_NIC7_M, 1852.0)  # Rc(NIC 7) .. 1 NM (NIC 5): a position source switching to a bad solution
+RAMP_MPS = (5.0, 20.0)  # drift relative to the reported velocity (Dai: "serious drift of INS when GNSS is lost")
+OSC_AMPLITUDE_M = (RC_NIC7_M, 2 * RC_NIC7_M)
+OSC_PERIOD_S = (10.0, 60.0)
+
+
+def _random_legs(rng, duration_s: float):
+    """A leg program of straight segments and standard-rate-or-less turns, some with climbs (sitl Leg)."""
+    from sitl.scenario import Leg
+
+    legs, t = [], 0.0
+    while t < duration_s:
+        d = float(rng.uniform(20.0, 60.0))
+        turn = float(rng.choice([-1, 1]) * rng.uniform(1.5, 3.0)) if rng.random() < 0.5 else 0.0
+        climb = float(rng.uniform(-10.0, 10.0)) if rng.random() < 0.3 else 0.0
+        legs.append(Leg(d, turn_rate_dps=turn, vertical_rate_mps=climb))
+        t += d
+    return tuple(legs)
+
+
+def _encounter_reports(rng, key, duration_s: float, fault: str | None, onset_s: float, plane):
+    """One intruder's ADS-B reports (sitl LegKinematics truth, sitl DEFAULT impairments: NACp 9 / NACv 2 noise,
+    1 kt velocity LSB, 25 ft altitude, 0.2-0.5 s latency, 5 % dropouts), with `fault` from onset_s.
+    Returns [(received_s, report, east, north)] and the fault's description (its reference time: when the
+    reported position error first exceeds Rc(NIC 7); onset for loss and frozen)."""
+    from avionics.core.units import FT, KT
+    from sitl.impairments import DEFAULT
+    from sitl.trajectory import LegKinematics
+
+    speed = float(rng.uniform(40.0, 250.0))
+    kin = LegKinematics(float(rng.uniform(-2e4, 2e4)), float(rng.uniform(-2e4, 2e4)), float(rng.uniform(1e3, 9e3)),
+                        float(rng.uniform(0, 360)), speed, 0.0, _random_legs(rng, duration_s))
+    phase = float(rng.uniform(0.0, 1.0))
+    t_app = np.arange(phase, duration_s, 1.0)
+    truth = np.array([kin.at(t) for t in t_app])
+    k = len(t_app)
+    pos = truth[:, :2] + rng.normal(0.0, DEFAULT.position_sigma_m, (k, 2))
+    vel = np.round((truth[:, 3:5] + rng.normal(0.0, DEFAULT.velocity_sigma_mps, (k, 2))) / KT) * KT
+    alt = np.round(truth[:, 2] / (25 * FT)) * 25 * FT
+    vrate = truth[:, 5] + rng.normal(0.0, DEFAULT.vertical_rate_sigma_mps, k)
+    keep = rng.random(k) >= DEFAULT.dropout_probability
+    latency = DEFAULT.latency_s + rng.uniform(-DEFAULT.latency_jitter_s, DEFAULT.latency_jitter_s, k)
+    after = t_app >= onset_s
+    tau = np.maximum(t_app - onset_s, 0.0)
+    angle = float(rng.uniform(0, 2 * math.pi))
+    u = np.array([math.cos(angle), math.sin(angle)])
+    info: dict = {"speed_mps": speed, "reference_s": onset_s}
+    if fault == "loss":
+        keep &= ~after
+    elif fault == "step":
+        size = float(rng.uniform(*STEP_M))
+        pos += np.where(after, size, 0.0)[:, None] * u
+        info["size_m"] = size
+    elif fault == "ramp":
+        rate = float(rng.uniform(*RAMP_MPS))
+        pos += (rate * tau)[:, None] * u
+        info.update(rate_mps=rate, reference_s=onset_s + RC_NIC7_M / rate)
+    elif fault == "oscillation":
+        amp, period = float(rng.uniform(*OSC_AMPLITUDE_M)), float(rng.uniform(*OSC_PERIOD_S))
+        pos += (amp * np.sin(2 * math.pi * tau / period))[:, None] * u
+        info.update(amplitude_m=amp, period_s=period,
+                    reference_s=onset_s + period / (2 * math.pi) * math.asin(min(1.0, RC_NIC7_M / amp)))
+    elif fault == "frozen":
+        last = np.flatnonzero(~after & keep)[-1]  # the last good report's position is repeated from then on
+        pos[after] = pos[last]
+        info["reference_s"] = float(t_app[last])
+    lat, lon = plane.to_geodetic(pos[:, 0], pos[:, 1])
+    out = []
+    for i in np.flatnonzero(keep):
+        rx = float(t_app[i] + latency[i])  # stamped at receipt (tslc 0), as sitl does
+        rep = IntruderReport(key, rx, rx, float(lat[i]), float(lon[i]), float(alt[i]), AltitudeDatum.PRESSURE,
+                             (float(vel[i, 0]), float(vel[i, 1])), float(vrate[i]))
+        out.append((rx, rep, float(pos[i, 0]), float(pos[i, 1])))
+    return out, info
+
+
+def _run_integrity(fault: str | None, n: int, seed: int, duration_s: float, filter_name: str = "imm") -> dict:
+    """n intruders in one tracker (vectorised), reports applied in receipt order on a 0.1 s assessment grid (as
+    the pipeline's 10 Hz assessments); per key: first time degraded at or after the onset, labels seen, restarts."""
+    from avionics.core.geodesy import LocalTangentPlane
+    from avionics.tracking.imm_tracker import make_tracker
+
+    plane = LocalTangentPlane(47.4, 8.5)
+    rng = np.random.default_rng(seed)
+    keys = [IntruderKey(0x100000 + i, AddressSource.ES1090) for i in range(n)]
+    stream, infos = [], []
+    for key in keys:
+        onset = float(rng.uniform(150.0, 200.0))
+        reports, info = _encounter_reports(rng, key, duration_s, fault, onset, plane)
+        info["onset_s"] = onset
+        stream += reports
+        infos.append(info)
+    stream.sort(key=lambda r: r[0])
+    counters: Counter = Counter()
+    tracker = make_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
+    first = [None] * n
+    labels = [Counter() for _ in range(n)]
+    false_first = []  # clean run: (key index, time) of each ok -> degraded transition
+    was = [False] * n
+    i, cpu = 0, 0.0
+    for tick in np.arange(0.1, duration_s + 1.0, 0.1):
+        j = i
+        while j < len(stream) and stream[j][0] <= tick:
+            j += 1
+        batch = stream[i:j]
+        i = j
+        t0 = time.process_time()
+        if batch:
+            tracker.ingest_many([b[1] for b in batch], [b[2] for b in batch], [b[3] for b in batch])
+        tracker.prune(float(tick))
+        cpu += time.process_time() - t0
+        for b, key in enumerate(keys):
+            track = tracker.tracks.get(key)
+            degraded = track is not None and track.integrity.degraded
+            if degraded:
+                labels[b][track.integrity.mode] += 1
+                if fault is None and not was[b]:
+                    false_first.append((b, float(tick)))
+                if first[b] is None and tick >= infos[b]["onset_s"]:
+                    first[b] = float(tick)
+            was[b] = degraded
+    return {"first": first, "infos": infos, "labels": labels, "false": false_first, "counters": counters,
+            "reports": len(stream), "cpu_s": cpu}
+
+
+def _integrity_mode_summary(fault: str, res: dict) -> dict:
+    delays_onset, delays_ref, within = [], [], 0
+    for first, info in zip(res["first"], res["infos"]):
+        if first is None:
+            continue
+        delays_onset.append(first - info["onset_s"])
+        d = max(0.0, first - info["reference_s"])
+        delays_ref.append(d)
+        within += d <= INTEGRITY_TARGET_S
+    n = len(res["first"])
+    expected = {"loss": "position_loss", "frozen": "inconsistent"}.get(fault, fault)
+    label_ok = sum(1 for c in res["labels"] if c and c.most_common(1)[0][0] == expected)
+    q = (lambda a, p: round(float(np.percentile(a, p)), 2) if a else None)
+    return {"encounters": n, "detected": len(delays_ref), "detected_within_5s": within,
+            "detected_within_5s_fraction": round(within / n, 4),
+            "delay_s": {"median": q(delays_ref, 50), "p99": q(delays_ref, 99), "max": q(delays_ref, 100)},
+            "delay_from_onset_s": {"median": q(delays_onset, 50), "max": q(delays_onset, 100)},
+            "labelled_as_" + expected: label_ok,
+            "restarts": res["counters"]["track.restarted"]}
+
+
+def integrity(encounters: int = 100, clean_tracks: int = 600, clean_duration_s: float = 1200.0, seed: int = 2026,
+              filter_name: str = "imm") -> dict:
+    """Detection per injected mode and false detections on clean tracks (module docstring)."""
+    from avionics.tracking import integrity as im
+
+    out = {
+        "filter": filter_name,
+        "truth": "sitl LegKinematics: 40-250 m/s, random heading, straight legs and 1.5-3 deg/s turns, some climbs",
+        "impairments": "sitl DEFAULT: NACp 9 / NACv 2 noise (12.3 m, 1.2 m/s per axis), 1 kt and 25 ft LSBs, "
+                       "0.2-0.5 s latency, 5 % dropouts, 1 Hz",
+        "faults": {"onset_s": [150, 200], "step_m": list(STEP_M), "ramp_mps": list(RAMP_MPS),
+                   "oscillation_amplitude_m": list(OSC_AMPLITUDE_M), "oscillation_period_s": list(OSC_PERIOD_S),
+                   "loss": "reports stop", "frozen": "the last good position repeated, velocity still reported",
+                   "delay_reference": "onset (loss, step, frozen); the error first exceeding Rc(NIC 7) = 370.4 m "
+                                      "(ramp, oscillation); a detection before it counts 0 s"},
+        "monitor": {"alpha_per_window": im.ALPHA, "windows": im.WINDOWS.tolist(), "q_threshold": round(im.Q_THRESHOLD, 2),
+                    "loss_after_s": im.LOSS_AFTER_S, "hold_s": im.HOLD_S},
+        "modes": {},
+    }
+    duration = 420.0
+    cpu, reports = 0.0, 0
+    for m, fault in enumerate(INTEGRITY_MODES):
+        res = _run_integrity(fault, encounters, seed + 1 + m, duration, filter_name)
+        out["modes"][fault] = _integrity_mode_summary(fault, res)
+        cpu, reports = cpu + res["cpu_s"], reports + res["reports"]
+    clean = _run_integrity(None, clean_tracks, seed, clean_duration_s, filter_name)
+    hours = clean_tracks * clean_duration_s / 3600.0
+    falses = len(clean["false"])
+    out["clean"] = {"tracks": clean_tracks, "track_hours": round(hours, 2), "false_detections": falses,
+                    "per_10_track_hours": round(10 * falses / hours, 3),
+                    "upper_95_per_10_track_hours": round(10 * _poisson_upper_95(falses) / hours, 3),
+                    "false_detections_by_mode": dict(Counter(
+                        max(clean["labels"][b], key=clean["labels"][b].get) for b, _ in clean["false"]))}
+    cpu, reports = cpu + clean["cpu_s"], reports + clean["reports"]
+    out["frozen_150kt_300s"] = frozen_case(filter_name)
+    out["cost"] = {"tracker_us_per_report_with_monitor": round(1e6 * cpu / reports, 1), **monitor_cost()}
+    out["pass"] = bool(all(v["detected_within_5s_fraction"] >= 0.99 for v in out["modes"].values())
+                       and out["clean"]["upper_95_per_10_track_hours"] <= 1.0)
+    return out
+
+
+def _poisson_upper_95(k: int) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(0.95, 2 * (k + 1)) / 2)
+
+
+def frozen_case(filter_name: str = "imm", seed: int = 5) -> dict:
+    """The measured OpenSky case: position frozen for 300 s while the velocity says 150 kt (after 60 s clean)."""
+    from avionics.core.units import KT
+    from avionics.tracking.imm_tracker import make_tracker
+
+    rng = np.random.default_rng(seed)
+    counters: Counter = Counter()
+    tracker = make_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
+    v = 150 * KT
+    flagged = 0
+    for k in range(360):
+        t = float(k)
+        e, n = (v * t + rng.normal(0, 12.3), rng.normal(0, 12.3)) if k <= 60 else (e, n)
+        rep = IntruderReport(KEY, t, t, n / 111_195.0, e / 75_000.0, 1500.0, AltitudeDatum.PRESSURE,
+                             (v + rng.normal(0, 1.2), rng.normal(0, 1.2)), 0.0)
+        tracker.ingest(rep, e, n)
+        tracker.prune(t)
+        flagged += k > 60 and tracker.tracks[KEY].integrity.degraded
+    return {"restarts": counters["track.restarted"], "gate_misses": counters["track.gate_miss"],
+            "flagged_fraction_of_frozen_reports": round(flagged / 299, 3),
+            "label": tracker.tracks[KEY].integrity.label}
+
+
+def monitor_cost(n: int = 2000) -> dict:
+    """CPU per report of IntegrityMonitor.observe alone: batches of 1 and of 100 reports."""
+    from avionics.tracking.integrity import IntegrityMonitor
+
+    out = {}
+    for batch in (1, 100):
+        mon = IntegrityMonitor(2.0)
+        keys = list(range(batch))
+        rounds = max(1, n // batch)
+        t0 = time.process_time()
+        for k in range(rounds):
+            e = np.full(batch, 100.0 * k)
+            mon.observe(keys, np.full(batch, float(k)), np.full(batch, float(k)), e, np.zeros(batch),
+                        np.tile([100.0, 0.0], (batch, 1)), np.full(batch, 30.0))
+        out[f"monitor_us_per_report_batch_{batch}"] = round(1e6 * (time.process_time() - t0) / (rounds * batch), 1)
+    return out
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m avionics.reports.tracking", description=__doc__.split("\n")[0])
-    parser.add_argument("report", choices=["hwang", "baek-bang-1", "dai-vb", "equivalence", "replay", "bench"])
+    parser.add_argument("report", choices=["hwang", "baek-bang-1", "dai-vb", "equivalence", "replay", "bench",
+                                           "integrity"])
     parser.add_argument("--runs", type=int, default=None, help="Monte Carlo runs (hwang 100, baek-bang-1 100, "
                                                                  "dai-vb 10)")
     parser.add_argument("--no-plot", action="store_true")
@@ -438,6 +683,8 @@ def main(argv=None) -> int:
         res = equivalence()
     elif args.report == "replay":
         res = replay_onsets()
+    elif args.report == "integrity":
+        res = integrity(args.runs or 100)
     else:
         from avionics.tracking.bench import bench
 

@@ -185,6 +185,15 @@ class ImmBank:
             self.vb_beta[slots] = self.vb.prior_count * nominal
             self.vb_hist[slots] = 1.0
 
+    def reframe(self, change, slots) -> None:
+        """Carry the horizontal states of these slots into a new tangent plane (avionics/core/frame.py): every
+        mode's [x, y, vx, vy, ax, ay] and covariance, and the RMIMM residual means. Mode probabilities, the yaw
+        rate and the VB noise variances are frame-free (the planes differ by a fraction of a degree)."""
+        if not self.horizontal or not len(slots):
+            return
+        self.x[slots], self.p[slots], t = change.carry(self.x[slots], self.p[slots], vectors=(2, 4))
+        self.ebar[slots] = np.einsum("bjkl,bjtl->bjtk", t, self.ebar[slots])
+
     def noise_estimate(self, slots) -> np.ndarray:
         """(B, d) VB measurement-noise variance estimates (Dai eq 22), or NaN without VB."""
         slots = np.atleast_1d(slots)

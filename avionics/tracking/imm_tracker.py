@@ -36,6 +36,7 @@ from avionics.config import TrackingConfig
 from avionics.core.types import AddressSource, IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank, ModeSpec, VbParams
+from avionics.tracking.integrity import IntegrityMonitor
 from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
                                       UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
 
@@ -82,6 +83,7 @@ class ImmTracker:
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))
         self._gate = np.array([0.0] + [chi2.ppf(config.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
+        self.integrity = IntegrityMonitor(config.velocity_sigma_mps, capacity)  # per key, sees every report
 
     def _mode(self, kind: str) -> ModeSpec:
         c = self.config
@@ -110,15 +112,16 @@ class ImmTracker:
         assert len(set(self._free)) == len(self._free) and len(used) + len(self._free) == self.bank_h.capacity
 
     # -- measurement model -------------------------------------------------------------------------------
-    def _measure(self, reports: list[IntruderReport], easts, norths):
-        """Measurement arrays of a batch: (z_h, mask_h, r_h) (B, 4) and (z_v, mask_v, r_v) (B, 2)."""
+    def _measure(self, reports: list[IntruderReport], easts, norths, stale=None):
+        """Measurement arrays of a batch: (z_h, mask_h, r_h) (B, 4) and (z_v, mask_v, r_v) (B, 2). stale (B,): the
+        report repeats a stale position (integrity monitor): its position is not measured."""
         cfg = self.config
         b = len(reports)
         z_h = np.zeros((b, H_MEAS))
         z_h[:, 0] = easts
         z_h[:, 1] = norths
         m_h = np.zeros((b, H_MEAS), bool)
-        m_h[:, :2] = True
+        m_h[:, :2] = True if stale is None else ~np.asarray(stale, bool)[:, None]
         z_v = np.zeros((b, V_MEAS))
         m_v = np.zeros((b, V_MEAS), bool)
         pos_sigma = np.empty(b)
@@ -196,11 +199,42 @@ class ImmTracker:
                 self.counters["report.out_of_order"] += 1
                 continue
             upd.append(i)
+        stale = self._observe(new + upd, reports, easts, norths)
         if new:
             self._initiate([reports[i] for i in new], easts[new], norths[new], self.tracks)
             out[new] = True
-        if not upd:
+        if upd:
+            self._update_round(upd, reports, easts, norths, stale[len(new):], out)
+        seen = new + upd
+        if not seen:
             return
+        tracks = [self.tracks[reports[i].key] for i in seen]  # the key's published track (maybe restarted)
+        x, _ = self._posterior(np.fromiter((t.slot for t in tracks), int, len(tracks)))
+        for k, (i, track) in enumerate(zip(seen, tracks)):
+            track.integrity = self.integrity.status(track.key)
+            track.report_offset = (float(easts[i] - x[k, 0]), float(norths[i] - x[k, 1]), reports[i].altitude_m)
+
+    def _observe(self, idx: list[int], reports, easts, norths) -> np.ndarray:
+        """The integrity monitor sees every report of a key before the gate (a step or a frozen position shows
+        first as gate misses); returns which reports repeat a stale position."""
+        if not idx:
+            return np.zeros(0, bool)
+        reps = [reports[i] for i in idx]
+        cfg = self.config
+        sigma = [cfg.position_sigma_uat_m if r.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
+                 for r in reps]
+        vel = [r.velocity_en_mps or (math.nan, math.nan) for r in reps]
+        # where each key's previous report is in today's plane: its track's posterior (carried by reframe) + offset
+        previous = np.full((len(reps), 2), np.nan)
+        known = [b for b, r in enumerate(reps) if r.key in self.tracks and self.tracks[r.key].report_offset]
+        if known:
+            tracks = [self.tracks[reps[b].key] for b in known]
+            x, _ = self._posterior(np.fromiter((t.slot for t in tracks), int, len(tracks)))
+            previous[known] = x[:, :2] + np.array([t.report_offset[:2] for t in tracks])
+        return self.integrity.observe([r.key for r in reps], [r.time_s for r in reps], [r.received_s for r in reps],
+                                      easts[idx], norths[idx], vel, sigma, previous)
+
+    def _update_round(self, upd: list[int], reports, easts, norths, stale: np.ndarray, out: np.ndarray) -> None:
         reps = [reports[i] for i in upd]
         tracks = [self.tracks[r.key] for r in reps]
         for rep, track in zip(reps, tracks):
@@ -209,7 +243,7 @@ class ImmTracker:
                 self.counters["track.datum_change"] += 1
                 self._reset_vertical(track)
                 track.datum = rep.altitude_datum
-        accepted = self._update(tracks, reps, easts[upd], norths[upd])
+        accepted = self._update(tracks, reps, easts[upd], norths[upd], stale=stale)
         for k, (i, rep, track) in enumerate(zip(upd, reps, tracks)):
             if accepted[k]:
                 track.consecutive_rejects = 0
@@ -242,12 +276,12 @@ class ImmTracker:
                          nominal_var=np.array([[self.config.altitude_sigma_m**2, self.config.vertical_rate_sigma_mps**2]]))
 
     def _update(self, tracks: list[ImmTrack], reps: list[IntruderReport], easts, norths,
-                count: bool = True) -> np.ndarray:
+                count: bool = True, stale=None) -> np.ndarray:
         """One vectorised IMM cycle for these tracks (distinct), gated; accepted ones are stored."""
         slots = np.fromiter((t.slot for t in tracks), int, len(tracks))
         times = np.fromiter((r.time_s for r in reps), float, len(reps))
         dt = times - self._t[slots]
-        (z_h, m_h, r_h), (z_v, m_v, r_v) = self._measure(reps, easts, norths)
+        (z_h, m_h, r_h), (z_v, m_v, r_v) = self._measure(reps, easts, norths, stale)
         pend_h = self.bank_h.update(slots, dt, z_h, m_h, r_h)
         pend_v = self.bank_v.update(slots, dt, z_v, m_v, r_v)
         # physical plausibility: could the tracked aircraft be where this report says?
@@ -255,7 +289,7 @@ class ImmTracker:
         jump = np.hypot(z_h[:, 0] - xp[:, 0], z_h[:, 1] - xp[:, 1])
         allowed = self.config.max_innovation_speed_mps * np.maximum(dt, 1.0) + 5.0 * np.sqrt(
             var.sum(axis=1) + r_h[:, 0] + r_h[:, 1])
-        plausible = jump <= allowed
+        plausible = (jump <= allowed) | ~m_h[:, 0]  # a stale position is not measured
         d2 = pend_h.d2 + pend_v.d2
         in_gate = plausible & (d2 <= self._gate[pend_h.dof + pend_v.dof])
         self.bank_h.commit(pend_h, in_gate)
@@ -298,13 +332,23 @@ class ImmTracker:
         dead = [k for k, t in self.tracks.items() if now_s - t.last_report_s > self.config.delete_after_s]
         for key in dead:
             self._release(self.tracks.pop(key))
+            self.integrity.forget(key)
             self.counters["track.deleted"] += 1
             comp = self.competitors.pop(key, None)
             if comp is not None:
                 self._release(comp)
         for key in [k for k, t in self.competitors.items() if now_s - t.last_report_s > self.config.max_coast_s]:
             self._release(self.competitors.pop(key))
+        for key in self.integrity.check_silence(now_s):  # position loss while the track lives
+            if key in self.tracks:
+                self.tracks[key].integrity = self.integrity.status(key)
         return dead
+
+    def reframe(self, change) -> None:
+        """The tangent plane moved (avionics/core/frame.py): carry every track and competitor into it."""
+        slots = np.array([t.slot for t in (*self.tracks.values(), *self.competitors.values())], int)
+        self.bank_h.reframe(change, slots)
+        self.integrity.reframe(change)
 
     # -- outputs -----------------------------------------------------------------------------------------
     def _assemble(self, xh, ph, xv, pv):
@@ -331,7 +375,8 @@ class ImmTracker:
         dt = t_s - self._t[slots]
         xh, ph, _ = self.bank_h.predict(slots, dt)
         xv, pv, _ = self.bank_v.predict(slots, dt)
-        return self._assemble(xh, ph, xv, pv)
+        xs, ps = self._assemble(xh, ph, xv, pv)
+        return xs, self.integrity.widen(keys, ps)  # a degraded track's position is widened by its fault size
 
     def mode_info(self, key: IntruderKey, t_s: float | None = None) -> dict:
         return self.mode_infos([key], t_s)[0]

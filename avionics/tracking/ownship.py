@@ -1,18 +1,21 @@
 """Ownship state: a CV Kalman filter on GLOBAL_POSITION_INT fixes, plus the pressure-altitude offset.
 
 Ownship pressure altitude at any instant = filtered geometric altitude + a smoothed (pressure - geometric)
-offset learned from SCALED_PRESSURE, so both datums are available whenever a recent pressure exists.
+offset learned from SCALED_PRESSURE, so both datums are available whenever a recent pressure exists. Each
+pressure sample is cross-checked against GNSS altitude first (tracking/baro_check.py): while the pressure is
+faulty, ownship pressure altitude is None and the vertical logic compares with GNSS altitude instead.
 """
 
 from __future__ import annotations
 
-import math
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
 from avionics.config import AltitudeConfig, InputConfig
 from avionics.core.types import OwnshipFix, OwnshipPressure
+from avionics.tracking.baro_check import BaroCrossCheck
 from avionics.tracking.kalman_cv import CvKalman, Measurement
 
 GNSS_POSITION_SIGMA_M = 2.0
@@ -25,19 +28,19 @@ OWNSHIP_ACCEL_SIGMA_MPS2 = 3.0
 class OwnshipState:
     t_s: float
     x: np.ndarray  # [east, north, alt_msl (geometric), v_east, v_north, v_up]
-    pressure_altitude_m: float | None  # None: no recent SCALED_PRESSURE
+    pressure_altitude_m: float | None  # None: no recent SCALED_PRESSURE, or the pressure is faulty
     height_above_home_m: float
     p: np.ndarray  # covariance of x
 
 
 class OwnshipFilter:
-    def __init__(self, altitude: AltitudeConfig, inputs: InputConfig):
+    def __init__(self, altitude: AltitudeConfig, inputs: InputConfig, counters: Counter | None = None):
         self.altitude_cfg = altitude
         self.input_cfg = inputs
+        self.counters = counters if counters is not None else Counter()  # baro.<fault> and baro.recovered
         self.kf: CvKalman | None = None
         self.last_fix: OwnshipFix | None = None
-        self.baro_offset_m: float | None = None  # pressure altitude - geometric altitude
-        self.last_pressure_s: float | None = None
+        self.baro = BaroCrossCheck(altitude, GNSS_ALTITUDE_SIGMA_M, self.counters)
 
     def update_fix(self, fix: OwnshipFix, east: float, north: float) -> bool:
         vn, ve, vd = fix.velocity_ned_mps
@@ -57,26 +60,31 @@ class OwnshipFilter:
         return True
 
     def update_pressure(self, pressure: OwnshipPressure) -> bool:
+        """False before the first fix (the offset needs a geometric altitude to refer to). A faulty sample is
+        taken (True) but kept out of the offset, and counted by the cross-check."""
         if self.kf is None:
-            return False  # the offset needs a geometric altitude to refer to
-        geometric = self.kf.predict_to(pressure.time_s)[0][2]
-        sample = pressure.pressure_altitude_m - geometric
-        if self.baro_offset_m is None or self.last_pressure_s is None:
-            self.baro_offset_m = sample
-        else:
-            dt = max(pressure.time_s - self.last_pressure_s, 0.0)
-            alpha = 1.0 - math.exp(-dt / self.altitude_cfg.baro_offset_smoothing_s)
-            self.baro_offset_m += alpha * (sample - self.baro_offset_m)
-        self.last_pressure_s = pressure.time_s
+            return False
+        x = self.kf.predict_to(pressure.time_s)[0]
+        self.baro.update(pressure.time_s, pressure.pressure_altitude_m, float(x[2]), float(x[5]))
         return True
+
+    @property
+    def pressure_fault(self) -> str | None:
+        """stuck | jump | implausible while ownship pressure is withheld as faulty (baro_check.py), else None."""
+        return self.baro.fault
+
+    def reframe(self, change) -> None:
+        """The tangent plane moved (avionics/core/frame.py): carry the filter's state into it."""
+        if self.kf is not None:
+            x, p, _ = change.carry(self.kf.x[None], self.kf.p[None], vectors=(3,))
+            self.kf.x, self.kf.p = x[0], p[0]
 
     def state_at(self, t_s: float) -> OwnshipState | None:
         """Ownship at t_s, or None without a fix in the last ownship_timeout_s."""
         if self.kf is None or self.last_fix is None or t_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
             return None
         x, p = self.kf.predict_to(t_s)
-        pressure_alt = None
-        if self.last_pressure_s is not None and t_s - self.last_pressure_s <= self.input_cfg.pressure_timeout_s:
-            pressure_alt = x[2] + self.baro_offset_m
+        offset = self.baro.offset_at(t_s, self.input_cfg.pressure_timeout_s)
+        pressure_alt = None if offset is None else float(x[2] + offset)
         hah = self.last_fix.height_above_home_m + (x[2] - self.last_fix.alt_msl_m)
         return OwnshipState(t_s, x, pressure_alt, hah, p)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from avionics.core.types import AltitudeDatum, IntruderKey, IntruderReport
+from avionics.tracking.integrity import OK, IntegrityStatus
 
 UNKNOWN_SPEED_SIGMA_MPS = 150.0  # prior on an unreported horizontal velocity: any aircraft we protect against
 UNKNOWN_VRATE_SIGMA_MPS = 15.0
@@ -29,6 +30,18 @@ class TrackRecord:
     simulated: bool = False
     last_received_s: float = 0.0
     meta: dict = field(default_factory=dict)
+    integrity: IntegrityStatus = OK  # ADS-B integrity of the key (tracking/integrity.py), set at every report
+    # the last report of the key: (east, north) offset from the track's posterior position at that report, and its
+    # altitude; kept as an offset so that it follows the plane when the trackers' reframe carries the filters
+    report_offset: tuple | None = None
+
+    @property
+    def last_reported_enu(self) -> tuple | None:
+        """The key's last reported (east, north, altitude or None), in the current plane (metres)."""
+        if self.report_offset is None:
+            return None
+        x = self.kf.x
+        return float(x[0] + self.report_offset[0]), float(x[1] + self.report_offset[1]), self.report_offset[2]
 
     def altitude_valid(self, t_s: float, max_coast_s: float) -> bool:
         return self.last_altitude_s is not None and t_s - self.last_altitude_s <= max_coast_s

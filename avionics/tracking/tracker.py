@@ -16,6 +16,7 @@ import numpy as np
 
 from avionics.config import TrackingConfig
 from avionics.core.types import AddressSource, IntruderKey, IntruderReport
+from avionics.tracking.integrity import IntegrityMonitor
 from avionics.tracking.kalman_cv import CvKalman, Measurement
 from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
                                       UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
@@ -31,6 +32,7 @@ class IntruderTracker:
         self.config = config
         self.counters = counters
         self.tracks: dict[IntruderKey, IntruderTrack] = {}
+        self.integrity = IntegrityMonitor(config.velocity_sigma_mps)  # per key, sees every report
 
     # -- measurement model -------------------------------------------------------------------------------
     def _measurement(self, report: IntruderReport, east: float, north: float) -> Measurement:
@@ -61,6 +63,16 @@ class IntruderTracker:
         self.counters["track.initiated"] += 1
         return track
 
+    def reframe(self, change) -> None:
+        """The tangent plane moved (avionics/core/frame.py): carry every track's state into it."""
+        self.integrity.reframe(change)
+        tracks = list(self.tracks.values())
+        if not tracks:
+            return
+        xs, ps, _ = change.carry(np.array([t.kf.x for t in tracks]), np.array([t.kf.p for t in tracks]), vectors=(3,))
+        for track, x, p in zip(tracks, xs, ps):
+            track.kf.x, track.kf.p = x, p
+
     def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[None]:
         """The IMM tracker's mode outputs; a single-model filter has none."""
         return [None] * len(keys)
@@ -72,24 +84,48 @@ class IntruderTracker:
 
     def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
         """Apply one report; True when it updated or started a track, False when it was counted and dropped."""
-        z = self._measurement(report, east, north)
         track = self.tracks.get(report.key)
+        if track is not None:
+            dt = report.time_s - track.last_report_s
+            if abs(dt) <= DUPLICATE_WINDOW_S:
+                self.counters["report.duplicate"] += 1
+                return False
+            if dt < 0:
+                self.counters["report.out_of_order"] += 1
+                return False
+        took = self._apply(report, east, north, track, self._observe(report, east, north))
+        track = self.tracks[report.key]  # the key's track carries the key's integrity (also after a restart)
+        track.integrity = self.integrity.status(report.key)
+        track.report_offset = (east - float(track.kf.x[0]), north - float(track.kf.x[1]), report.altitude_m)
+        return took
+
+    def _observe(self, report: IntruderReport, east: float, north: float) -> bool:
+        """The integrity monitor sees every report of the key before the plausibility gate; True when the report
+        repeats a stale position (then only its velocity and altitude are used)."""
+        cfg = self.config
+        sigma = cfg.position_sigma_uat_m if report.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
+        track = self.tracks.get(report.key)
+        previous = None  # the previous report in today's plane: the track's state (carried by reframe) + offset
+        if track is not None and track.report_offset is not None:
+            previous = [(track.kf.x[0] + track.report_offset[0], track.kf.x[1] + track.report_offset[1])]
+        return bool(self.integrity.observe([report.key], [report.time_s], [report.received_s], [east], [north],
+                                           [report.velocity_en_mps or (math.nan, math.nan)], [sigma], previous)[0])
+
+    def _apply(self, report: IntruderReport, east: float, north: float, track: IntruderTrack | None,
+               stale: bool) -> bool:
+        z = self._measurement(report, east, north)
         if track is None:
             self.tracks[report.key] = self._initiate(report, z)
             return True
         dt = report.time_s - track.last_report_s
-        if abs(dt) <= DUPLICATE_WINDOW_S:
-            self.counters["report.duplicate"] += 1
-            return False
-        if dt < 0:
-            self.counters["report.out_of_order"] += 1
-            return False
+        if stale:  # the position repeats a stale value: not a measurement (integrity.py, `inconsistent`)
+            z = Measurement(z.index[2:], z.value[2:], z.sigma[2:])
         if report.altitude_m is not None and report.altitude_datum is not track.datum:
             # The sender switched altitude source: the old vertical state is in another datum.
             self.counters["track.datum_change"] += 1
             track.kf.reset_vertical(None, UNKNOWN_ALT_SIGMA_M, None, UNKNOWN_VRATE_SIGMA_MPS)
             track.datum = report.altitude_datum
-        if not self._plausible(track, report, z, dt):
+        if not stale and not self._plausible(track, report, z, dt):
             track.consecutive_rejects += 1
             self.counters["track.implausible_jump"] += 1
             if track.consecutive_rejects >= REJECTS_BEFORE_RESTART:
@@ -117,7 +153,11 @@ class IntruderTracker:
         dead = [k for k, t in self.tracks.items() if now_s - t.last_report_s > self.config.delete_after_s]
         for key in dead:
             del self.tracks[key]
+            self.integrity.forget(key)
             self.counters["track.deleted"] += 1
+        for key in self.integrity.check_silence(now_s):  # position loss while the track lives
+            if key in self.tracks:
+                self.tracks[key].integrity = self.integrity.status(key)
         return dead
 
     def predict(self, keys: list[IntruderKey], t_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -126,4 +166,4 @@ class IntruderTracker:
         ps = np.empty((len(keys), 6, 6))
         for i, key in enumerate(keys):
             xs[i], ps[i] = self.tracks[key].kf.predict_to(t_s)
-        return xs, ps
+        return xs, self.integrity.widen(keys, ps)  # a degraded track's position is widened by its fault size

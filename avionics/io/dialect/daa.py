@@ -411,8 +411,28 @@ DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN = 8
 enums["DAA_ADVISORY_FLAGS"][8] = EnumEntry("DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN", """The intruder's altitude is unknown.""")
 DAA_ADVISORY_FLAGS_UAT = 16
 enums["DAA_ADVISORY_FLAGS"][16] = EnumEntry("DAA_ADVISORY_FLAGS_UAT", """The intruder address came from UAT (else 1090ES).""")
-DAA_ADVISORY_FLAGS_ENUM_END = 17
-enums["DAA_ADVISORY_FLAGS"][17] = EnumEntry("DAA_ADVISORY_FLAGS_ENUM_END", """""")
+DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED = 32
+enums["DAA_ADVISORY_FLAGS"][32] = EnumEntry("DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED", """The intruder's ADS-B integrity is degraded (field integrity says how): its uncertainty is widened and, inside DMOD and ZTHR by its reported position, it gets at least a TA.""")
+DAA_ADVISORY_FLAGS_ENUM_END = 33
+enums["DAA_ADVISORY_FLAGS"][33] = EnumEntry("DAA_ADVISORY_FLAGS_ENUM_END", """""")
+
+# DAA_INTEGRITY
+enums["DAA_INTEGRITY"] = Enum()
+enums["DAA_INTEGRITY"].bitmask = False
+DAA_INTEGRITY_OK = 0
+enums["DAA_INTEGRITY"][0] = EnumEntry("DAA_INTEGRITY_OK", """Position and velocity consistent.""")
+DAA_INTEGRITY_POSITION_LOSS = 1
+enums["DAA_INTEGRITY"][1] = EnumEntry("DAA_INTEGRITY_POSITION_LOSS", """No position report while the track lives.""")
+DAA_INTEGRITY_STEP = 2
+enums["DAA_INTEGRITY"][2] = EnumEntry("DAA_INTEGRITY_STEP", """The reported position jumped.""")
+DAA_INTEGRITY_RAMP = 3
+enums["DAA_INTEGRITY"][3] = EnumEntry("DAA_INTEGRITY_RAMP", """The reported position drifts from the reported velocity.""")
+DAA_INTEGRITY_OSCILLATION = 4
+enums["DAA_INTEGRITY"][4] = EnumEntry("DAA_INTEGRITY_OSCILLATION", """The reported position oscillates about the reported velocity.""")
+DAA_INTEGRITY_INCONSISTENT = 5
+enums["DAA_INTEGRITY"][5] = EnumEntry("DAA_INTEGRITY_INCONSISTENT", """Position and velocity inconsistent (e.g. a frozen position with a moving velocity).""")
+DAA_INTEGRITY_ENUM_END = 6
+enums["DAA_INTEGRITY"][6] = EnumEntry("DAA_INTEGRITY_ENUM_END", """""")
 
 # HL_FAILURE_FLAG
 enums["HL_FAILURE_FLAG"] = Enum()
@@ -6594,22 +6614,22 @@ class MAVLink_daa_advisory_message(MAVLink_message):
 
     id = MAVLINK_MSG_ID_DAA_ADVISORY
     msgname = "DAA_ADVISORY"
-    fieldnames = ["id", "level", "sense", "strength", "flags", "sensitivity_level", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "callsign"]
-    ordered_fieldnames = ["id", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "level", "sense", "strength", "flags", "sensitivity_level", "callsign"]
-    fieldtypes = ["uint32_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "float", "float", "float", "float", "float", "float", "float", "float", "char"]
+    fieldnames = ["id", "level", "sense", "strength", "flags", "sensitivity_level", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "callsign", "integrity"]
+    ordered_fieldnames = ["id", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "level", "sense", "strength", "flags", "sensitivity_level", "callsign", "integrity"]
+    fieldtypes = ["uint32_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "float", "float", "float", "float", "float", "float", "float", "float", "char", "uint8_t"]
     fielddisplays_by_name: Dict[str, str] = {"flags": "bitmask"}
-    fieldenums_by_name: Dict[str, str] = {"level": "DAA_ADVISORY_LEVEL", "sense": "DAA_RA_SENSE", "strength": "DAA_RA_STRENGTH", "flags": "DAA_ADVISORY_FLAGS"}
+    fieldenums_by_name: Dict[str, str] = {"level": "DAA_ADVISORY_LEVEL", "sense": "DAA_RA_SENSE", "strength": "DAA_RA_STRENGTH", "flags": "DAA_ADVISORY_FLAGS", "integrity": "DAA_INTEGRITY"}
     fieldunits_by_name: Dict[str, str] = {"target_vertical_rate": "m/s", "range": "m", "time_to_cpa": "s", "horizontal_miss": "m", "vertical_miss": "m", "tau": "s", "mod_tau": "s"}
-    native_format = bytearray(b"<IffffffffBBBBBc")
-    orders = [0, 9, 10, 11, 12, 13, 1, 2, 3, 4, 5, 6, 7, 8, 14]
-    lengths = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
-    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9]
+    native_format = bytearray(b"<IffffffffBBBBBcB")
+    orders = [0, 9, 10, 11, 12, 13, 1, 2, 3, 4, 5, 6, 7, 8, 14, 15]
+    lengths = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
+    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0]
     crc_extra = 189
-    unpacker = struct.Struct("<IffffffffBBBBB9s")
+    unpacker = struct.Struct("<IffffffffBBBBB9sB")
     instance_field = None
     instance_offset = -1
 
-    def __init__(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes):
+    def __init__(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0):
         MAVLink_message.__init__(self, MAVLink_daa_advisory_message.id, MAVLink_daa_advisory_message.msgname)
         self._fieldnames = MAVLink_daa_advisory_message.fieldnames
         self._instance_field = MAVLink_daa_advisory_message.instance_field
@@ -6630,9 +6650,10 @@ class MAVLink_daa_advisory_message(MAVLink_message):
         self.pc = pc
         self._callsign_raw = callsign
         self.callsign = callsign.split(b"\x00", 1)[0].decode("ascii", errors="replace")
+        self.integrity = integrity
 
     def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
-        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.id, self.target_vertical_rate, self.range, self.time_to_cpa, self.horizontal_miss, self.vertical_miss, self.tau, self.mod_tau, self.pc, self.level, self.sense, self.strength, self.flags, self.sensitivity_level, self._callsign_raw), force_mavlink1=force_mavlink1)
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.id, self.target_vertical_rate, self.range, self.time_to_cpa, self.horizontal_miss, self.vertical_miss, self.tau, self.mod_tau, self.pc, self.level, self.sense, self.strength, self.flags, self.sensitivity_level, self._callsign_raw, self.integrity), force_mavlink1=force_mavlink1)
 
 
 # Define name on the class for backwards compatibility (it is now msgname).
@@ -17320,7 +17341,7 @@ class MAVLink(object):
         m._header = MAVLink_header(msgId, incompat_flags, compat_flags, mlen, seq, srcSystem, srcComponent)
         return m
 
-    def daa_advisory_encode(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes) -> MAVLink_daa_advisory_message:
+    def daa_advisory_encode(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0) -> MAVLink_daa_advisory_message:
         """
         Detect-and-avoid advisory for one intruder, sent on every change and
         while active. The RA fields are one ownship manoeuvre shared
@@ -17341,11 +17362,12 @@ class MAVLink(object):
         mod_tau                   : Modified tau of the active level; NaN when not closing. [s] (type:float)
         pc                        : Conflict probability; NaN when not computed. (type:float)
         callsign                  : Intruder callsign, NUL-terminated if shorter. (type:char)
+        integrity                 : ADS-B integrity of the intruder (0 when the sender predates this field). (type:uint8_t, values:DAA_INTEGRITY)
 
         """
-        return MAVLink_daa_advisory_message(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign)
+        return MAVLink_daa_advisory_message(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity)
 
-    def daa_advisory_send(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, force_mavlink1: bool = False) -> None:
+    def daa_advisory_send(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0, force_mavlink1: bool = False) -> None:
         """
         Detect-and-avoid advisory for one intruder, sent on every change and
         while active. The RA fields are one ownship manoeuvre shared
@@ -17366,9 +17388,10 @@ class MAVLink(object):
         mod_tau                   : Modified tau of the active level; NaN when not closing. [s] (type:float)
         pc                        : Conflict probability; NaN when not computed. (type:float)
         callsign                  : Intruder callsign, NUL-terminated if shorter. (type:char)
+        integrity                 : ADS-B integrity of the intruder (0 when the sender predates this field). (type:uint8_t, values:DAA_INTEGRITY)
 
         """
-        self.send(self.daa_advisory_encode(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign), force_mavlink1=force_mavlink1)
+        self.send(self.daa_advisory_encode(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity), force_mavlink1=force_mavlink1)
 
     def sys_status_encode(self, onboard_control_sensors_present: int, onboard_control_sensors_enabled: int, onboard_control_sensors_health: int, load: int, voltage_battery: int, current_battery: int, battery_remaining: int, drop_rate_comm: int, errors_comm: int, errors_count1: int, errors_count2: int, errors_count3: int, errors_count4: int, onboard_control_sensors_present_extended: int = 0, onboard_control_sensors_enabled_extended: int = 0, onboard_control_sensors_health_extended: int = 0) -> MAVLink_sys_status_message:
         """
