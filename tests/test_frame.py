@@ -202,3 +202,13 @@ def test_a_wild_fix_moves_the_plane_one_hop_and_back_loses_nothing(lat, lon, wil
     back = frame.follow(lat, lon)
     x2, p2, _ = back.carry(x1, p1, vectors=(3,))
     assert x2 == pytest.approx(x, abs=1e-6) and p2 == pytest.approx(p, abs=1e-6)
+
+
+@settings(max_examples=4)
+@given(st.floats(-85.0, 85.0), st.floats(-180.0, 180.0), st.floats(0.0, 360.0), st.floats(0.0, 100e3))
+def test_the_same_encounter_anywhere_and_after_any_flight_gives_the_same_advisories(near_origin, lat, lon, heading,
+                                                                                   transit):
+    """The property: the head-on placed at a random place on Earth, flown in a random direction after a random
+    transit, gives the advisories and miss distances of the reference (the motion models are isotropic)."""
+    got, _ = onsets(*head_on(LocalTangentPlane(lat, lon), heading_deg=heading, transit_m=transit))
+    assert_same(near_origin, got)
