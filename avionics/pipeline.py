@@ -483,8 +483,10 @@ class DaaCore:
         # reported position gets at least a TA, whatever its (possibly wrong) track says; unknown altitude counts
         # as inside ZTHR, as TCAS treats a non-altitude-reporting intruder.
         for i, track in enumerate(tracks):
-            rep = track.last_reported_enu
-            if track.integrity.degraded and rep is not None and \
+            if not track.integrity.degraded:
+                continue
+            rep = track.last_reported_enu  # a posterior of its own: only for the degraded ones
+            if rep is not None and \
                     math.hypot(rep[0] - own.x[0], rep[1] - own.x[1]) <= level.ta_dmod_m and \
                     (rep[2] is None or abs(rep[2] - own_alt[i]) <= level.ta_zthr_m + margin[i]):
                 candidates[i] = max(int(candidates[i]), int(AdvisoryLevel.TA))
