@@ -68,21 +68,16 @@ class Trajectory(Protocol):
 # --- plane <-> true (local) horizontal velocity ---------------------------------------------------------
 
 
-def true_to_plane_matrix(plane: LocalTangentPlane, lat_deg: float, lon_deg: float) -> np.ndarray:
-    """2x2 Jacobian J of plane.to_en at the surface point (lat, lon): plane velocity = J @ true velocity."""
-    return plane.velocity_matrix(lat_deg, lon_deg)
-
-
 def true_velocity_to_plane(plane: LocalTangentPlane, lat_deg: float, lon_deg: float,
                            v_east: float, v_north: float) -> tuple[float, float]:
-    ve, vn = true_to_plane_matrix(plane, lat_deg, lon_deg) @ np.array([v_east, v_north])
+    ve, vn = plane.velocity_matrix(lat_deg, lon_deg) @ np.array([v_east, v_north])
     return float(ve), float(vn)
 
 
 def plane_velocity_to_true(plane: LocalTangentPlane, lat_deg: float, lon_deg: float,
                            v_east: float, v_north: float) -> tuple[float, float]:
     """Inverse of true_velocity_to_plane (solving with the same J, so the two round-trip)."""
-    ve, vn = np.linalg.solve(true_to_plane_matrix(plane, lat_deg, lon_deg), np.array([v_east, v_north]))
+    ve, vn = np.linalg.solve(plane.velocity_matrix(lat_deg, lon_deg), np.array([v_east, v_north]))
     return float(ve), float(vn)
 
 

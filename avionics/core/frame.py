@@ -72,21 +72,17 @@ class TrackingFrame:
         self.max_hop_m = max_hop_m
         self.plane: LocalTangentPlane | None = None
 
-    def to_plane(self, lat_deg, lon_deg, velocity_en=None):
+    def to_plane(self, lat_deg, lon_deg, velocity_en):
         """(east, north) of points, and their true east/north velocities (..., 2) in the plane's axes."""
         if self.plane is None:
             self.plane = LocalTangentPlane(float(np.ravel(lat_deg)[0]), float(np.ravel(lon_deg)[0]))
         east, north = self.plane.to_en(lat_deg, lon_deg)
-        if velocity_en is None:
-            return east, north, None
         j = self.plane.velocity_matrix(lat_deg, lon_deg)
         return east, north, np.einsum("...ij,...j->...i", j, np.asarray(velocity_en, float))
 
-    def to_true(self, east, north, velocity_plane=None):
+    def to_true(self, east, north, velocity_plane):
         """Inverse of to_plane: (lat, lon) of plane points and their velocities in true east/north axes."""
         lat, lon = self.plane.to_geodetic(east, north)
-        if velocity_plane is None:
-            return lat, lon, None
         j = self.plane.velocity_matrix(lat, lon)
         return lat, lon, np.linalg.solve(j, np.asarray(velocity_plane, float)[..., None])[..., 0]
 
