@@ -191,7 +191,7 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
           f"{len(recording.of_type('STATUSTEXT'))} STATUSTEXT, {len(recording.of_type('HEARTBEAT'))} HEARTBEAT; "
           f"zenoh advisories received: {len(zenoh_advisories)}")
     # what was received or accepted is not a rejection (the rest are the counted refusals and drops)
-    accepted = ("rx.", "track.", "assessment.", "link.datagrams", "signing.accepted")
+    accepted = ("rx.", "track.", "assessment.", "link.datagrams", "signing.accepted", "plane.recentred", "baro.recovered")
     rejected = {k: v for k, v in counters.items() if not k.startswith(accepted)}
     print(f"onboard input counters: { {k: v for k, v in counters.items() if k.startswith('rx.')} }; "
           f"rejections: {rejected or 'none'}")
