@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from avionics.config import Config, traffic_source_ids
+from avionics.io.params import DecoderConfig as Config, traffic_source_ids
 from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.core.types import (
     AddressSource, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
@@ -232,5 +232,5 @@ class MessageDecoder:
         return OwnshipPressure(now_s, pressure_altitude_m(press_abs))
 
     def _reject_pressure(self, now_s: float, reason: str) -> None:
-        self.pressure_rejection = (now_s, reason)  # the status names it (node.py)
+        self.pressure_rejection = (now_s, reason)  # the status names it (daa.py, via the loop's SourceStatus)
         return self._reject(f"pressure.{reason}")

@@ -21,7 +21,7 @@ import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
 from pymavlink import mavutil
 from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
-from avionics.config import ConfigError
+from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
 from avionics.io.signing import Signing, SigningKeyError, load_key
 

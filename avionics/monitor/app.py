@@ -7,7 +7,8 @@ import signal
 import sys
 import threading
 
-from avionics.config import ConfigError, ZenohConfig
+from avionics.core.params import ConfigError
+from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import ZenohBusError
 from avionics.monitor.feed import ZenohFeed
 from avionics.monitor.state import FleetState

@@ -14,7 +14,7 @@ import time
 
 import zenoh
 
-from avionics.config import ZenohConfig
+from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import open_session
 from avionics.monitor.schema import (MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejected, check_id, clean_sample,
                                      clean_snapshot)

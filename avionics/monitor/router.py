@@ -8,7 +8,7 @@ import signal
 import sys
 import threading
 
-from avionics.config import ZenohConfig
+from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import open_session
 
 

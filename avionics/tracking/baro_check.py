@@ -20,7 +20,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass
 
-from avionics.config import AltitudeConfig
+from avionics.tracking.params import AltitudeConfig
 from avionics.core.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M
 
 log = logging.getLogger("avionics.baro")

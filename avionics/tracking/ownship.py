@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.config import AltitudeConfig, InputConfig
+from avionics.tracking.params import AltitudeConfig, InputConfig
 from avionics.core.types import OwnshipFix, OwnshipPressure
 from avionics.tracking.baro_check import BaroCrossCheck
 from avionics.tracking.kalman_cv import CvKalman, Measurement

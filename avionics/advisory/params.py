@@ -1,0 +1,49 @@
+"""Parameters of the advisory stage: [advisory] (avionics/advisory/gating.py, logic.py; the alerting profile of
+avionics/advisory/tables.py). docs/configuration.md and config/default.toml document them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from avionics.core.params import ConfigError, require_positive
+
+CRITERIA = ("tcas", "tcas+pc", "pc")
+PERSISTENCE = ("none", "m-of-n", "binomial")
+
+
+@dataclass(frozen=True)
+class AdvisoryConfig:
+    assessment_hz: float = 10.0
+    ta_min_duration_s: float = 8.0  # TCAS II: a TA stays at least 8 s
+    ra_enabled: bool = True
+    hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
+    profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
+    profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")
+    criterion: str = "tcas"  # tcas | tcas+pc | pc (docs/advisories.md, "Probabilistic gating")
+    pc_ta_threshold: float = 0.1  # Pc of the TA volume needed by tcas+pc and pc
+    pc_ra_threshold: float = 0.3  # Pc of the RA volume needed by tcas+pc and pc
+    persistence: str = "none"  # none | m-of-n | binomial (Radosavljevic eqs 19-24)
+    persistence_m: int = 2
+    persistence_n: int = 3
+    persistence_confidence: float = 0.5  # binomial: P(at least m of n in conflict) needed
+    ground_elevation_m: float | None = None  # AGL = MSL - this; None: AGL from height above home
+
+    def validate(self) -> None:
+        a = self
+        require_positive("advisory", a, ("assessment_hz",))
+        if a.criterion not in CRITERIA:
+            raise ConfigError(f"advisory.criterion: {a.criterion!r} is not tcas, tcas+pc or pc")
+        if a.persistence not in PERSISTENCE:
+            raise ConfigError(f"advisory.persistence: {a.persistence!r} is not none, m-of-n or binomial")
+        if not 1 <= a.persistence_m <= a.persistence_n <= 50:
+            raise ConfigError("advisory.persistence_m and persistence_n: need 1 <= m <= n <= 50")
+        for name in ("pc_ta_threshold", "pc_ra_threshold", "persistence_confidence"):
+            if not 0.0 <= getattr(a, name) <= 1.0:
+                raise ConfigError(f"advisory.{name}: must be a probability in [0, 1]")
+        # The profile is data of this package: it must load, with its overrides (reads a file for a path).
+        from avionics.advisory.tables import ProfileError, load_profile
+
+        try:
+            load_profile(a.profile, a.profile_overrides)
+        except ProfileError as exc:
+            raise ConfigError(f"advisory.profile: {exc}") from exc

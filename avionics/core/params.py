@@ -1,0 +1,87 @@
+"""Component parameters: TOML tables -> frozen dataclasses, type-checked. Core layer: imports nothing above core.
+
+Each component declares its parameters as a frozen dataclass next to its code (avionics/<package>/params.py), with
+the units in the field names and comments, and checks its own values in a `validate(self)` method that raises
+ConfigError naming `section.key`. avionics/config.py assembles the sections into one configuration."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+
+
+class ConfigError(ValueError):
+    """A configuration file or override that cannot be used, with the key that is wrong."""
+
+
+def _coerce(value, annotation, where: str):
+    """Check a TOML value against a dataclass field annotation; convert lists to tuples and ints to floats."""
+    origin = typing.get_origin(annotation)
+    if origin in (types.UnionType, typing.Union):
+        options = typing.get_args(annotation)
+        if value is None and type(None) in options:
+            return None
+        for option in options:
+            if option is type(None):
+                continue
+            try:
+                return _coerce(value, option, where)
+            except ConfigError:
+                pass
+        raise ConfigError(f"{where}: {value!r} is not a valid {annotation}")
+    if origin is tuple:
+        (item_type, _) = typing.get_args(annotation)
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{where}: expected a list, got {value!r}")
+        return tuple(_coerce(v, item_type, f"{where}[{i}]") for i, v in enumerate(value))
+    if dataclasses.is_dataclass(annotation):
+        return _build(annotation, value, where)
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+        return float(value)
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+        return value
+    if annotation is bool or annotation is str:
+        if not isinstance(value, annotation):
+            raise ConfigError(f"{where}: expected {annotation.__name__}, got {value!r}")
+        return value
+    raise ConfigError(f"{where}: unsupported type {annotation}")
+
+
+def _build(cls, table, where: str):
+    """An instance of dataclass cls from a TOML table (missing keys: the defaults); unknown keys are an error.
+    Type-checks only: the values are checked by the dataclass's validate()."""
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: expected a table, got {table!r}")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = set(table) - names
+    if unknown:
+        raise ConfigError(f"{where or 'configuration'}: unknown key(s) {sorted(unknown)}; known: {sorted(names)}")
+    kwargs = {k: _coerce(v, hints[k], f"{where}.{k}" if where else k) for k, v in table.items()}
+    return cls(**kwargs)
+
+
+coerce = _coerce
+build = _build
+
+
+def require_positive(section: str, params, names: typing.Iterable[str]) -> None:
+    """ConfigError `section.name: must be > 0, got V` for the first of names that is not > 0."""
+    for name in names:
+        value = getattr(params, name)
+        if not value > 0:
+            raise ConfigError(f"{section}.{name}: must be > 0, got {value}")
+
+
+def require_non_negative(section: str, params, names: typing.Iterable[str]) -> None:
+    """ConfigError `section.name: must be >= 0, got V` for the first of names that is negative."""
+    for name in names:
+        value = getattr(params, name)
+        if not value >= 0:
+            raise ConfigError(f"{section}.{name}: must be >= 0, got {value}")

@@ -1,0 +1,146 @@
+"""Parameters of the I/O components: [vehicle], [mavlink] (avionics/io/link.py, decode.py, signing.py) and [zenoh]
+(avionics/io/zenoh_bus.py). docs/configuration.md and config/default.toml document them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
+
+from avionics.core.params import ConfigError, require_positive
+
+if TYPE_CHECKING:
+    from avionics.tracking.params import InputConfig, TrackingConfig
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    id: str = "uav1"  # zenoh key segment: daa/<id>/...
+    own_icao: int = 0  # our own ADS-B address, ignored in ADSB_VEHICLE (0: we transmit none)
+
+    def validate(self) -> None:
+        if not self.id or any(c in self.id for c in "/*$?#"):
+            raise ConfigError(f"vehicle.id: {self.id!r} must be a non-empty zenoh key chunk "
+                              "(no '/', '*', '$', '?', '#')")
+        if not 0 <= self.own_icao <= 0xFFFFFF:
+            raise ConfigError(f"vehicle.own_icao: {self.own_icao:#x} is not a 24-bit address")
+
+
+@dataclass(frozen=True)
+class MavlinkConfig:
+    connection: str = "udpin:127.0.0.1:14550"  # any pymavlink connection string
+    baud: int = 57600  # serial links only
+    source_system: int = 1  # our HEARTBEAT/COLLISION system id (the vehicle's)
+    source_component: int = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
+    heartbeat_hz: float = 1.0
+    collision_refresh_s: float = 1.0  # re-send an active COLLISION this often
+    statustext: bool = True
+    # MAVLink 2 signing (docs/mavlink.md, "Signing"): a file holding the 32-byte key as 64 hex characters;
+    # "" = off. With a key our frames are signed, and wrong-key and replayed frames are rejected.
+    signing_key_file: str = ""
+    signing_required: bool = True  # with a key: unsigned frames rejected (false: accepted, counted)
+    # Whose ADSB_VEHICLE is used: "SYS" (any component) or "SYS:COMP" ids; empty = source_system, any component.
+    traffic_sources: tuple[int | str, ...] = ()
+
+    def validate(self) -> None:
+        traffic_source_ids(self)
+        if self.signing_key_file:
+            from avionics.io.signing import SigningKeyError, load_key
+
+            try:
+                load_key(self.signing_key_file)
+            except SigningKeyError as exc:
+                raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
+        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s"))
+        if not 1 <= self.source_system <= 255 or not 0 <= self.source_component <= 255:
+            raise ConfigError("mavlink.source_system must be in 1..255 and mavlink.source_component in 0..255")
+
+
+def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
+    """mavlink.traffic_sources as (system, component or None for any); the default is (source_system, any)."""
+    if not m.traffic_sources:
+        return ((m.source_system, None),)
+    out = []
+    for i, entry in enumerate(m.traffic_sources):
+        system, sep, component = str(entry).strip().partition(":")
+        try:
+            ids = (int(system), int(component) if sep else None)
+        except ValueError:
+            ids = None
+        if ids is None or not 1 <= ids[0] <= 255 or (ids[1] is not None and not 0 <= ids[1] <= 255):
+            raise ConfigError(f"mavlink.traffic_sources[{i}]: {entry!r} is not \"SYS\" or \"SYS:COMP\" "
+                              "(system 1..255, component 0..255)")
+        out.append(ids)
+    return tuple(out)
+
+
+ZENOH_MODES = ("peer", "client", "router")
+
+
+@dataclass(frozen=True)
+class ZenohConfig:
+    enabled: bool = True
+    mode: str = "peer"
+    listen: tuple[str, ...] = ("tcp/127.0.0.1:7447",)
+    connect: tuple[str, ...] = ()
+    scouting: bool = False  # multicast and gossip scouting
+    key_prefix: str = "daa"
+    tracks_hz: float = 2.0
+    status_hz: float = 1.0
+    # Publishing off the loop (docs/zenoh.md, "Queues, snapshot and liveliness"): advisories are never dropped;
+    # tracks, ownship and status wait in a FIFO of this many samples that drops its oldest when full.
+    queue_size: int = 4096
+    snapshot_changes: int = 256  # advisory changes kept for the snapshot queryable (late join, reconnection)
+    reconnect_max_s: float = 1.0  # lost connect endpoints are re-dialled from 0.25 s, doubling up to this
+    # TLS (endpoints tls/HOST:PORT): PEM file paths, passed to zenoh's transport/link/tls; "" = not set.
+    tls_root_ca_certificate: str = ""  # CA that signed the other side's certificate (needed to connect)
+    tls_listen_certificate: str = ""  # our certificate and key on tls/ listen endpoints
+    tls_listen_private_key: str = ""
+    tls_connect_certificate: str = ""  # our client certificate and key, for mutual TLS
+    tls_connect_private_key: str = ""
+    tls_enable_mtls: bool = False
+    tls_verify_name_on_connect: bool = True
+
+    def validate(self) -> None:
+        z = self
+        if z.mode not in ZENOH_MODES:
+            raise ConfigError(f"zenoh.mode: {z.mode!r} is not peer, client or router")
+        chunks = z.key_prefix.split("/")
+        if not all(chunks) or any(c in z.key_prefix for c in "*$?#"):
+            raise ConfigError(f"zenoh.key_prefix: {z.key_prefix!r} must be a zenoh key expression without wildcards "
+                              "(chunks separated by single '/', none empty; no '*', '$', '?', '#')")
+        if z.queue_size < 1:
+            raise ConfigError(f"zenoh.queue_size: must be >= 1, got {z.queue_size}")
+        if z.snapshot_changes < 0:
+            raise ConfigError(f"zenoh.snapshot_changes: must be >= 0, got {z.snapshot_changes}")
+        if not 0.0 < z.reconnect_max_s <= 60.0:
+            raise ConfigError(f"zenoh.reconnect_max_s: must be in (0, 60], got {z.reconnect_max_s}")
+        files = ("tls_root_ca_certificate", "tls_listen_certificate", "tls_listen_private_key",
+                 "tls_connect_certificate", "tls_connect_private_key")
+        for name in files:
+            path = getattr(z, name)
+            if path and not Path(path).is_file():
+                raise ConfigError(f"zenoh.{name}: no such file {path!r}")
+        if bool(z.tls_listen_certificate) != bool(z.tls_listen_private_key):
+            raise ConfigError("zenoh.tls_listen_certificate and tls_listen_private_key go together")
+        if bool(z.tls_connect_certificate) != bool(z.tls_connect_private_key):
+            raise ConfigError("zenoh.tls_connect_certificate and tls_connect_private_key go together")
+        if any(e.startswith("tls/") for e in z.listen) and not z.tls_listen_certificate:
+            raise ConfigError("zenoh.listen has a tls/ endpoint: set zenoh.tls_listen_certificate and "
+                              "zenoh.tls_listen_private_key")
+        if any(e.startswith("tls/") for e in z.connect) and not z.tls_root_ca_certificate:
+            raise ConfigError("zenoh.connect has a tls/ endpoint: set zenoh.tls_root_ca_certificate")
+        if z.tls_enable_mtls and not (z.tls_root_ca_certificate and (z.tls_connect_certificate
+                                                                     or z.tls_listen_certificate)):
+            raise ConfigError("zenoh.tls_enable_mtls needs tls_root_ca_certificate and our own certificate and key")
+        require_positive("zenoh", z, ("tracks_hz", "status_hz"))
+
+
+class DecoderConfig(Protocol):
+    """The sections the MAVLink decoder (avionics/io/decode.py) reads: any object with these attributes, e.g. the
+    assembled avionics.config.Config (which the decoder does not import: config.py is the shells' layer)."""
+
+    vehicle: VehicleConfig
+    mavlink: MavlinkConfig
+    input: InputConfig
+    tracking: TrackingConfig

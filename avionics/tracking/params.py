@@ -1,0 +1,114 @@
+"""Parameters of the tracking components: [input] (report plausibility and ownship freshness, applied by
+avionics/io/decode.py and avionics/tracking/ownship.py), [tracking] (avionics/tracking/tracker.py,
+imm_tracker.py) and [altitude] (avionics/tracking/ownship.py, baro_check.py). docs/configuration.md and
+config/default.toml document them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from avionics.core.params import ConfigError, require_non_negative, require_positive
+
+
+@dataclass(frozen=True)
+class InputConfig:
+    max_report_age_s: float = 3.0  # tslc older than this: report rejected as stale (tslc 255 = unknown age)
+    max_ground_speed_mps: float = 350.0  # faster than any aircraft we protect against: report rejected
+    max_vertical_rate_mps: float = 100.0
+    min_altitude_m: float = -500.0
+    max_altitude_m: float = 20000.0
+    ownship_timeout_s: float = 2.0  # no GLOBAL_POSITION_INT for this long: no advisories, status says so
+    pressure_timeout_s: float = 3.0  # no SCALED_PRESSURE for this long: ownship pressure altitude unknown
+
+    def validate(self) -> None:
+        require_positive("input", self, ("max_report_age_s",))
+
+
+TRACK_FILTERS = ("cv", "imm", "rmimm", "vb-imm", "vb-rmimm")
+IMM_HORIZONTAL_MODES = ("cv", "ca", "ct", "cs")
+IMM_VERTICAL_MODES = ("ch", "cad")
+
+
+@dataclass(frozen=True)
+class TrackingConfig:
+    # Default measurement noise (1-sigma) per address source: ADSB_VEHICLE carries no NACp/NACv.
+    position_sigma_1090es_m: float = 30.0  # ~NACp 8 (EPU < 92.6 m at 95 %)
+    position_sigma_uat_m: float = 30.0
+    velocity_sigma_mps: float = 2.0  # ~NACv 2 (< 3 m/s at 95 %) plus heading quantisation
+    altitude_sigma_m: float = 8.0  # 25 ft quantisation and altimetry error
+    vertical_rate_sigma_mps: float = 1.0  # 64 fpm quantisation
+    horizontal_accel_sigma_mps2: float = 1.5  # CV model white-acceleration noise
+    vertical_accel_sigma_mps2: float = 0.7
+    max_coast_s: float = 6.0  # without reports for longer: advisory dropped, reason "stale"
+    delete_after_s: float = 20.0  # without reports for longer: track deleted
+    max_innovation_speed_mps: float = 400.0  # a report implying a jump faster than this is not this aircraft
+    # Track filter (docs/tracking.md): cv = one Kalman CV filter per track; imm, rmimm (Hwang's residual-mean
+    # likelihood), vb-imm, vb-rmimm (Dai's variational-Bayes measurement noise) = the vectorised IMM tracker.
+    filter: str = "imm"  # default by measurement: docs/tracking.md "Default filter"
+    imm_horizontal_modes: tuple[str, ...] = ("cv", "ct")  # of cv, ca, ct, cs
+    imm_vertical_modes: tuple[str, ...] = ("ch", "cad")  # of ch, cad
+    imm_switch_probability: float = 0.05  # per second, out of each mode (Hwang eq 21, Baek & Bang eq 30)
+    imm_cv_sigma_mps2: float = 0.3  # CV white acceleration (Baek & Bang eq 5)
+    imm_ca_sigma_mps2: float = 3.0  # CA acceleration noise, heading-rotated (Baek & Bang eq 31)
+    imm_ct_sigma_mps2: float = 2.0  # CT acceleration increment per step (Hwang eq 18)
+    imm_cs_alpha_per_s: float = 0.1  # CS manoeuvre frequency (Dai eq 10)
+    imm_cs_max_accel_mps2: float = 20.0  # CS acceleration bound (Dai eq 12)
+    imm_ch_sigma_mps: float = 0.1  # CH vertical-speed increment per step (Baek & Bang eq 7)
+    imm_cad_sigma_mps2: float = 1.0  # CAD vertical acceleration (Baek & Bang eq 8)
+    imm_initial_accel_sigma_mps2: float = 3.0  # prior on an intruder's acceleration at track initiation
+    gate_probability: float = 0.9999  # chi-square validation gate (Radosavljevic eq 17)
+    rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
+    yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
+    vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
+    vb_c1: float = 1000.0  # VB forgetting factor constants (Dai eq 17), on the estimate / nominal variance
+    vb_c2: float = 500.0
+    vb_c3: float = 5000.0
+
+    def validate(self) -> None:
+        t = self
+        require_positive("tracking", t, ("position_sigma_1090es_m", "position_sigma_uat_m", "velocity_sigma_mps",
+                                         "altitude_sigma_m", "vertical_rate_sigma_mps", "max_coast_s"))
+        if t.delete_after_s < t.max_coast_s:
+            raise ConfigError("tracking.delete_after_s must be >= tracking.max_coast_s")
+        if t.filter not in TRACK_FILTERS:
+            raise ConfigError(f"tracking.filter: {t.filter!r} is not one of {', '.join(TRACK_FILTERS)}")
+        for name, modes, allowed in (("imm_horizontal_modes", t.imm_horizontal_modes, IMM_HORIZONTAL_MODES),
+                                     ("imm_vertical_modes", t.imm_vertical_modes, IMM_VERTICAL_MODES)):
+            if not modes or len(set(modes)) != len(modes) or not set(modes) <= set(allowed):
+                raise ConfigError(f"tracking.{name}: {list(modes)} must be distinct modes out of {list(allowed)}")
+        require_positive("tracking", t, ("imm_cv_sigma_mps2", "imm_ca_sigma_mps2", "imm_ct_sigma_mps2",
+                                         "imm_cs_alpha_per_s", "imm_cs_max_accel_mps2", "imm_ch_sigma_mps",
+                                         "imm_cad_sigma_mps2", "imm_initial_accel_sigma_mps2", "rmimm_floor",
+                                         "yaw_rate_time_constant_s"))
+        require_non_negative("tracking", t, ("vb_c1", "vb_c2", "vb_c3"))
+        if not 0.0 < t.imm_switch_probability < 0.5:
+            raise ConfigError(f"tracking.imm_switch_probability: must be in (0, 0.5), got {t.imm_switch_probability}")
+        if not 0.5 < t.gate_probability < 1.0:
+            raise ConfigError(f"tracking.gate_probability: must be in (0.5, 1), got {t.gate_probability}")
+        if not 1 <= t.vb_iterations <= 100:
+            raise ConfigError(f"tracking.vb_iterations: must be in [1, 100], got {t.vb_iterations}")
+
+
+@dataclass(frozen=True)
+class AltitudeConfig:
+    # When only mismatched datums exist (pressure vs geometric), the vertical uncertainty is widened by this
+    # much: pressure and GNSS altitudes differ by up to a few hundred feet with temperature and weather.
+    datum_mismatch_margin_m: float = 60.96  # 200 ft
+    baro_offset_smoothing_s: float = 10.0  # time constant of the geometric - pressure altitude offset
+    # Barometer cross-check (tracking/baro_check.py; docs/altitude.md, "Barometer cross-check", has the sources).
+    baro_noise_sigma_m: float = 3.5  # pressure altitude 1-sigma: PX4 EKF2_BARO_NOISE (ArduPilot EK3_ALT_M_NSE 2-3)
+    baro_gate_sigmas: float = 5.0  # residual gate in sigmas: ArduPilot EK3_HGT_I_GATE default 500 (5 sigma)
+    baro_offset_drift_mps: float = 0.1  # how fast weather moves the offset (pressure gradients, tendencies)
+    baro_offset_drift_per_m: float = 0.2  # offset change per metre climbed: |T_ISA/T - 1| for T >= T_ISA/1.2
+    baro_offset_min_m: float = -1000.0  # QNH 1084.8 hPa (world record) = -579 m, plus the temperature term
+    baro_offset_max_m: float = 1700.0  # QNH 870 hPa (world record) = +1267 m, plus the temperature term
+    baro_stuck_tolerance_m: float = 1.0  # "no change": above a blocked port's sensor noise (MS5611: 0.1 m RMS)
+    baro_recovery_s: float = 5.0  # a faulty pressure is used again after this long plausible and consistent
+
+    def validate(self) -> None:
+        require_positive("altitude", self, ("baro_offset_smoothing_s", "baro_noise_sigma_m", "baro_gate_sigmas",
+                                            "baro_stuck_tolerance_m"))
+        require_non_negative("altitude", self, ("datum_mismatch_margin_m", "baro_offset_drift_mps",
+                                                "baro_offset_drift_per_m", "baro_recovery_s"))
+        if not self.baro_offset_min_m < self.baro_offset_max_m:
+            raise ConfigError("altitude.baro_offset_min_m must be < altitude.baro_offset_max_m")
