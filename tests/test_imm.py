@@ -5,18 +5,18 @@ import numpy as np
 import pytest
 from filterpy.kalman import IMMEstimator, KalmanFilter
 
-from avionics.reports.tracking import HWANG_SIGMA, builtin_truth, equivalence, monte_carlo
+from avionics_eval.reports.tracking import HWANG_SIGMA, builtin_truth, equivalence, monte_carlo
 from avionics.tracking import models
-from avionics.tracking.imm import ImmBank, ModeSpec, VbParams, spd_inverse
+from avionics.tracking.imm import ImmBank, VbParams, spd_inverse
 
-MODES = [ModeSpec("cv", 0.05), ModeSpec("ct", 3.0)]
+MODES = [models.ConstantVelocity(0.05), models.CoordinatedTurn(3.0)]
 R = HWANG_SIGMA**2
 
 
 def filterpy_pair(bank, slot=0, h=np.eye(4, 6), r=R, dt=1.0):
     filters = []
     for j, mode in enumerate(bank.modes):
-        f, _, q = mode.build(np.array([dt]), np.zeros((1, 6)), None)
+        f, _, q = mode.matrices(np.array([dt]), np.zeros((1, 6)), None)
         kf = KalmanFilter(6, h.shape[0])
         kf.F, kf.Q, kf.H, kf.R = f[0], q[0], h, np.diag(r)
         kf.x, kf.P = bank.x[slot, j].copy(), bank.p[slot, j].copy()
@@ -63,7 +63,7 @@ def test_coasting_propagates_modes_by_the_markov_chain_alone_unlike_filterpy_upd
 
 def test_a_missing_component_is_masked_exactly():
     """Position-only reports through the masked 4-component update equal a 2-row-H filter."""
-    bank = new_bank(modes=[ModeSpec("ct", 1.0), ModeSpec("ct", 4.0)])
+    bank = new_bank(modes=[models.CoordinatedTurn(1.0), models.CoordinatedTurn(4.0)])
     filters, imm = filterpy_pair(bank, h=np.eye(2, 6), r=R[:2])
     rng = np.random.default_rng(5)
     for k in range(1, 60):
@@ -89,7 +89,8 @@ def test_likelihoods_in_the_log_domain_survive_a_huge_innovation():
 
 def test_covariances_stay_symmetric_positive_definite_over_a_long_irregular_run():
     rng = np.random.default_rng(11)
-    modes = [ModeSpec("cv", 0.3), ModeSpec("ca", 3.0), ModeSpec("ct", 2.0), ModeSpec("cs", alpha=0.1, a_max=20.0)]
+    modes = [models.ConstantVelocity(0.3), models.ConstantAcceleration(3.0), models.CoordinatedTurn(2.0),
+             models.CurrentStatistical(0.1, 20.0)]
     for lik, vb in (("standard", None), ("rmimm", VbParams())):
         bank = ImmBank(modes, 4, models.switching_matrix(4, 0.05), likelihood=lik, vb=vb, capacity=4)
         bank.init(np.arange(4), np.array([0.0, 0.0, 100.0, 0.0, 0.0, 0.0]), np.diag([900, 900, 4, 4, 9, 9.0]),
@@ -138,7 +139,7 @@ def test_spd_inverse_matches_numpy_and_rejects_indefinite():
 
 
 def test_hwang_example_small_monte_carlo_beats_the_papers_numbers_per_axis():
-    """20 runs here (100 in `python -m avionics.reports.tracking hwang`): per-axis RMS against the paper's
+    """20 runs here (100 in `python -m avionics_eval.reports.tracking hwang`): per-axis RMS against the paper's
     IMM 18 m / 2.3 m/s and RMIMM 15 m / 2.1 m/s; the 2-D (root-sum-square) RMS is sqrt(2) larger."""
     _, truth, rate = builtin_truth("hwang-tracking", 150.0)
     turning = np.abs(rate) > 1e-6
@@ -160,7 +161,7 @@ def test_hwang_example_small_monte_carlo_beats_the_papers_numbers_per_axis():
 def test_baek_bang_scenario_1_ca_mode_wins_during_the_turn_only():
     _, truth, rate = builtin_truth("baek-bang-1", 130.0)
     turning = np.abs(rate) > 1e-6
-    res = monte_carlo(truth, turning, [ModeSpec("cv", 0.3), ModeSpec("ca", 3.0)], np.array([12.3, 12.3, 1.2, 1.2]),
+    res = monte_carlo(truth, turning, [models.ConstantVelocity(0.3), models.ConstantAcceleration(3.0)], np.array([12.3, 12.3, 1.2, 1.2]),
                       20, seed=1)
     p_ca = res["_mu"][:, 1]
     t = np.arange(1, 131)
@@ -176,7 +177,7 @@ def vb_run(level: np.ndarray, runs: int = 8, seed: int = 0):
     truth = np.c_[120.0 * t, np.zeros(k), np.full(k, 120.0), np.zeros(k)]
     z = truth[None] + rng.normal(size=(runs, k, 4)) * np.c_[level, level, np.full(k, 1.2), np.full(k, 1.2)][None]
     nominal = np.array([900.0, 900.0, 4.0, 4.0])
-    bank = ImmBank([ModeSpec("cv", 0.3), ModeSpec("ct", 2.0)], 4, models.switching_matrix(2, 0.05), vb=VbParams(),
+    bank = ImmBank([models.ConstantVelocity(0.3), models.CoordinatedTurn(2.0)], 4, models.switching_matrix(2, 0.05), vb=VbParams(),
                    capacity=runs)
     x0 = np.zeros((runs, 6))
     x0[:, :4] = z[:, 0]

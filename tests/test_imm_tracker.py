@@ -1,4 +1,4 @@
-"""ImmTracker: the IntruderTracker interface, lifecycle (initiation, ordering, chi-square gate with competing
+"""ImmTracker: the Tracker interface, lifecycle (initiation, ordering, chi-square gate with competing
 tracks, deletion), vectorised batches, outputs, and the pipeline/payload wiring."""
 
 import math
@@ -7,11 +7,13 @@ from collections import Counter
 import numpy as np
 import pytest
 
+from avionics.compose import build_tracker
 from avionics.config import ConfigError, load_config
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, TrackView
 from avionics.io.payloads import track_payload
-from avionics.reports.tracking import noisy_reports, track_reports
-from avionics.tracking.imm_tracker import ImmTracker, make_tracker
+from avionics_eval.reports.tracking import noisy_reports, track_reports
+from avionics.tracking.imm_tracker import ImmTracker
+from avionics.tracking.interface import Tracker
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS
 from avionics.tracking.tracker import IntruderTracker
 
@@ -20,7 +22,9 @@ V = 100.0
 
 
 def tracker(filter_name="imm", *extra):
-    return ImmTracker(load_config(overrides=[f"tracking.filter={filter_name}", *extra]).tracking, Counter())
+    tr = build_tracker(load_config(overrides=[f"tracking.filter={filter_name}", *extra]).tracking, Counter())
+    assert isinstance(tr, ImmTracker)
+    return tr
 
 
 def report(t, key=KEY, alt=1000.0, vel=(V, 0.0), vrate=0.0, datum=AltitudeDatum.PRESSURE):
@@ -33,12 +37,12 @@ def fly(tr, t_end, key=KEY, north=0.0, start=0.0):
 
 
 def test_config_selects_the_tracker_and_validates_the_imm_keys():
-    default = make_tracker(load_config().tracking, Counter())
+    default = build_tracker(load_config().tracking, Counter())
     assert isinstance(default, ImmTracker) and default.model == "imm"  # docs/tracking.md "Default filter"
-    assert isinstance(make_tracker(load_config(overrides=["tracking.filter=cv"]).tracking, Counter()),
+    assert isinstance(build_tracker(load_config(overrides=["tracking.filter=cv"]).tracking, Counter()),
                       IntruderTracker)
     for f in ("imm", "rmimm", "vb-imm", "vb-rmimm"):
-        assert make_tracker(load_config(overrides=[f"tracking.filter={f}"]).tracking, Counter()).model == f
+        assert build_tracker(load_config(overrides=[f"tracking.filter={f}"]).tracking, Counter()).model == f
     for bad, msg in (("tracking.filter=ukf", "tracking.filter"), ('tracking.imm_horizontal_modes=["cv","zz"]',
                                                                  "imm_horizontal_modes"),
                      ("tracking.gate_probability=1.0", "gate_probability"), ("tracking.vb_iterations=0", "vb_iter")):
@@ -81,6 +85,21 @@ def test_out_of_order_and_duplicate_reports_are_counted_and_change_nothing():
     assert not tr.ingest(report(3.0), 9999.0, 0.0)
     assert tr.counters["report.duplicate"] == 1 and tr.counters["report.out_of_order"] == 1
     assert np.array_equal(tr.tracks[KEY].kf.x, x)
+
+
+def test_both_trackers_are_trackers_and_drop_forgets_the_key():
+    for name in ("cv", "imm"):
+        tr = build_tracker(load_config(overrides=[f"tracking.filter={name}"]).tracking, Counter())
+        assert isinstance(tr, Tracker)
+        fly(tr, 5)
+        tr.ingest(report(6.0), 80000.0, 0.0)  # not this aircraft: the IMM tracker starts a competitor
+        assert KEY in tr.competitors if name == "imm" else not tr.competitors
+        tr.drop(KEY)
+        assert not tr.tracks and not tr.competitors and tr.counters["track.deleted"] == 0
+        if name == "imm":
+            tr._check_slots()  # both slots are free again
+        assert tr.ingest(report(7.0), V * 7, 0.0) and tr.tracks[KEY].n_updates == 1
+        assert tr.counters["track.initiated"] == 2
 
 
 def test_a_report_outside_the_gate_is_never_merged_and_three_in_a_row_restart_the_track():
@@ -187,16 +206,17 @@ def test_track_payload_carries_the_imm_outputs():
     fly(tr, 5)
     track = tr.tracks[KEY]
     xs, ps = tr.predict([KEY], 6.0)
-    payload = track_payload("uav1", track, 6.0, xs[0], ps[0], 47.0, 8.0, True, None, tr.mode_infos([KEY], 6.0)[0])
+    payload = track_payload("uav1", TrackView.of(track, xs[0], ps[0], 47.0, 8.0, True, None,
+                                                 tr.mode_infos([KEY], 6.0)[0]), 6.0)
     assert tr.mode_infos([KEY], 6.0)[0] == tr.mode_info(KEY, 6.0)
     assert payload["model"] == "vb-rmimm" and payload["most_likely_mode"] in ("cv", "ct")
     assert set(payload["mode_probabilities"]) == {"cv", "ct"} and payload["vb_noise"]["position_sigma_m"] > 0
     assert "turn_rate_dps" in payload and payload["vertical_mode"] in ("ch", "cad")
-    cv = IntruderTracker(load_config().tracking, Counter())
+    cv = build_tracker(load_config(overrides=["tracking.filter=cv"]).tracking, Counter())
     cv.ingest(report(0.0), 0.0, 0.0)
     xs, ps = cv.predict([KEY], 1.0)
-    assert track_payload("uav1", cv.tracks[KEY], 1.0, xs[0], ps[0], 47.0, 8.0, True, None,
-                         cv.mode_infos([KEY], 1.0)[0])["model"] == "cv-kalman"
+    assert track_payload("uav1", TrackView.of(cv.tracks[KEY], xs[0], ps[0], 47.0, 8.0, True, None,
+                                              cv.mode_infos([KEY], 1.0)[0]), 1.0)["model"] == "cv-kalman"
 
 
 def test_pipeline_alerts_at_the_hand_computed_onsets_with_the_imm():

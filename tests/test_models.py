@@ -120,3 +120,29 @@ def test_markov_chain_for_any_interval():
                                np.linalg.matrix_power(models.switching_matrix(3, 0.1), 2), atol=1e-14)
     with pytest.raises(ValueError):
         models.MarkovChain(np.array([[0.4, 0.6], [0.6, 0.4]]))  # negative eigenvalue: no real generator
+
+
+def test_model_objects_are_the_model_functions():
+    """The MotionModel objects the IMM bank and the trajectory prediction are given: F, Q and matrices are the
+    builders above (CA's eq 31 heading from the given heading, else from each state's own velocity)."""
+    dt = np.array([0.7, 2.0, 5.0])
+    x = np.zeros((3, 6))
+    x[:, 2:6] = [[100.0, 0.0, 0.5, -1.0], [0.0, 80.0, 2.0, 0.0], [-50.0, 50.0, 0.0, 3.0]]
+    heading = np.array([0.3, 1.2, -2.0])
+    cases = [(models.ConstantVelocity(0.3), models.cv(dt, 0.3)),
+             (models.ConstantAcceleration(3.0), models.ca(dt, 3.0, heading)),
+             (models.ConstantAcceleration(3.0, heading_noise=False), models.ca(dt, 3.0)),
+             (models.CoordinatedTurn(2.0), models.ct(dt, 2.0)),
+             (models.CurrentStatistical(0.1, 20.0), models.cs(dt, 0.1, 20.0, x[:, 4:6]))]
+    for model, want in cases:
+        assert isinstance(model, models.MotionModel) and model.dim == models.H_DIM
+        for got, ref in zip(model.matrices(dt, x, heading), want):
+            assert np.array_equal(got, ref)
+        assert np.array_equal(model.F(dt), want[0]) and np.array_equal(model.Q(dt, x, heading), want[2])
+    own = models.ca(np.full(3, 1.0), 3.0, models.heading_rad(x[:, 2], x[:, 3]))
+    assert np.array_equal(models.ConstantAcceleration(3.0).Q(1.0, x), own[2])
+    for model, want in ((models.ConstantHeight(0.1), models.ch(dt, 0.1)),
+                        (models.ConstantAltitudeChange(1.0), models.cad(dt, 1.0))):
+        assert model.dim == models.V_DIM and all(np.array_equal(g, r) for g, r in zip(model.matrices(dt, None), want))
+    assert [m.name for m in (models.ConstantVelocity(1.0), models.CurrentStatistical(0.1, 20.0))] == ["cv", "cs"]
+    assert not models.ConstantVelocity(1.0).accelerates and models.CoordinatedTurn(1.0).estimates_turn

@@ -9,10 +9,11 @@ repeat for every step of the lookahead (default 60 s in 1 s steps)
   3. mode prob.       mu(k+1) = Pi mu(k)  (= c)                                          (eq 20)
   4. combination      x = sum_j mu_j x_j,  P = sum_j mu_j (P_j + dx dx^T)                 (eqs 16-17)
 
-The model set is an input: each mode is a function model(dt, x) -> (F, Q) or (F_mean, F_cov, Q) with x the
-mode's (mixed) states (B, n), returning (n, n) or (B, n, n) arrays, so heading-dependent noise (Baek & Bang
-eq 31) and the tracking engineer's models (avionics/tracking/models.py, which return (F_mean, F_cov, Q)) plug in
-directly; `tracking_model` adapts those. The transition matrix is M[from, to] for one prediction step (the
+The model set is an input: each mode is a motion model object (avionics/tracking/models.py MotionModel:
+matrices(dt, x) -> (F_mean, F_cov, Q) with x the mode's mixed states (B, n)), so heading-dependent noise (Baek &
+Bang eq 31, from each mode's own velocity here) plugs in directly. The interaction, mode-matched prediction and
+combination are the tracker's (avionics/tracking/imm.py `interact`, `mode_matched_predict`, `combine`): one
+implementation of the IMM prediction. The transition matrix is M[from, to] for one prediction step (the
 convention of avionics/tracking and filterpy; Baek & Bang's Pi with pi_ij = P{to i | from j} is its transpose,
 so eq 20 reads mu(k+1) = M^T mu(k)).
 
@@ -31,61 +32,34 @@ steps), which is what the max-over-time curve cannot give (the events at differe
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from avionics.conflict.probability import conflict_probability, vertical_probability
 from avionics.core.units import KT, NM
+from avionics.tracking.imm import combine, interact, mode_matched_predict
+from avionics.tracking.models import MotionModel
 
 PE_ALONG_RATE_MPS = 15.0 * KT  # Hwang: 15 kn along-track speed uncertainty (0.25 nm/min)
 PE_CROSS_RATE_PER_SPEED = 1.0 / 57.0  # Hwang: cross-track growth v/57 (1 deg of heading)
 PE_CROSS_MAX_M = 1.0 * NM  # Hwang: the cross-track sigma saturates at 1 nm
 
-Model = Callable[[float, np.ndarray], tuple]
-
-
 # --- model plumbing -------------------------------------------------------------------------------------
 
 
-def _model_matrices(model: Model, dt: float, x: np.ndarray):
-    """(F_mean, F_cov, Q), each broadcast to (B, n, n)."""
-    out = model(dt, x)
-    if len(out) == 2:
-        fm, q = out
-        fc = fm
-    else:
-        fm, fc, q = out
+def _model_matrices(model: MotionModel, dt: float, x: np.ndarray):
+    """(F_mean, F_cov, Q) of a motion model, each broadcast to (B, n, n)."""
+    fm, fc, q = model.matrices(dt, x)
     b, n = x.shape
     return (np.broadcast_to(np.asarray(fm, float), (b, n, n)), np.broadcast_to(np.asarray(fc, float), (b, n, n)),
             np.broadcast_to(np.asarray(q, float), (b, n, n)))
 
 
-def tracking_model(kind: str, sigma: float, heading_noise: bool = True, **kw) -> Model:
-    """A mode of avionics/tracking/models.py as a prediction model: cv, ca (eq 31 heading noise from the mode's
-    own velocity when heading_noise), ct; ch, cad (vertical [z, vz]); cs with alpha and a_max keywords."""
-    from avionics.tracking import models
-
-    if kind == "cv":
-        return lambda dt, x: models.cv(dt, sigma)
-    if kind == "ca":
-        if heading_noise:
-            return lambda dt, x: models.ca(np.full(x.shape[0], dt), sigma, models.heading_rad(x[:, 2], x[:, 3]))
-        return lambda dt, x: models.ca(dt, sigma)
-    if kind == "ct":
-        return lambda dt, x: models.ct(dt, sigma)
-    if kind == "cs":
-        return lambda dt, x: models.cs(np.full(x.shape[0], dt), kw["alpha"], kw["a_max"], x[:, 4:6])
-    if kind == "ch":
-        return lambda dt, x: models.ch(dt, sigma)
-    if kind == "cad":
-        return lambda dt, x: models.cad(dt, sigma)
-    raise ValueError(f"unknown model kind {kind!r}")
-
-
 @dataclass(frozen=True)
 class ModeSet:
-    """The IMM model set for prediction: one model per mode and the per-step transition matrix M[from, to]."""
+    """The IMM model set for prediction: one motion model (models.MotionModel) per mode and the per-step
+    transition matrix M[from, to]."""
 
     models: tuple
     transition: np.ndarray
@@ -119,14 +93,6 @@ def lookahead_times(lookahead_s: float, step_s: float) -> np.ndarray:
     return np.arange(k + 1) * step_s
 
 
-def combine(x_modes: np.ndarray, p_modes: np.ndarray, mu: np.ndarray):
-    """Baek & Bang eqs 16-17 over the last mode axis: x (..., n), P (..., n, n)."""
-    x = np.einsum("...m,...mn->...n", mu, x_modes)
-    dx = x_modes - x[..., None, :]
-    p = np.einsum("...m,...mij->...ij", mu, p_modes) + np.einsum("...m,...mi,...mj->...ij", mu, dx, dx)
-    return x, 0.5 * (p + np.swapaxes(p, -1, -2))
-
-
 def imm_predict(x_modes, p_modes, mu, modes: ModeSet, lookahead_s: float = 60.0, step_s: float = 1.0) -> Prediction:
     """IMM trajectory prediction (Baek & Bang Sec. 3.3) for N tracks: x_modes (N, M, n), p_modes (N, M, n, n),
     mu (N, M) -> Prediction over [0, lookahead] every step_s, per mode and combined."""
@@ -141,24 +107,15 @@ def imm_predict(x_modes, p_modes, mu, modes: ModeSet, lookahead_s: float = 60.0,
     mus = np.empty((n_tr, t.size, m))
     xs[:, 0], ps[:, 0], mus[:, 0] = x, p, mu
     for k in range(1, t.size):
-        cbar = mu @ trans  # (N, M): c_j = sum_i pi_ij mu_i, also mu(k+1) of eq 20
-        with np.errstate(divide="ignore", invalid="ignore"):
-            omega = trans[None, :, :] * mu[:, :, None] / np.where(cbar > 0.0, cbar, 1.0)[:, None, :]  # eq 11
-        x0 = np.einsum("bij,bin->bjn", omega, x)  # eq 12
-        dx = x[:, :, None, :] - x0[:, None, :, :]
-        p0 = np.einsum("bij,bimn->bjmn", omega, p) + np.einsum("bij,bijm,bijn->bjmn", omega, dx, dx)  # eq 13
-        for j, model in enumerate(modes.models):
-            fm, fc, q = _model_matrices(model, step_s, x0[:, j])
-            x[:, j] = np.einsum("bij,bj->bi", fm, x0[:, j])  # eq 18
-            pj = fc @ p0[:, j] @ np.swapaxes(fc, 1, 2) + q  # eq 19
-            p[:, j] = 0.5 * (pj + np.swapaxes(pj, 1, 2))
+        cbar, x0, p0 = interact(mu, x, p, trans)  # eqs 11-13; cbar is also mu(k+1) of eq 20
+        x, p, _ = mode_matched_predict(modes.models, step_s, x0, p0)  # eqs 18-19
         mu = cbar  # eq 20
         xs[:, k], ps[:, k], mus[:, k] = x, p, mu
     xc, pc = combine(xs, ps, mus)
     return Prediction(t, xc, pc, xs, ps, mus)
 
 
-def model_predict(x, p, model: Model, lookahead_s: float = 60.0, step_s: float = 1.0) -> Prediction:
+def model_predict(x, p, model: MotionModel, lookahead_s: float = 60.0, step_s: float = 1.0) -> Prediction:
     """Single-model prediction (the CV-only or CA-only curves of Baek & Bang Fig. 7): x (N, n), p (N, n, n)."""
     x = np.asarray(x, float)
     p = np.asarray(p, float)
@@ -483,7 +440,7 @@ def relative_modes(x_modes, p_modes, ref_x, ref_p=None):
 
 
 __all__ = [
-    "ModeSet", "Prediction", "tracking_model", "lookahead_times", "combine", "imm_predict", "model_predict",
+    "ModeSet", "Prediction", "lookahead_times", "combine", "imm_predict", "model_predict",
     "cv_relative_prediction", "pe_track_covariance", "pe_pair_covariance", "pe_conflict_probability", "pc_curve",
     "max_over_lookahead", "pc_within_cv_mc", "pc_within_imm_mc", "relative_modes", "vertical_probability",
     "PE_ALONG_RATE_MPS", "PE_CROSS_RATE_PER_SPEED", "PE_CROSS_MAX_M",

@@ -40,41 +40,6 @@ LIKELIHOODS = ("standard", "rmimm", "rmimm-recursive")
 
 
 @dataclass(frozen=True)
-class ModeSpec:
-    """One mode filter. kind: cv, ca, ct, cs (horizontal) or ch, cad (vertical).
-    sigma: process noise (cv, ca, ct, cad: m/s^2; ch: m/s). cs: alpha (1/s, manoeuvre frequency) and a_max."""
-
-    kind: str
-    sigma: float = 1.0
-    alpha: float = 0.1
-    a_max: float = 30.0
-    heading_noise: bool = True  # ca: Baek & Bang eq 31 (False: eq 6's isotropic noise)
-
-    def __post_init__(self):
-        if self.kind not in models.HORIZONTAL_MODES + models.VERTICAL_MODES:
-            raise ValueError(f"unknown mode {self.kind!r}")
-
-    @property
-    def dim(self) -> int:
-        return models.H_DIM if self.kind in models.HORIZONTAL_MODES else models.V_DIM
-
-    def build(self, dt: np.ndarray, x0: np.ndarray, heading: np.ndarray | None):
-        """(F_mean, F_cov, Q), each (B, n, n), for a batch; x0 (B, n) is this mode's mixed initial state."""
-        k = self.kind
-        if k == "cv":
-            return models.cv(dt, self.sigma)
-        if k == "ca":
-            return models.ca(dt, self.sigma, heading if self.heading_noise else None)
-        if k == "ct":
-            return models.ct(dt, self.sigma)
-        if k == "cs":
-            return models.cs(dt, self.alpha, self.a_max, x0[:, 4:6])
-        if k == "ch":
-            return models.ch(dt, self.sigma)
-        return models.cad(dt, self.sigma)
-
-
-@dataclass(frozen=True)
 class VbParams:
     """Variational-Bayes measurement noise (Dai eqs 17-25, after Sarkka & Nummenmaa 2009).
 
@@ -117,7 +82,11 @@ def _sym(p: np.ndarray) -> np.ndarray:
 
 
 class ImmBank:
-    def __init__(self, modes: list[ModeSpec], d: int, switch_matrix: np.ndarray, period_s: float = 1.0,
+    """N tracks x M modes of one axis group. modes: the mode filters' motion models (models.MotionModel objects,
+    one state dimension), d: the measured components (the first d of the state), switch_matrix M[from, to] for
+    period_s."""
+
+    def __init__(self, modes: list[models.MotionModel], d: int, switch_matrix: np.ndarray, period_s: float = 1.0,
                  likelihood: str = "standard", vb: VbParams | None = None, rmimm_floor: float = 1.0,
                  capacity: int = 16, yaw_time_constant_s: float = 11.9):
         if len(modes) < 1 or len({m.dim for m in modes}) != 1:
@@ -125,7 +94,7 @@ class ImmBank:
         if likelihood not in LIKELIHOODS:
             raise ValueError(f"likelihood must be one of {LIKELIHOODS}, got {likelihood!r}")
         self.modes = list(modes)
-        self.names = [m.kind for m in modes]
+        self.names = [m.name for m in modes]
         self.m = len(modes)
         self.n = modes[0].dim
         self.d = d
@@ -135,7 +104,7 @@ class ImmBank:
         self.rmimm_floor = rmimm_floor
         self.yaw_time_constant_s = yaw_time_constant_s
         self.horizontal = self.n == models.H_DIM
-        self._turn_mode = next((i for i, k in enumerate(self.names) if k in ("ct", "ca", "cs")), None)
+        self._turn_mode = next((i for i, m in enumerate(self.modes) if m.estimates_turn), None)
         self._alloc(capacity)
 
     # -- storage -----------------------------------------------------------------------------------------
@@ -170,7 +139,7 @@ class ImmBank:
         p = np.broadcast_to(np.asarray(p, float), (len(slots), self.n, self.n))
         self.x[slots] = x[:, None, :]
         self.p[slots] = p[:, None, :, :]
-        for j in (j for j, kind in enumerate(self.names) if kind == "cv"):  # CV carries no acceleration
+        for j in (j for j, mode in enumerate(self.modes) if not mode.accelerates):  # CV carries no acceleration
             self.x[slots, j, 4:6] = 0.0
             self.p[slots, j, 4:6, :] = 0.0
             self.p[slots, j, :, 4:6] = 0.0
@@ -204,39 +173,15 @@ class ImmBank:
     # -- the IMM cycle -----------------------------------------------------------------------------------
     def _interact_predict(self, slots: np.ndarray, dt: np.ndarray):
         """Interaction (eqs 11-13) and mode-matched prediction (eqs 18-19) for a batch."""
-        b, m, n = len(slots), self.m, self.n
         sel = _as_index(slots)
         mu = self.mu[sel]  # (B, M)
         x = self.x[sel]  # (B, M, n)
-        p = self.p[sel]  # (B, M, n, n)
-        trans = self.chain.at(dt)  # (B, M, M) [from, to]
-        cbar = (mu[:, None, :] @ trans)[:, 0, :]  # predicted mode probabilities (Hwang eq 5 mu-hat)
-        omega = trans * mu[:, :, None] / np.maximum(cbar, TINY)[:, None, :]  # Baek & Bang eq 11, mu_ij
-        # eqs 12-13 as sums over i of omega_ij (x_i, P_i + dx dx^T), evaluated about mode 0's state (small
-        # differences, no cancellation): P_0j = sum_i omega_ij (P_i + d_i d_i^T) - d_0j d_0j^T, d = x - x_ref.
-        omega_t = np.swapaxes(omega, 1, 2)  # (B, j, i)
-        ref = x[:, :1, :]
-        dxr = x - ref
-        x0r = omega_t @ dxr  # (B, j, n)
-        second = (p + dxr[:, :, :, None] * dxr[:, :, None, :]).reshape(b, m, n * n)
-        p0 = -(x0r[:, :, :, None] * x0r[:, :, None, :]).reshape(b, m, n * n)
-        for i in range(m):
-            p0 += omega_t[:, :, i, None] * second[:, None, i, :]
-        p0 = p0.reshape(b, m, n, n)
-        x0 = x0r + ref
+        cbar, x0, p0 = interact(mu, x, self.p[sel], self.chain.at(dt))
         heading = None
         if self.horizontal:
             xc = (mu[:, None, :] @ x)[:, 0, :]
             heading = models.heading_rad(xc[:, 2], xc[:, 3])
-        xp = np.empty((b, m, n))
-        pp = np.empty((b, m, n, n))
-        fms = []
-        for j, mode in enumerate(self.modes):  # loop over modes (M <= 4), each vectorised over the batch
-            f_mean, f_cov, q = mode.build(dt, x0[:, j], heading)
-            xp[:, j] = (f_mean @ x0[:, j, :, None])[..., 0]  # eq 18
-            pp[:, j] = f_cov @ p0[:, j] @ np.swapaxes(f_cov, -1, -2) + q  # eq 19
-            fms.append(f_mean)
-        pp = _sym(pp)
+        xp, pp, fms = mode_matched_predict(self.modes, dt, x0, p0, heading)
         fm = np.stack(fms, axis=1) if self.likelihood == "rmimm-recursive" else None
         return cbar, x0, xp, pp, fm
 
@@ -395,15 +340,52 @@ class ImmBank:
                                                      self.yaw_time_constant_s)
 
 
-def combine(x: np.ndarray, p: np.ndarray, mu: np.ndarray):
-    """Combination, Baek & Bang eqs 16-17: x = sum mu_j x_j, P = sum mu_j (P_j + (x_j - x)(x_j - x)^T)."""
+def interact(mu: np.ndarray, x: np.ndarray, p: np.ndarray, trans: np.ndarray):
+    """Interaction, Baek & Bang eqs 11-13, for a batch: mu (B, M), x (B, M, n), p (B, M, n, n), trans (B, M, M) or
+    (M, M) [from, to] -> predicted mode probabilities c (B, M) (eq 11's c_j, Hwang eq 5 mu-hat; eq 20's mu(k+1)),
+    mixed x_0j (B, M, n) and P_0j (B, M, n, n)."""
     b, m, n = x.shape
+    cbar = (mu[:, None, :] @ trans)[:, 0, :]  # predicted mode probabilities (Hwang eq 5 mu-hat)
+    omega = trans * mu[:, :, None] / np.maximum(cbar, TINY)[:, None, :]  # Baek & Bang eq 11, mu_ij
+    # eqs 12-13 as sums over i of omega_ij (x_i, P_i + dx dx^T), evaluated about mode 0's state (small
+    # differences, no cancellation): P_0j = sum_i omega_ij (P_i + d_i d_i^T) - d_0j d_0j^T, d = x - x_ref.
+    omega_t = np.swapaxes(omega, 1, 2)  # (B, j, i)
     ref = x[:, :1, :]
     dxr = x - ref
-    xr = (mu[:, None, :] @ dxr)[:, 0, :]
-    second = p + dxr[:, :, :, None] * dxr[:, :, None, :]
-    pc = (mu[:, None, :] @ second.reshape(b, m, n * n)).reshape(b, n, n) - xr[:, :, None] * xr[:, None, :]
-    return xr + ref[:, 0, :], _sym(pc)
+    x0r = omega_t @ dxr  # (B, j, n)
+    second = (p + dxr[:, :, :, None] * dxr[:, :, None, :]).reshape(b, m, n * n)
+    p0 = -(x0r[:, :, :, None] * x0r[:, :, None, :]).reshape(b, m, n * n)
+    for i in range(m):
+        p0 += omega_t[:, :, i, None] * second[:, None, i, :]
+    return cbar, x0r + ref, p0.reshape(b, m, n, n)
+
+
+def mode_matched_predict(modes, dt, x0: np.ndarray, p0: np.ndarray, heading=None):
+    """Mode-matched prediction, Baek & Bang eqs 18-19: x_j- = F_j x_0j, P_j- = F_j P_0j F_j^T + Q_j for every
+    mode (models.MotionModel objects), vectorised over the batch; dt scalar or (B,); heading (B,) the combined
+    heading of eq 31 (None: each mode's own). Returns x (B, M, n), P (B, M, n, n) and the F_mean of each mode."""
+    b, m, n = x0.shape
+    xp = np.empty((b, m, n))
+    pp = np.empty((b, m, n, n))
+    fms = []
+    for j, mode in enumerate(modes):  # loop over modes (M <= 4), each vectorised over the batch
+        f_mean, f_cov, q = mode.matrices(dt, x0[:, j], heading)
+        xp[:, j] = (f_mean @ x0[:, j, :, None])[..., 0]  # eq 18
+        pp[:, j] = f_cov @ p0[:, j] @ np.swapaxes(f_cov, -1, -2) + q  # eq 19
+        fms.append(f_mean)
+    return xp, _sym(pp), fms
+
+
+def combine(x: np.ndarray, p: np.ndarray, mu: np.ndarray):
+    """Combination, Baek & Bang eqs 16-17, over the mode axis (..., M, n): x = sum mu_j x_j,
+    P = sum mu_j (P_j + (x_j - x)(x_j - x)^T)."""
+    *lead, m, n = x.shape
+    ref = x[..., :1, :]
+    dxr = x - ref
+    xr = (mu[..., None, :] @ dxr)[..., 0, :]
+    second = p + dxr[..., :, :, None] * dxr[..., :, None, :]
+    pc = (mu[..., None, :] @ second.reshape(*lead, m, n * n)).reshape(*lead, n, n) - xr[..., :, None] * xr[..., None, :]
+    return xr + ref[..., 0, :], _sym(pc)
 
 
 def spd_inverse(s: np.ndarray):

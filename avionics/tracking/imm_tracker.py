@@ -1,7 +1,9 @@
-"""IMM intruder tracker: the IntruderTracker interface over two vectorised IMM banks (horizontal, vertical).
+"""IMM intruder tracker: the Tracker interface (interface.py) over two vectorised IMM banks (horizontal, vertical),
+under the shared lifecycle (lifecycle.py).
 
-Each intruder key owns one slot in a horizontal bank ([x, y, vx, vy, ax, ay], modes from
-tracking.imm_horizontal_modes) and in a vertical bank ([z, vz], CH/CAD), Baek & Bang's decoupled structure
+Each intruder key owns one slot in a horizontal bank ([x, y, vx, vy, ax, ay], the motion models it is given: the
+composition root builds them from tracking.imm_horizontal_modes) and in a vertical bank ([z, vz], CH/CAD), Baek &
+Bang's decoupled structure
 (their Fig. 2). A report updates only its track's slot; `ingest_many` applies a batch of reports with one
 vectorised IMM cycle per bank (at most one report per track per cycle, each key's reports in arrival order).
 
@@ -32,11 +34,10 @@ from types import SimpleNamespace
 import numpy as np
 from scipy.stats import chi2
 
-from avionics.config import TrackingConfig
-from avionics.core.types import AddressSource, IntruderKey, IntruderReport
+from avionics.core.types import IntruderKey, IntruderReport
 from avionics.tracking import models
-from avionics.tracking.imm import ImmBank, ModeSpec, VbParams
-from avionics.tracking.integrity import IntegrityMonitor
+from avionics.tracking.imm import ImmBank, VbParams
+from avionics.tracking.lifecycle import TrackLifecycle
 from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
                                       UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
 
@@ -60,36 +61,29 @@ class ImmTrack(TrackRecord):
         return SimpleNamespace(x=x[0], p=p[0], t_s=self.last_report_s)
 
 
-class ImmTracker:
-    """Same public interface as IntruderTracker: ingest, prune, predict, tracks; plus mode_info and
-    ingest_many (a batch of reports, vectorised)."""
+class ImmTracker(TrackLifecycle):
+    """The Tracker interface over two IMM banks: horizontal (models.MotionModel objects on [x, y, vx, vy, ax, ay])
+    and vertical (on [z, vz]); likelihood "standard" or RMIMM's (imm.LIKELIHOODS), vb the variational-Bayes
+    measurement noise or None; name the variant's label in the outputs. Plus mode_info and ingest (one report)."""
 
-    def __init__(self, config: TrackingConfig, counters: Counter | None = None, capacity: int = 16):
-        self.config = config
-        self.counters = counters if counters is not None else Counter()
-        self.tracks: dict[IntruderKey, ImmTrack] = {}
-        self.competitors: dict[IntruderKey, ImmTrack] = {}
-        self.model = config.filter if config.filter != "cv" else "imm"
-        likelihood = "rmimm" if "rmimm" in self.model else "standard"
-        vb = VbParams(config.vb_iterations, config.vb_c1, config.vb_c2, config.vb_c3) \
-            if self.model.startswith("vb-") else None
-        self.h_modes = [self._mode(k) for k in config.imm_horizontal_modes]
-        self.v_modes = [self._mode(k) for k in config.imm_vertical_modes]
-        p = config.imm_switch_probability
-        kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=config.rmimm_floor, capacity=capacity,
-                  yaw_time_constant_s=config.yaw_rate_time_constant_s)
+    vectorised = True
+    track_type = ImmTrack
+
+    def __init__(self, params, counters: Counter | None, horizontal: list[models.MotionModel],
+                 vertical: list[models.MotionModel], *, likelihood: str = "standard", vb: VbParams | None = None,
+                 name: str = "imm", capacity: int = 16):
+        super().__init__(params, counters, capacity)
+        self.model = name
+        self.h_modes = list(horizontal)
+        self.v_modes = list(vertical)
+        p = params.imm_switch_probability
+        kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=params.rmimm_floor, capacity=capacity,
+                  yaw_time_constant_s=params.yaw_rate_time_constant_s)
         self.bank_h = ImmBank(self.h_modes, H_MEAS, models.switching_matrix(len(self.h_modes), p), **kw)
         self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))
-        self._gate = np.array([0.0] + [chi2.ppf(config.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
-        self.integrity = IntegrityMonitor(config.velocity_sigma_mps, capacity)  # per key, sees every report
-
-    def _mode(self, kind: str) -> ModeSpec:
-        c = self.config
-        sigma = {"cv": c.imm_cv_sigma_mps2, "ca": c.imm_ca_sigma_mps2, "ct": c.imm_ct_sigma_mps2,
-                 "cs": 1.0, "ch": c.imm_ch_sigma_mps, "cad": c.imm_cad_sigma_mps2}[kind]
-        return ModeSpec(kind, sigma, alpha=c.imm_cs_alpha_per_s, a_max=c.imm_cs_max_accel_mps2)
+        self._gate = np.array([0.0] + [chi2.ppf(params.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
 
     # -- slots -------------------------------------------------------------------------------------------
     def _take_slots(self, n: int) -> np.ndarray:
@@ -126,7 +120,7 @@ class ImmTracker:
         m_v = np.zeros((b, V_MEAS), bool)
         pos_sigma = np.empty(b)
         for i, rep in enumerate(reports):  # field extraction from the report objects
-            pos_sigma[i] = cfg.position_sigma_uat_m if rep.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
+            pos_sigma[i] = self.position_sigma_m(rep)
             if rep.velocity_en_mps is not None:
                 z_h[i, 2:4] = rep.velocity_en_mps
                 m_h[i, 2:4] = True
@@ -159,116 +153,27 @@ class ImmTracker:
         var_v = np.where(m_v, r_v, np.array([UNKNOWN_ALT_SIGMA_M, UNKNOWN_VRATE_SIGMA_MPS]) ** 2)
         self.bank_v.init(slots, z_v, var_v[:, :, None] * np.eye(2), nominal_var=r_v)
 
-    # -- lifecycle ---------------------------------------------------------------------------------------
-    def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
-        """Apply one report; True when it updated or started a track, False when it was counted and dropped."""
-        return bool(self.ingest_many([report], [east], [north])[0])
-
-    def ingest_many(self, reports: list[IntruderReport], easts, norths) -> np.ndarray:
-        """Apply a batch of reports (any order, any keys). Returns, per report, whether it updated or started a
-        published track. Each key's reports are applied in arrival order, one vectorised cycle per round, so
-        that a batch gives what one report at a time gives (an older report after a newer one is out of order)."""
-        easts = np.asarray(easts, float)
-        norths = np.asarray(norths, float)
-        out = np.zeros(len(reports), bool)
-        rounds: list[list[int]] = []
-        seen: Counter = Counter()
-        for i in range(len(reports)):
-            r = seen[reports[i].key]
-            seen[reports[i].key] += 1
-            if r == len(rounds):
-                rounds.append([])
-            rounds[r].append(i)
-        for idx in rounds:
-            self._ingest_round(idx, reports, easts, norths, out)
-        return out
-
-    def _ingest_round(self, idx: list[int], reports, easts, norths, out: np.ndarray) -> None:
-        new, upd = [], []
-        for i in idx:
-            rep = reports[i]
-            track = self.tracks.get(rep.key)
-            if track is None:
-                new.append(i)
-                continue
-            dt = rep.time_s - track.last_report_s
-            if abs(dt) <= DUPLICATE_WINDOW_S:
-                self.counters["report.duplicate"] += 1
-                continue
-            if dt < 0:
-                self.counters["report.out_of_order"] += 1
-                continue
-            upd.append(i)
-        stale = self._observe(new + upd, reports, easts, norths)
-        if new:
-            self._initiate([reports[i] for i in new], easts[new], norths[new], self.tracks)
-            out[new] = True
-        if upd:
-            self._update_round(upd, reports, easts, norths, stale[len(new):], out)
-        seen = new + upd
-        if not seen:
-            return
-        tracks = [self.tracks[reports[i].key] for i in seen]  # the key's published track (maybe restarted)
+    # -- lifecycle (the filter's part) ---------------------------------------------------------------------
+    def _positions(self, tracks: list[ImmTrack]) -> np.ndarray:
         x, _ = self._posterior(np.fromiter((t.slot for t in tracks), int, len(tracks)))
-        for k, (i, track) in enumerate(zip(seen, tracks)):
-            track.integrity = self.integrity.status(track.key)
-            track.report_offset = (float(easts[i] - x[k, 0]), float(norths[i] - x[k, 1]), reports[i].altitude_m)
-
-    def _observe(self, idx: list[int], reports, easts, norths) -> np.ndarray:
-        """The integrity monitor sees every report of a key before the gate (a step or a frozen position shows
-        first as gate misses); returns which reports repeat a stale position."""
-        if not idx:
-            return np.zeros(0, bool)
-        reps = [reports[i] for i in idx]
-        cfg = self.config
-        sigma = [cfg.position_sigma_uat_m if r.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
-                 for r in reps]
-        vel = [r.velocity_en_mps or (math.nan, math.nan) for r in reps]
-        # where each key's previous report is in today's plane: its track's posterior (carried by reframe) + offset
-        previous = np.full((len(reps), 2), np.nan)
-        known = [b for b, r in enumerate(reps) if r.key in self.tracks and self.tracks[r.key].report_offset]
-        if known:
-            tracks = [self.tracks[reps[b].key] for b in known]
-            x, _ = self._posterior(np.fromiter((t.slot for t in tracks), int, len(tracks)))
-            previous[known] = x[:, :2] + np.array([t.report_offset[:2] for t in tracks])
-        return self.integrity.observe([r.key for r in reps], [r.time_s for r in reps], [r.received_s for r in reps],
-                                      easts[idx], norths[idx], vel, sigma, previous)
+        return x[:, :2]
 
     def _update_round(self, upd: list[int], reports, easts, norths, stale: np.ndarray, out: np.ndarray) -> None:
         reps = [reports[i] for i in upd]
         tracks = [self.tracks[r.key] for r in reps]
-        for rep, track in zip(reps, tracks):
-            if rep.altitude_m is not None and rep.altitude_datum is not track.datum:
-                # The sender switched altitude source: the old vertical state is in another datum.
-                self.counters["track.datum_change"] += 1
-                self._reset_vertical(track)
-                track.datum = rep.altitude_datum
+        self._datum_changes(tracks, reps)
         accepted = self._update(tracks, reps, easts[upd], norths[upd], stale=stale)
         for k, (i, rep, track) in enumerate(zip(upd, reps, tracks)):
             if accepted[k]:
-                track.consecutive_rejects = 0
                 out[i] = True
             else:
                 out[i] = self._handle_miss(track, rep, easts[i], norths[i])
 
-    def _initiate(self, reps: list[IntruderReport], easts, norths, into: dict) -> list[ImmTrack]:
-        meas_h, meas_v = self._measure(reps, easts, norths)
+    def _init_filters(self, reps: list[IntruderReport], easts, norths) -> list[dict]:
         slots = self._take_slots(len(reps))
-        self._init_slots(slots, meas_h, meas_v)
-        out = []
-        for rep, slot in zip(reps, slots):
-            self._t[slot] = rep.time_s
-            track = ImmTrack(rep.key, rep.altitude_datum, rep.time_s, rep.time_s,
-                             rep.time_s if rep.altitude_m is not None else None, slot=int(slot), tracker=self)
-            track.copy_identity(rep)
-            old = into.get(rep.key)
-            if old is not None:
-                self._release(old)
-            into[rep.key] = track
-            out.append(track)
-        if into is self.tracks:
-            self.counters["track.initiated"] += len(reps)
-        return out
+        self._init_slots(slots, *self._measure(reps, easts, norths))
+        self._t[slots] = [rep.time_s for rep in reps]
+        return [{"slot": int(slot), "tracker": self} for slot in slots]
 
     def _reset_vertical(self, track: ImmTrack) -> None:
         slot = np.array([track.slot])
@@ -296,12 +201,7 @@ class ImmTracker:
         self.bank_v.commit(pend_v, in_gate)
         self._t[slots[in_gate]] = times[in_gate]
         for k in np.flatnonzero(in_gate):
-            track, rep = tracks[k], reps[k]
-            track.last_report_s = rep.time_s
-            track.n_updates += 1
-            if rep.altitude_m is not None:
-                track.last_altitude_s = rep.time_s
-            track.copy_identity(rep)
+            self._accepted(tracks[k], reps[k])
         for k in np.flatnonzero(~in_gate) if count else ():
             self.counters["track.implausible_jump" if not plausible[k] else "track.gate_miss"] += 1
         return in_gate
@@ -315,9 +215,9 @@ class ImmTracker:
         if comp is not None and rep.time_s > comp.last_report_s + DUPLICATE_WINDOW_S:
             took = bool(self._update([comp], [rep], np.array([east]), np.array([north]), count=False)[0])
         if not took:
-            if comp is not None:  # its slot is released by _initiate, which replaces it
+            if comp is not None:  # its slot is released by _start, which replaces it
                 self.counters["track.competitor_replaced"] += 1
-            comp = self._initiate([rep], np.array([east]), np.array([north]), self.competitors)[0]
+            comp = self._start([rep], np.array([east]), np.array([north]), self.competitors)[0]
             self.counters["track.competitor_started"] += 1
         if track.consecutive_rejects >= REJECTS_BEFORE_RESTART and comp.n_updates >= REJECTS_BEFORE_RESTART:
             del self.competitors[rep.key]
@@ -326,23 +226,6 @@ class ImmTracker:
             self.counters["track.restarted"] += 1
             return True
         return False
-
-    def prune(self, now_s: float) -> list[IntruderKey]:
-        """Delete tracks silent for longer than delete_after_s (competitors: max_coast_s)."""
-        dead = [k for k, t in self.tracks.items() if now_s - t.last_report_s > self.config.delete_after_s]
-        for key in dead:
-            self._release(self.tracks.pop(key))
-            self.integrity.forget(key)
-            self.counters["track.deleted"] += 1
-            comp = self.competitors.pop(key, None)
-            if comp is not None:
-                self._release(comp)
-        for key in [k for k, t in self.competitors.items() if now_s - t.last_report_s > self.config.max_coast_s]:
-            self._release(self.competitors.pop(key))
-        for key in self.integrity.check_silence(now_s):  # position loss while the track lives
-            if key in self.tracks:
-                self.tracks[key].integrity = self.integrity.status(key)
-        return dead
 
     def reframe(self, change) -> None:
         """The tangent plane moved (avionics/core/frame.py): carry every track and competitor into it."""
@@ -410,12 +293,3 @@ class ImmTracker:
             "vb_noise": nz,
         } for mh, mv, bh, bv, td, nz in zip(mu_h.tolist(), mu_v.tolist(), best_h.tolist(), best_v.tolist(),
                                              turn_dps.tolist(), noise)]
-
-
-def make_tracker(config: TrackingConfig, counters: Counter):
-    """The tracker tracking.filter selects: the CV Kalman tracker or the IMM tracker."""
-    if config.filter == "cv":
-        from avionics.tracking.tracker import IntruderTracker
-
-        return IntruderTracker(config, counters)
-    return ImmTracker(config, counters)

@@ -25,6 +25,8 @@ They differ only for CS, whose mean acceleration a-bar is an input (Dai eq 8, 29
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -292,3 +294,130 @@ class MarkovChain:
         m = ((self._v[None, :, :] * e[:, None, :]).reshape(-1, k) @ self._vinv).reshape(len(t), k, k)
         m = np.clip(m, 0.0, 1.0)
         return m / m.sum(axis=2, keepdims=True)
+
+
+# --- the models as objects (what an IMM bank and the trajectory prediction are given) ---------------------
+
+
+@runtime_checkable
+class MotionModel(Protocol):
+    """One mode's motion model on a stacked state (B, n): its transition and process noise for any step dt.
+
+    name: the mode's label in the outputs; dim: n (H_DIM or V_DIM); accelerates: False when the model zeroes the
+    acceleration states (CV: the bank then starts them at the floor); estimates_turn: its state gives the Hwang
+    eq 20 yaw rate (CT, CA, CS). matrices(dt, x, heading) -> (F_mean, F_cov, Q), each (B, n, n): x the mode's
+    mixed state (Baek & Bang eq 12), heading the combined heading (eq 31; None: the model's own state's)."""
+
+    name: str
+    dim: int
+    accelerates: bool
+    estimates_turn: bool
+
+    def F(self, dt) -> np.ndarray: ...
+
+    def Q(self, dt, x: np.ndarray | None = None, heading=None) -> np.ndarray: ...
+
+    def matrices(self, dt, x: np.ndarray | None, heading=None) -> tuple: ...
+
+
+class _Model:
+    accelerates = True
+    estimates_turn = False
+
+    def F(self, dt) -> np.ndarray:
+        """The mean transition (Baek & Bang eq 18's A_j)."""
+        return self.matrices(dt, None)[0]
+
+    def Q(self, dt, x: np.ndarray | None = None, heading=None) -> np.ndarray:
+        """The process noise (Baek & Bang eq 19's B_j Q_j B_j^T)."""
+        return self.matrices(dt, x, heading)[2]
+
+
+def _per_state(dt, x: np.ndarray | None, heading=None) -> np.ndarray:
+    """dt as one step per stacked state when the noise depends on the state (a scalar dt otherwise)."""
+    b = len(heading) if heading is not None and np.ndim(heading) else x.shape[0] if x is not None else None
+    dt = np.asarray(dt, float)
+    return dt if b is None or dt.ndim else np.full(b, float(dt))
+
+
+@dataclass(frozen=True)
+class ConstantVelocity(_Model):
+    """CV, Baek & Bang eq 5 (= Hwang eq 16); sigma in m/s^2."""
+
+    sigma_mps2: float
+    name = "cv"
+    dim = H_DIM
+    accelerates = False
+
+    def matrices(self, dt, x=None, heading=None):
+        return cv(dt, self.sigma_mps2)
+
+
+@dataclass(frozen=True)
+class ConstantAcceleration(_Model):
+    """CA, Baek & Bang eq 6 with eq 31's heading-rotated noise (heading_noise False: eq 6's isotropic noise)."""
+
+    sigma_mps2: float
+    heading_noise: bool = True
+    name = "ca"
+    dim = H_DIM
+    estimates_turn = True
+
+    def matrices(self, dt, x=None, heading=None):
+        if heading is None and x is not None:  # the mode's own velocity (Baek & Bang eq 31 per mode)
+            heading = heading_rad(x[:, 2], x[:, 3])
+        if not self.heading_noise or heading is None:  # eq 6's isotropic noise
+            return ca(dt, self.sigma_mps2)
+        return ca(_per_state(dt, x, heading), self.sigma_mps2, heading)
+
+
+@dataclass(frozen=True)
+class CoordinatedTurn(_Model):
+    """CT as Hwang eq 18's Wiener-sequence acceleration; sigma in m/s^2 per step."""
+
+    sigma_mps2: float
+    name = "ct"
+    dim = H_DIM
+    estimates_turn = True
+
+    def matrices(self, dt, x=None, heading=None):
+        return ct(dt, self.sigma_mps2)
+
+
+@dataclass(frozen=True)
+class CurrentStatistical(_Model):
+    """CS, Dai eqs 8-12: alpha the manoeuvre frequency (1/s), a_max the acceleration bound (m/s^2)."""
+
+    alpha_per_s: float
+    a_max_mps2: float
+    name = "cs"
+    dim = H_DIM
+    estimates_turn = True
+
+    def matrices(self, dt, x=None, heading=None):
+        a_hat = np.zeros((1, 2)) if x is None else x[:, 4:6]  # Dai eq 29: the mode's own acceleration
+        return cs(_per_state(dt, x), self.alpha_per_s, self.a_max_mps2, a_hat)
+
+
+@dataclass(frozen=True)
+class ConstantHeight(_Model):
+    """CH, Baek & Bang eq 7; sigma in m/s (a vertical-speed increment per step)."""
+
+    sigma_mps: float
+    name = "ch"
+    dim = V_DIM
+
+    def matrices(self, dt, x=None, heading=None):
+        return ch(dt, self.sigma_mps)
+
+
+@dataclass(frozen=True)
+class ConstantAltitudeChange(_Model):
+    """CAD, Baek & Bang eq 8; sigma in m/s^2."""
+
+    sigma_mps2: float
+    name = "cad"
+    dim = V_DIM
+
+    def matrices(self, dt, x=None, heading=None):
+        return cad(dt, self.sigma_mps2)
