@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avionics.advisory.gating import at_least_m_of_n
+from avionics.advisory.persistence import at_least_m_of_n
 from avionics.core.types import AdvisoryLevel
 from avionics.core.units import FT, KT, NM
 from synthetic import Encounter, Mover
@@ -47,7 +47,8 @@ def test_a_collision_course_keeps_its_ra_under_every_criterion():
         _, changes = Encounter(OWN, intruder, overrides=[f'advisory.criterion="{criterion}"']).run(100)
         onsets[criterion] = first(changes, AdvisoryLevel.RA)
         ra = next(c for _, c in changes if c.level is AdvisoryLevel.RA)
-        assert 0.3 <= ra.pc_ra <= 1.0 and 0.0 <= ra.pc_ta <= 1.0
+        # at the RA onset (about 20 s to CPA) with the conflict stage's prediction noise (2.0 / 1.0 m/s^2): ~0.3
+        assert 0.25 <= ra.pc_ra <= 1.0 and 0.0 <= ra.pc_ta <= 1.0
     assert all(t is not None for t in onsets.values())
     assert onsets["tcas+pc"] >= onsets["tcas"]  # the probability can only delay an RA, never advance it
     assert onsets["pc"] <= onsets["tcas"] + 20.0

@@ -7,20 +7,33 @@ import pytest
 
 from avionics.config import ConflictConfig
 from avionics.conflict import prediction as pr
-from avionics.conflict.assess import ConflictAssessor, conflict_probabilities
+from avionics.compose import build_conflict_assessor
+from avionics.conflict.assess import conflict_probabilities
 from avionics.conflict.probability import pc_exact
 from avionics.core.units import KT, NM
+from avionics.tracking import models
 from avionics.tracking.kalman_cv import cv_process_noise, cv_transition
 
 
-def cv4(sigma):
-    """Minimal [x, y, vx, vy] CV model (piecewise-constant white acceleration)."""
-    def model(dt, x):
+class cv4:
+    """Minimal [x, y, vx, vy] CV motion model (piecewise-constant white acceleration), a models.MotionModel."""
+
+    name, dim, accelerates, estimates_turn = "cv4", 4, True, False
+
+    def __init__(self, sigma):
+        self.sigma = sigma
+
+    def F(self, dt):
         f = np.eye(4)
         f[0, 2] = f[1, 3] = dt
+        return f
+
+    def Q(self, dt, x=None, heading=None):
         g = np.array([[dt * dt / 2, 0], [0, dt * dt / 2], [dt, 0], [0, dt]])
-        return f, g @ g.T * sigma**2
-    return model
+        return g @ g.T * self.sigma**2
+
+    def matrices(self, dt, x=None, heading=None):
+        return self.F(dt), self.F(dt), self.Q(dt)
 
 
 def ca_like(sigma):
@@ -41,7 +54,7 @@ def test_single_model_is_the_kalman_prediction():
     pred = pr.model_predict(x, p, model, 10.0, 1.0)
     xk, pk = x.copy(), p.copy()
     for k in range(1, 11):
-        f, q = model(1.0, None)
+        f, q = model.F(1.0), model.Q(1.0)
         xk = xk @ f.T
         pk = f @ pk @ f.T + q
         assert np.allclose(pred.x[:, k], xk) and np.allclose(pred.p[:, k], pk)
@@ -85,7 +98,7 @@ def test_one_step_matches_filterpy_imm_predict():
     xs, ps = rng.normal(size=(2, 4)), random_spd(rng, 4, 2)
     for j, model in enumerate(models):
         kf = KalmanFilter(dim_x=4, dim_z=2)
-        kf.F, kf.Q = model(1.0, None)
+        kf.F, kf.Q = model.F(1.0), model.Q(1.0)
         kf.x, kf.P = xs[j].copy(), ps[j].copy()
         filters.append(kf)
     mu = np.array([0.3, 0.7])
@@ -100,7 +113,7 @@ def test_one_step_matches_filterpy_imm_predict():
 
 def test_tracking_models_plug_in():
     # avionics/tracking/models.py returns (F_mean, F_cov, Q) in batches; heading-noise CA (eq 31) too.
-    cv, ca = pr.tracking_model("cv", 0.5), pr.tracking_model("ca", 2.0, heading_noise=True)
+    cv, ca = models.ConstantVelocity(0.5), models.ConstantAcceleration(2.0, heading_noise=True)
     x = np.zeros((2, 2, 6))
     x[:, :, 2] = 100.0  # eastbound
     p = np.broadcast_to(np.eye(6), (2, 2, 6, 6)).copy()
@@ -245,7 +258,7 @@ def test_pipeline_function_outputs():
 
 def test_assessor_applies_hwang_conditions():
     cfg = ConflictConfig(within_samples=0, schedule_period_s=1.0, schedule_fast_period_s=0.2, schedule_threshold=0.1)
-    a = ConflictAssessor(cfg)
+    a = build_conflict_assessor(cfg)
     rel_x = np.array([[3000.0, 0.0, 0.0, -100.0, 0.0, 0.0], [-30000.0, 0.0, 0.0, -100.0, 0.0, 0.0]])
     rel_p = np.broadcast_to(np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0]), (2, 6, 6))
     keys = ["near", "far"]
@@ -262,7 +275,7 @@ def test_assessor_applies_hwang_conditions():
 
 def test_assessor_refreshes_the_monte_carlo_within_probability_on_the_slow_period_only():
     cfg = ConflictConfig(within_samples=400, schedule_period_s=1.0, schedule_fast_period_s=0.2, schedule_threshold=0.1)
-    a = ConflictAssessor(cfg)
+    a = build_conflict_assessor(cfg)
     rel_x = np.array([[3000.0, 0.0, 0.0, -100.0, 0.0, 0.0]])
     rel_p = np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0])[None]
     first = a.assess(0.0, ["near"], rel_x, rel_p)
@@ -277,7 +290,7 @@ def test_assessor_refreshes_the_monte_carlo_within_probability_on_the_slow_perio
 
 def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_first():
     cfg = ConflictConfig(within_samples=50, within_max_pairs_per_s=4.0, schedule_period_s=1.0)
-    a = ConflictAssessor(cfg)
+    a = build_conflict_assessor(cfg)
     keys = [f"k{i}" for i in range(10)]
     rel_x = np.tile([3000.0, 0.0, 0.0, -100.0, 0.0, 0.0], (10, 1))
     rel_p = np.broadcast_to(np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0]), (10, 6, 6))
@@ -299,10 +312,10 @@ def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_fi
 def test_assessor_budget_below_one_pair_per_second_and_the_monte_carlo_off():
     rel_x = np.array([[3000.0, 0.0, 0.0, -100.0, 0.0, 0.0]])
     rel_p = np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0])[None]
-    slow = ConflictAssessor(ConflictConfig(within_samples=50, within_max_pairs_per_s=0.5))
+    slow = build_conflict_assessor(ConflictConfig(within_samples=50, within_max_pairs_per_s=0.5))
     ages = [slow.assess(t, ["a"], rel_x, rel_p) and slow.within_age(t, ["a"])[0] for t in (0.0, 1.0, 2.0)]
     assert ages == [0.0, 1.0, 0.0]  # one pair every 2 s
-    off = ConflictAssessor(ConflictConfig(within_samples=0))
+    off = build_conflict_assessor(ConflictConfig(within_samples=0))
     o = off.assess(0.0, ["a"], rel_x, rel_p)
     assert np.isnan(o["pc_within"][0]) and np.isnan(off.within_age(0.5, ["a"])[0])  # no value, no age
 
@@ -324,3 +337,30 @@ def test_conflict_config_validation(override, message):
     with pytest.raises(ConfigError, match=message):
         load_config(overrides=[override])
     assert load_config(overrides=["conflict.method=blocks", "conflict.n_blocks=20"]).conflict.n_blocks == 20
+
+
+def test_pc_methods_as_objects_are_the_named_methods():
+    import dataclasses
+
+    from avionics.compose import build_pc_method
+    from avionics.conflict.params import CONFLICT_METHODS
+    from avionics.conflict.probability import conflict_probability
+
+    rng = np.random.default_rng(3)
+    mean = rng.uniform(-2000, 2000, (7, 2))
+    a = rng.uniform(100, 900, 7)
+    cov = np.stack([np.diag([x * x, (x / 3) ** 2]) for x in a])
+    vel = rng.uniform(-100, 100, (7, 2))
+    for name in CONFLICT_METHODS:
+        cfg = ConflictConfig(method=name, n_blocks=6, mc_samples=3000)
+        method = build_pc_method(cfg)
+        assert method.name == name
+        got = method.probability(mean, cov, 1219.2, rel_vel=vel, rng=np.random.default_rng(1))
+        want = conflict_probability(mean, cov, 1219.2, name, rel_vel=vel, n_blocks=6, samples=3000,
+                                    rng=np.random.default_rng(1))
+        np.testing.assert_array_equal(got, want)
+        # through the assessor: the configured method decides pc_now
+        out = conflict_probabilities(np.column_stack([mean, np.zeros(7), vel, np.zeros(7)]),
+                                     np.broadcast_to(np.diag([1e4, 1e4, 1.0, 1.0, 1.0, 1.0]), (7, 6, 6)),
+                                     dataclasses.replace(cfg, within_samples=0), method=method)
+        assert out["pc_now"].shape == (7,)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy import special
 
 from avionics.conflict import probability as prob
-from avionics.reports.conflict import dblquad_pc  # the dblquad reference, shared with the report
+from avionics_eval.reports.conflict import dblquad_pc  # the dblquad reference, shared with the report
 
 
 def covariance(sigma_major, axis_ratio, angle):

@@ -56,3 +56,34 @@ def test_scheduler_rates():
     assert np.isnan(s.last_pc(["new"])[0]) and s.last_pc(["high"])[0] == 0.9
     s.forget("high")
     assert s.due(0.01, ["high"])[0]
+
+
+def test_prefilters_as_objects_built_from_the_configuration():
+    import dataclasses
+
+    import pytest
+
+    from avionics.compose import build_prefilter
+    from avionics.config import ConflictConfig
+    from avionics.conflict.params import PREFILTERS
+
+    cfg = ConflictConfig()
+    # head-on 10 km out (kept by 2(b), rejected by 2(a) as printed), receding 30 km out (rejected by both), and a
+    # pair 2000 m above the slab that stays there (rejected by the vertical part of 2(b))
+    rel_x = np.array([[10000.0, 0.0, 0.0, -100.0, 0.0, 0.0], [-30000.0, 0.0, 0.0, -100.0, 0.0, 0.0],
+                      [3000.0, 0.0, 2000.0, -100.0, 0.0, 0.0]])
+    rel_p = np.broadcast_to(np.diag([100.0, 100.0, 25.0, 1.0, 1.0, 0.25]), (3, 6, 6))
+    has_alt, margin, own_vel = np.ones(3, bool), np.zeros(3), np.array([50.0, 0.0])
+    kinds = {}
+    for name in PREFILTERS:
+        f = build_prefilter(dataclasses.replace(cfg, prefilter=name))
+        kinds[name] = type(f).__name__
+        keep = list(f.keep(rel_x, rel_p, has_alt, margin, own_vel))
+        assert keep == {"none": [True, True, True], "min_distance": [True, False, False],
+                        "hwang": [False, False, False]}[name]
+    assert kinds == {"none": "NoPrefilter", "min_distance": "MinDistancePrefilter", "hwang": "HwangPrefilter"}
+    # without altitude the vertical part passes
+    assert list(build_prefilter(cfg).keep(rel_x, rel_p, np.zeros(3, bool), margin)) == [True, False, True]
+    with pytest.raises(ValueError, match="own_vel"):
+        build_prefilter(dataclasses.replace(cfg, prefilter="hwang")).keep(rel_x, rel_p, has_alt, margin)
+

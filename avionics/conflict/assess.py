@@ -1,19 +1,22 @@
 """The conflict-probability stage the pipeline calls: one function, N pairs in, (N,) arrays out.
 
-    conflict_probabilities(rel_x, rel_p, config=None, *, has_alt=None, z_margin_m=None, rng=None,
-                           return_curve=False) -> dict[str, np.ndarray]
+    conflict_probabilities(rel_x, rel_p, config=None, *, method=ExactPc(), has_alt=None, z_margin_m=None,
+                           rng=None, return_curve=False, within=None) -> dict[str, np.ndarray]
 
 Inputs (SI units, the pipeline's state layout; intruder minus ownship, altitudes already in a common datum):
     rel_x       (N, 6)    [d_east m, d_north m, d_alt m, d_v_east m/s, d_v_north m/s, d_v_up m/s]
     rel_p       (N, 6, 6) covariance of rel_x: P_intruder + P_ownship (independent filters, Baek & Bang eq 23);
                           horizontal-vertical cross terms are ignored (no tracker here couples them)
-    config      ConflictConfig (avionics/config.py [conflict]); None: the defaults
+    config      ConflictConfig (avionics/conflict/params.py, [conflict]); None: the defaults. Its `method` and
+                `prefilter` names are not read here: avionics/compose.py turns them into objects
+    method      the Pc method: a probability.PcMethod (ExactPc, OneBlockPc, BlocksPc, PaielliErzbergerPc,
+                MonteCarloPc); compose.build_pc_method(config) gives the configured one
     has_alt     (N,) bool: False where the intruder altitude is unknown -> horizontal-only probability
     z_margin_m  (N,) m >= 0: widening of the slab half-height (the datum-mismatch margin), default 0
     rng         seed or numpy Generator for the Monte Carlo parts (default config.seed: reproducible)
 
 Output dict, every entry (N,) float:
-    pc_now          instantaneous Pc: P(|x_h| <= R and |z| <= H) now, by config.method
+    pc_now          instantaneous Pc: P(|x_h| <= R and |z| <= H) now, by the method
     pc_max          maximum predicted Pc over [0, lookahead] (CV prediction, step config.step_s)
     t_pc_max_s      time of pc_max (s from now; the earliest on ties)
     pc_within       P(conflict at any time within the lookahead), Monte Carlo over config.within_samples
@@ -28,9 +31,9 @@ Prediction: the CV model of the tracks in closed form (prediction.cv_relative_pr
 white acceleration config.accel_sigma_h_mps2 / accel_sigma_v_mps2. For IMM tracks use
 prediction.imm_predict and prediction.pc_curve directly with the tracker's per-mode estimates.
 
-`ConflictAssessor` wraps the function with Hwang's conditions (scheduling.py): pairs failing the pre-filter
-get zeros without computation ('filtered'), pairs not due keep their last values ('computed' False). The
-Monte Carlo pc_within, the stage's one costly output, is recomputed at most every schedule_period_s (pairs on
+`ConflictAssessor` wraps the function with Hwang's conditions (scheduling.py): pairs failing the pre-filter (a
+scheduling.Prefilter object) get zeros without computation ('filtered'), pairs not due keep their last values
+('computed' False). The Monte Carlo pc_within, the stage's one costly output, is recomputed at most every schedule_period_s (pairs on
 the fast schedule refresh their Pc now and max at the fast rate and keep pc_within between) and for at most
 within_max_pairs_per_s pairs per second, the stalest first (a token bucket holding one second's worth): its
 cost stays bounded when many pairs converge at once, and each pair's value is then refreshed less often.
@@ -40,20 +43,26 @@ from __future__ import annotations
 
 import numpy as np
 
-from avionics.config import ConflictConfig
-from avionics.conflict.prediction import (
-    cv_relative_prediction, lookahead_times, max_over_lookahead, pc_curve, pc_within_cv_mc,
-)
-from avionics.conflict.probability import pc_paielli_erzberger, vertical_probability
-from avionics.conflict.scheduling import (
-    TIME_EPSILON_S, ConflictScheduler, hwang_geometric_filter, min_distance_filter, predicted_min_vertical,
-)
+from avionics.conflict.params import ConflictConfig
+from avionics.conflict.prediction import cv_relative_prediction, lookahead_times, max_over_lookahead, pc_within_cv_mc
+from avionics.conflict.probability import ExactPc, PcMethod, pc_paielli_erzberger, vertical_probability
+from avionics.conflict.scheduling import TIME_EPSILON_S, ConflictScheduler, Prefilter, min_distance_filter
 
 KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
 
 
-def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *, has_alt=None, z_margin_m=None,
-                           rng=None, return_curve: bool = False, within=None) -> dict[str, np.ndarray]:
+def pc_along(method: PcMethod, mean_xy, cov_xy, radius_m: float, rel_vel, rng) -> np.ndarray:
+    """The horizontal Pc at every predicted time: mean_xy (N, K, 2), cov_xy (N, K, 2, 2), rel_vel (N, K, 2) ->
+    (N, K), every time of every pair in one call of the method."""
+    n, k = mean_xy.shape[:2]
+    pc = method.probability(mean_xy.reshape(n * k, 2), cov_xy.reshape(n * k, 2, 2), np.full(n * k, radius_m),
+                            rel_vel=np.reshape(rel_vel, (n * k, 2)), rng=rng)
+    return pc.reshape(n, k)
+
+
+def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *, method: PcMethod = ExactPc(),
+                           has_alt=None, z_margin_m=None, rng=None, return_curve: bool = False,
+                           within=None) -> dict[str, np.ndarray]:
     cfg = config or ConflictConfig()
     rel_x = np.asarray(rel_x, float).reshape(-1, 6)
     rel_p = np.asarray(rel_p, float).reshape(-1, 6, 6)
@@ -71,8 +80,7 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
                                                             cfg.accel_sigma_v_mps2)
     half = cfg.zone_half_height_m + margin
     vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
-    curve = pc_curve(mean_xy, cov_xy, cfg.zone_radius_m, cfg.method, rel_vel=vel, n_blocks=cfg.n_blocks,
-                     samples=cfg.mc_samples, rng=rng)
+    curve = pc_along(method, mean_xy, cov_xy, cfg.zone_radius_m, vel, rng)
     pv = vertical_probability(mean_z, var_z, half[:, None])
     curve = curve * np.where(has_alt[:, None], pv, 1.0)
     pc_max, t_max = max_over_lookahead(curve, t)
@@ -111,10 +119,16 @@ class ConflictAssessor:
     KEYS of conflict_probabilities plus the (N,) bool arrays 'computed' (recomputed now) and 'filtered'
     (skipped by the pre-filter: all probabilities 0). modes: per-pair hashable flight-mode token (condition
     1(b)); own_vel (N, 2) or (2,): ownship horizontal velocity, needed by the 'hwang' pre-filter only
-    (intruder velocity = own + relative)."""
+    (intruder velocity = own + relative).
 
-    def __init__(self, config: ConflictConfig | None = None):
-        self.config = config or ConflictConfig()
+    The pre-filter and the Pc method are objects (scheduling.Prefilter, probability.PcMethod), built from the
+    configuration by avionics/compose.py (`build_conflict_assessor`); `config` gives the zone, lookahead,
+    prediction noise, schedule and Monte Carlo budget."""
+
+    def __init__(self, config: ConflictConfig, prefilter: Prefilter, method: PcMethod):
+        self.config = config
+        self.prefilter = prefilter
+        self.method = method
         c = self.config
         self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
         self._cache: dict = {}
@@ -134,26 +148,6 @@ class ConflictAssessor:
         empty = {k: (np.nan if k == "pc_within" else 0.0) for k in KEYS}
         rows = [self._cache.get(key, empty) for key in keys]
         return {k: np.array([row[k] for row in rows], float) for k in KEYS}
-
-    def prefilter(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
-        c = self.config
-        n = rel_x.shape[0]
-        if c.prefilter == "none":
-            return np.ones(n, bool)
-        t_end = np.array([c.lookahead_s])
-        _, cov_xy, _, var_z = cv_relative_prediction(rel_x, rel_p, t_end, c.step_s, c.accel_sigma_h_mps2,
-                                                     c.accel_sigma_v_mps2)
-        extra = 3.0 * np.sqrt(np.trace(cov_xy[:, 0], axis1=1, axis2=2))  # 3 sigma (upper bound) at the horizon
-        keep = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], c.zone_radius_m, c.lookahead_s, c.prefilter_alpha,
-                                   extra)
-        zmax = c.prefilter_alpha * (c.zone_half_height_m + z_margin_m) + 3.0 * np.sqrt(var_z[:, 0])
-        keep &= ~has_alt | (predicted_min_vertical(rel_x[:, 2], rel_x[:, 5], c.lookahead_s) < zmax)
-        if c.prefilter == "hwang":
-            if own_vel is None:
-                raise ValueError("the hwang pre-filter needs own_vel")
-            v_own = np.broadcast_to(np.asarray(own_vel, float), (n, 2))
-            keep &= hwang_geometric_filter(rel_x[:, 0:2], v_own, v_own + rel_x[:, 3:5])
-        return keep
 
     def within_age(self, now_s: float, keys) -> np.ndarray:
         """Seconds since each pair's pc_within Monte Carlo ran; NaN where it has not (pc_within NaN, or 0 from
@@ -185,7 +179,7 @@ class ConflictAssessor:
         n = rel_x.shape[0]
         has_alt = np.ones(n, bool) if has_alt is None else np.asarray(has_alt, bool)
         margin = np.zeros(n) if z_margin_m is None else np.broadcast_to(np.asarray(z_margin_m, float), (n,))
-        keep = self.prefilter(rel_x, rel_p, has_alt, margin, own_vel)
+        keep = self.prefilter.keep(rel_x, rel_p, has_alt, margin, own_vel)
         due = self.scheduler.due(now_s, keys, modes)
         stale = np.array([k not in self._cache for k in keys], bool)
         compute = keep & (due | stale)
@@ -194,8 +188,8 @@ class ConflictAssessor:
         if compute.any():
             i = np.flatnonzero(compute)
             within = self._within_due(now_s, [keys[j] for j in i])
-            res = conflict_probabilities(rel_x[i], rel_p[i], self.config, has_alt=has_alt[i], z_margin_m=margin[i],
-                                         rng=self._rng, within=within)
+            res = conflict_probabilities(rel_x[i], rel_p[i], self.config, method=self.method, has_alt=has_alt[i],
+                                         z_margin_m=margin[i], rng=self._rng, within=within)
             for j, idx in enumerate(i):
                 if within[j]:
                     self._within_s[keys[idx]] = now_s

@@ -1,8 +1,9 @@
 """Probability that a pair's miss at the predicted CPA falls inside a protected volume (for alert gating).
 
 The relative state r = intruder - ownship ~ N(m, P) with P = P_intruder + P_ownship (independent filters,
-Baek & Bang eq 23) is propagated in straight lines to the horizontal CPA time t of the mean, with the
-intruder's white-acceleration process noise over t (the same CV model as its track):
+Baek & Bang eq 23) is propagated in straight lines to the horizontal CPA time t of the mean, with a relative
+white-acceleration noise over t: the pipeline passes the conflict stage's prediction noise
+(conflict.accel_sigma_h_mps2 / accel_sigma_v_mps2), the one used by every conflict probability:
 
     m(t) = m_pos + t m_vel,   P_pos(t) = P_pp + t (P_pv + P_vp) + t^2 P_vv + Q_pos(t)
 

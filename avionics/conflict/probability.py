@@ -38,6 +38,8 @@ Units: any consistent length unit (metres in the pipeline, nautical miles in the
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy import special
@@ -434,6 +436,72 @@ def pc_direct_grid(mean, cov, radius, n_points: int = 1_000_000) -> np.ndarray:
         dens = np.exp(-0.5 * q) / (2.0 * math.pi * math.sqrt(np.linalg.det(cov[i])))
         out[i] = dens.sum() * hstep * hstep
     return out
+
+
+# --- the methods as objects (conflict.method; built in avionics/compose.py, build_pc_method) ----------------
+
+
+class PcMethod(Protocol):
+    """The horizontal Pc of N Gaussian relative positions over disks: probability(mean (N, 2), cov (N, 2, 2),
+    radius scalar or (N,), rel_vel (N, 2), rng) -> (N,). rel_vel is read by 'pe' only, rng by 'mc' only."""
+
+    name: str
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray: ...
+
+
+@dataclass(frozen=True, slots=True)
+class ExactPc:
+    """conflict.method = "exact": `pc_exact`."""
+
+    name: str = "exact"
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray:
+        return pc_exact(mean, cov, radius)
+
+
+@dataclass(frozen=True, slots=True)
+class OneBlockPc:
+    """conflict.method = "one_block": Hwang & Seah (Baek & Bang eqs 25-28), `pc_one_block`."""
+
+    name: str = "one_block"
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray:
+        return pc_one_block(mean, cov, radius)
+
+
+@dataclass(frozen=True, slots=True)
+class BlocksPc:
+    """conflict.method = "blocks": Baek & Bang eq 29 with n_blocks blocks, `pc_blocks`."""
+
+    n_blocks: int = 10
+    name: str = "blocks"
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray:
+        return pc_blocks(mean, cov, radius, self.n_blocks)
+
+
+@dataclass(frozen=True, slots=True)
+class PaielliErzbergerPc:
+    """conflict.method = "pe": Hwang, Hwang & Tomlin eq 24 (needs the relative velocity), `pc_paielli_erzberger`."""
+
+    name: str = "pe"
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray:
+        if rel_vel is None:
+            raise ValueError("method 'pe' needs rel_vel")
+        return pc_paielli_erzberger(mean, cov, radius, rel_vel)
+
+
+@dataclass(frozen=True, slots=True)
+class MonteCarloPc:
+    """conflict.method = "mc": `pc_monte_carlo` with `samples` samples per pair and time."""
+
+    samples: int = 10000
+    name: str = "mc"
+
+    def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray:
+        return pc_monte_carlo(mean, cov, radius, None, self.samples, rng)
 
 
 # --- one interface ---------------------------------------------------------------------------------------

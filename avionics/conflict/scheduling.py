@@ -21,15 +21,20 @@ and any opposite-direction pair offset sideways. A DAA must not do that, so the 
 ('min_distance') is condition 2(b) alone (the predicted minimum distance within the lookahead, optionally
 widened by the position uncertainty, and optionally the vertical one); 'hwang' applies 2(a) and 2(b) as
 printed. Everything is vectorised over pairs; the scheduler keeps per-pair times, modes and Pc in a dict.
+
+The pre-filter (conflict.prefilter) is an object behind `Prefilter`, built in avionics/compose.py
+(`build_prefilter`): `MinDistancePrefilter` ("min_distance"), `HwangPrefilter` ("hwang"), `NoPrefilter` ("none").
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-PREFILTERS = ("min_distance", "hwang", "none")
+from avionics.conflict.prediction import cv_relative_prediction
+
 TIME_EPSILON_S = 1e-6
 
 
@@ -86,6 +91,59 @@ def hwang_prefilter(r_ij, v_i, v_j, radius, lookahead_s: float, alpha: float = 1
     """Hwang conditions 2(a) and 2(b) as printed (r_ij from i to j; relative motion of j seen from i)."""
     r_ij, v_i, v_j = (np.atleast_2d(np.asarray(a, float)) for a in (r_ij, v_i, v_j))
     return hwang_geometric_filter(r_ij, v_i, v_j) & min_distance_filter(r_ij, v_j - v_i, radius, lookahead_s, alpha)
+
+
+class Prefilter(Protocol):
+    """keep(rel_x (N, 6), rel_p (N, 6, 6), has_alt (N,), z_margin_m (N,), own_vel (N, 2) or (2,) or None) -> (N,)
+    bool: the pairs whose conflict probabilities are worth computing (the others get 0)."""
+
+    def keep(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray: ...
+
+
+class NoPrefilter:
+    """conflict.prefilter = "none": every pair is computed."""
+
+    def keep(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
+        return np.ones(np.asarray(rel_x).shape[0], bool)
+
+
+@dataclass(frozen=True, slots=True)
+class MinDistancePrefilter:
+    """conflict.prefilter = "min_distance": Hwang condition 2(b) alone, widened by 3 sigma of the predicted
+    position at the horizon (CV prediction with the conflict stage's relative white acceleration): the predicted
+    minimum distance within the lookahead < alpha R + 3 sigma, and where the altitude is known the minimum
+    vertical separation < alpha (H + datum margin) + 3 sigma_z."""
+
+    zone_radius_m: float
+    zone_half_height_m: float
+    lookahead_s: float
+    step_s: float
+    alpha: float
+    accel_sigma_h_mps2: float
+    accel_sigma_v_mps2: float
+
+    def keep(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
+        t_end = np.array([self.lookahead_s])
+        _, cov_xy, _, var_z = cv_relative_prediction(rel_x, rel_p, t_end, self.step_s, self.accel_sigma_h_mps2,
+                                                     self.accel_sigma_v_mps2)
+        extra = 3.0 * np.sqrt(np.trace(cov_xy[:, 0], axis1=1, axis2=2))  # 3 sigma (upper bound) at the horizon
+        keep = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], self.zone_radius_m, self.lookahead_s, self.alpha,
+                                   extra)
+        zmax = self.alpha * (self.zone_half_height_m + z_margin_m) + 3.0 * np.sqrt(var_z[:, 0])
+        return keep & (~has_alt | (predicted_min_vertical(rel_x[:, 2], rel_x[:, 5], self.lookahead_s) < zmax))
+
+
+@dataclass(frozen=True, slots=True)
+class HwangPrefilter(MinDistancePrefilter):
+    """conflict.prefilter = "hwang": condition 2(a) as printed (needs the ownship horizontal velocity: intruder
+    velocity = own + relative) and the min_distance test."""
+
+    def keep(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
+        if own_vel is None:
+            raise ValueError("the hwang pre-filter needs own_vel")
+        keep = MinDistancePrefilter.keep(self, rel_x, rel_p, has_alt, z_margin_m)
+        v_own = np.broadcast_to(np.asarray(own_vel, float), (rel_x.shape[0], 2))
+        return keep & hwang_geometric_filter(rel_x[:, 0:2], v_own, v_own + rel_x[:, 3:5])
 
 
 @dataclass

@@ -1,0 +1,356 @@
+"""Alerting shaped as NASA DAIDALUS shapes it: an alerter is an ordered list of alert levels, each a detector with
+its thresholds (per sensitivity level) and its hysteresis; the alert is the most severe level whose detector fires.
+
+The model (nasa/daidalus, Java, package gov.nasa.larcfm.ACCoRD):
+  Detection3D      the detector interface: `violation(so, vo, si, vi)` (loss of the volume now) and
+                   `conflict(so, vo, si, vi, B, T)` (loss within [B, T]) -> `Detector` here, over N pairs at once.
+  AlertThresholds  one alert level: a detector and an alerting time (`getAlertingTime`) -> `AlertLevel`.
+  Alerter          the levels 1..n, 0 meaning none; "it is assumed that for all alert level i >= 1:
+                   detection(i+1) => detection(i)" (Alerter.java) -> `Alerter`.
+  TCAS3D           TCAS II threat detection with a TCASTable row per sensitivity level (TCAS2D.horizontal_RA,
+                   TCAS3D.vertical_RA, TCAS3D.cd2d_TCAS) -> `TCAS3D`, the logic of advisory/logic.py before issue 12.
+  CDCylinder/CD3D  the cylinder: loss of separation is |s_xy| < D and |s_z| < H (CD3D.LoS), a conflict is such a
+                   loss at some time in [B, T] of straight-line relative motion (CD3D.cd3d) -> `CD3D`.
+                   Alerter.CD3D() is the cylinder of 5 nmi x 1000 ft with a 180 s lookahead: `cd3d_alerter()`.
+
+TA and RA are the two levels of the `tcas2` alerter (numbers 1 and 2, AdvisoryLevel.TA and .RA, names "TA" and
+"RA"), both TCAS3D with the columns of the profile's sensitivity-level table ([B71] "Introduction to TCAS II
+Version 7.1", FAA 2011, Table 3; HMD: DO-185B): TA = (TA TAU, TA DMOD, TA ZTHR), RA = (RA TAU, RA DMOD, RA ZTHR,
+HMD). The TA level lets an intruder without altitude pass the vertical test (TCAS shows non-altitude-reporting
+traffic on range alone); the RA level needs its altitude and a vertical rate a threat may be declared against.
+
+Hysteresis: a TA stays at least `min_duration_s` (TCAS II: 8 s, [B71] "Traffic advisories"; the advisory state
+machine applies it, advisory/logic.py AdvisoryState); an RA whose tests no longer hold continues while the range
+still closes (`TcasRaContinuation`; [B71]: "when the range of an intruder responsible for an RA begins to
+increase, its conflict is resolved"; the v7.1 HMD filter may end it earlier).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Callable, Protocol
+
+import numpy as np
+
+from avionics.advisory.tables import SensitivityLevel
+from avionics.conflict.cpa import PairGeometry
+from avionics.core.types import AdvisoryLevel
+from avionics.core.units import FT, NM
+
+NONE = int(AdvisoryLevel.NONE)
+
+
+@dataclass(frozen=True, slots=True)
+class Encounter:
+    """What a detector sees of N pairs: the relative geometry (intruder - ownship, datum-matched altitudes) and
+    what is known of each intruder."""
+
+    geometry: PairGeometry
+    has_altitude: np.ndarray  # (N,) bool: the intruder's altitude is known (else its sz, vz are placeholders)
+    vertical_margin_m: np.ndarray | float = 0.0  # (N,) datum-mismatch widening: separation used is |sz| - margin
+    threat_eligible: np.ndarray | bool = True  # (N,) an RA threat may be declared (the intruder's vertical rate)
+
+    def take(self, rows) -> "Encounter":
+        """The encounter of the pairs `rows` (an int array)."""
+        g = self.geometry
+        geometry = replace(g, **{f.name: getattr(g, f.name)[rows] for f in fields(g) if getattr(g, f.name) is not None})
+        pick = lambda a: a if np.ndim(a) == 0 else np.asarray(a)[rows]  # noqa: E731
+        return Encounter(geometry, np.asarray(self.has_altitude)[rows], pick(self.vertical_margin_m),
+                         pick(self.threat_eligible))
+
+    def separation_z_m(self) -> np.ndarray:
+        """The relative altitude with the margin taken off (never below 0): uncertainty never hides a threat."""
+        sz = self.geometry.sz_m
+        return np.sign(sz) * np.maximum(np.abs(sz) - self.vertical_margin_m, 0.0)
+
+
+class Detector(Protocol):
+    """DAIDALUS Detection3D over N pairs: `violation` (the volume is lost now) and `conflict` (it is lost at some
+    time within [0, time_s]; for TCAS3D the time is the TAU of the thresholds). Returns (N,) bool."""
+
+    def violation(self, encounter: Encounter, thresholds) -> np.ndarray: ...
+
+    def conflict(self, encounter: Encounter, thresholds, time_s: float) -> np.ndarray: ...
+
+
+class Continuation(Protocol):
+    """Keeps an alert of a level on after its detector stopped firing (hysteresis): (N,) bool for the pairs that
+    had the level (`had` (N,) bool) and keep it."""
+
+    def __call__(self, encounter: Encounter, thresholds, had: np.ndarray) -> np.ndarray: ...
+
+
+# --- TCAS3D -----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class TcasThresholds:
+    """One TCASTable row for one advisory type ([B71] Table 3): TAU (s), DMOD (m), ZTHR (m), HMD (m, RA only)."""
+
+    tau_s: float
+    dmod_m: float
+    zthr_m: float
+    hmd_m: float | None = None
+
+    @property
+    def alerting_time_s(self) -> float:
+        return self.tau_s
+
+
+def ta_thresholds(level: SensitivityLevel) -> TcasThresholds:
+    """The TA columns of a sensitivity level ([B71] Table 3: TA TAU, TA DMOD, TA ZTHR)."""
+    return TcasThresholds(level.ta_tau_s, level.ta_dmod_m, level.ta_zthr_m)
+
+
+def ra_thresholds(level: SensitivityLevel) -> TcasThresholds | None:
+    """The RA columns ([B71] Table 3: RA TAU, RA DMOD, RA ZTHR; HMD from DO-185B); None where the level has no RA
+    (TCAS SL 2)."""
+    if level.ra_tau_s is None:
+        return None
+    return TcasThresholds(level.ra_tau_s, level.ra_dmod_m, level.ra_zthr_m, level.ra_hmd_m)
+
+
+def _horizontal_test(g: PairGeometry, dmod_m: float, tau_s: float) -> np.ndarray:
+    """TCAS2D.horizontal_RA: inside DMOD (closing or not), or closing with modified tau <= TAU."""
+    return (g.range_m <= dmod_m) | ((g.s_dot_v < 0.0) & (g.mod_tau(dmod_m) <= tau_s))
+
+
+def _vertical_test(sz_m: np.ndarray, vz_mps: np.ndarray, zthr_m: float, tau_s: float) -> np.ndarray:
+    """TCAS3D.vertical_RA: inside ZTHR, or converging with time to co-altitude (TCOA) <= TAU."""
+    converging = sz_m * vz_mps < 0.0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t_coalt = np.where(converging, -sz_m / np.where(converging, vz_mps, 1.0), np.inf)
+    return (np.abs(sz_m) <= zthr_m) | (converging & (t_coalt <= tau_s))
+
+
+@dataclass(frozen=True, slots=True)
+class TCAS3D:
+    """TCAS II v7.1 threat detection (DO-185B; DAIDALUS TCAS3D after Muñoz, Narkawicz & Chamberlain 2013):
+
+      horizontal: r <= DMOD, or closing (s.v < 0) with modified tau <= TAU          (TCAS2D.horizontal_RA)
+      vertical:   |sz| <= ZTHR, or converging with time to co-altitude <= TAU      (TCAS3D.vertical_RA)
+      HMD filter: horizontal miss distance at CPA <= HMD, where the thresholds have one and `hmd_filter`
+                  (v7.1; inside the HMD circle when diverging, as TCAS3D.cd2d_TCAS's exit time >= 0)
+
+    altitude_required False (the TA): an intruder without altitude passes the vertical test; True (the RA): it
+    never fires, nor against an intruder that is not threat-eligible. A diverging pair outside DMOD is clear; inside
+    DMOD it is not (a slowly diverging neighbour at the same altitude stays a threat, as in TCAS3D)."""
+
+    altitude_required: bool = False
+    hmd_filter: bool = True
+
+    def conflict(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
+        g = encounter.geometry
+        horizontal = _horizontal_test(g, thresholds.dmod_m, time_s)
+        vertical = _vertical_test(encounter.separation_z_m(), g.vz_mps, thresholds.zthr_m, time_s)
+        has_alt = encounter.has_altitude
+        if self.altitude_required:
+            out = has_alt & encounter.threat_eligible & horizontal & vertical
+        else:
+            out = horizontal & (~has_alt | vertical)
+        if self.hmd_filter and thresholds.hmd_m is not None:
+            out = out & (g.hmd_m <= thresholds.hmd_m)
+        return np.asarray(out, bool)
+
+    def violation(self, encounter: Encounter, thresholds: TcasThresholds) -> np.ndarray:
+        """The tests with a zero time: inside DMOD and ZTHR (and the HMD filter)."""
+        return self.conflict(encounter, thresholds, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class TcasRaContinuation:
+    """An RA threat whose RA tests no longer hold stays a threat while the range still closes, unless the HMD
+    filter ends it ([B71]: the HMD filter can terminate an RA before ALIM is obtained). Without this an RA could
+    end halfway, ownship go back to its old vertical rate, and fly into the threat it was steering clear of. The
+    threat must still be one an RA may be issued against (altitude known, threat-eligible)."""
+
+    hmd_filter: bool = True
+
+    def __call__(self, encounter: Encounter, thresholds: TcasThresholds, had: np.ndarray) -> np.ndarray:
+        g = encounter.geometry
+        keep = had & (g.s_dot_v < 0.0)
+        if self.hmd_filter and thresholds.hmd_m is not None:
+            keep &= g.hmd_m <= thresholds.hmd_m
+        return keep & encounter.has_altitude & encounter.threat_eligible
+
+
+# --- CD3D ---------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class CylinderThresholds:
+    """DAIDALUS CD3DTable (D, H) and the AlertThresholds alerting time: a cylinder of radius d_m and half height
+    h_m, a conflict being its loss within lookahead_s."""
+
+    d_m: float
+    h_m: float
+    lookahead_s: float
+
+    @property
+    def alerting_time_s(self) -> float:
+        return self.lookahead_s
+
+
+@dataclass(frozen=True, slots=True)
+class CD3D:
+    """DAIDALUS CDCylinder / CD3D for N pairs, straight-line relative motion s(t) = s + v t, sz(t) = sz + vz t:
+
+      violation (CD3D.LoS):  |s|^2 < D^2 and |sz| < H
+      conflict (CD3D.cd3d):  some t in [0, T] with |s + v t| < D and |sz + vz t| < H
+
+    The open intervals of each axis (the roots of |v|^2 t^2 + 2 s.v t + |s|^2 - D^2 and of |sz + vz t| = H;
+    every t when the axis has no relative motion and is inside, none when outside) intersected with [0, T]: a
+    conflict when max(t_in, 0) < min(t_out, T). The vertical separation has the datum margin taken off. An intruder
+    without altitude passes the vertical test unless altitude_required (then no conflict)."""
+
+    altitude_required: bool = False
+
+    def violation(self, encounter: Encounter, thresholds: CylinderThresholds) -> np.ndarray:
+        g = encounter.geometry
+        horizontal = g.range_m**2 < thresholds.d_m**2
+        vertical = np.abs(encounter.separation_z_m()) < thresholds.h_m
+        return self._with_altitude(encounter, horizontal, vertical)
+
+    def conflict(self, encounter: Encounter, thresholds: CylinderThresholds, time_s: float) -> np.ndarray:
+        g = encounter.geometry
+        h_in, h_out = _open_disk_interval(g.s_xy_m, g.v_xy_mps, thresholds.d_m)
+        z_in, z_out = _open_slab_interval(encounter.separation_z_m(), g.vz_mps, thresholds.h_m)
+        has_alt = np.asarray(encounter.has_altitude, bool)
+        if not self.altitude_required:  # without altitude: every time passes the vertical test
+            z_in, z_out = np.where(has_alt, z_in, -np.inf), np.where(has_alt, z_out, np.inf)
+        t_in = np.maximum(np.maximum(h_in, z_in), 0.0)
+        t_out = np.minimum(np.minimum(h_out, z_out), time_s)
+        out = t_in < t_out  # NaN (never on an axis) compares False
+        return out & has_alt if self.altitude_required else out
+
+    def _with_altitude(self, encounter: Encounter, horizontal, vertical) -> np.ndarray:
+        has_alt = np.asarray(encounter.has_altitude, bool)
+        if self.altitude_required:
+            return horizontal & vertical & has_alt
+        return horizontal & (~has_alt | vertical)
+
+
+def _open_disk_interval(s_xy, v_xy, d_m):
+    """(t_in, t_out) with |s + v t| < D exactly for t_in < t < t_out; (-inf, inf) for v = 0 inside; NaN never."""
+    a = np.einsum("ij,ij->i", v_xy, v_xy)
+    b = np.einsum("ij,ij->i", s_xy, v_xy)
+    c = np.einsum("ij,ij->i", s_xy, s_xy) - d_m**2
+    disc = b * b - a * c
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        q = -(b + np.copysign(np.sqrt(np.maximum(disc, 0.0)), b))  # cancellation-free roots q/a and c/q
+        t1 = q / np.where(a > 0.0, a, 1.0)
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), 0.0)
+    moving = a > 0.0
+    t_in = np.where(moving, np.where(disc > 0.0, np.minimum(t1, t2), np.nan), np.where(c < 0.0, -np.inf, np.nan))
+    t_out = np.where(moving, np.where(disc > 0.0, np.maximum(t1, t2), np.nan), np.where(c < 0.0, np.inf, np.nan))
+    return t_in, t_out
+
+
+def _open_slab_interval(sz, vz, h_m):
+    """(t_in, t_out) with |sz + vz t| < H exactly for t_in < t < t_out; (-inf, inf) level inside; NaN never."""
+    level = vz == 0.0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        safe = np.where(level, 1.0, vz)
+        t1, t2 = (-h_m - sz) / safe, (h_m - sz) / safe
+    inside = np.abs(sz) < h_m
+    t_in = np.where(level, np.where(inside, -np.inf, np.nan), np.minimum(t1, t2))
+    t_out = np.where(level, np.where(inside, np.inf, np.nan), np.maximum(t1, t2))
+    return t_in, t_out
+
+
+# --- levels and the alerter ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class AlertLevel:
+    """One alert level (DAIDALUS AlertThresholds): its number (1 = least severe), name, detector, its thresholds
+    per sensitivity level (None where the level has no such alert) and its hysteresis: min_duration_s (an alert
+    of this level, once on, is held at least this long: the TCAS TA's 8 s) and a continuation (keeps it on after
+    the detector stops firing: the TCAS RA while the range closes)."""
+
+    number: int
+    name: str
+    detector: Detector
+    thresholds: Callable[[SensitivityLevel], object | None]
+    min_duration_s: float = 0.0
+    continuation: Continuation | None = None
+
+    def fires(self, encounter: Encounter, level: SensitivityLevel) -> np.ndarray | None:
+        """(N,) bool: the detector's conflict within the thresholds' alerting time; None without thresholds."""
+        thresholds = self.thresholds(level)
+        if thresholds is None:
+            return None
+        return self.detector.conflict(encounter, thresholds, thresholds.alerting_time_s)
+
+
+@dataclass(frozen=True)
+class Alerter:
+    """An ordered list of alert levels (numbers 1..n; 0 = no alert). `alert` returns per pair the number of the
+    most severe level whose detector fires (DAIDALUS Alerter / DaidalusCore.alert_level)."""
+
+    name: str
+    levels: tuple[AlertLevel, ...]
+
+    def __post_init__(self):
+        if [lv.number for lv in self.levels] != list(range(1, len(self.levels) + 1)):
+            raise ValueError(f"alerter {self.name}: the levels must be numbered 1..{len(self.levels)} in order")
+
+    @property
+    def most_severe(self) -> int:
+        return len(self.levels)
+
+    def level(self, number: int) -> AlertLevel:
+        return self.levels[number - 1]
+
+    def names(self) -> dict[int, str]:
+        """Alert number -> name, with 0 -> "NONE"."""
+        return {NONE: "NONE", **{lv.number: lv.name for lv in self.levels}}
+
+    def alert(self, encounter: Encounter, level: SensitivityLevel, max_level: int | None = None) -> np.ndarray:
+        """(N,) int: the most severe level (<= max_level: e.g. the RA inhibited at low altitude) whose detector
+        fires at this sensitivity level; 0 where none does."""
+        out = np.full(len(encounter.has_altitude), NONE, int)
+        for lv in self.levels:
+            if max_level is not None and lv.number > max_level:
+                break
+            fires = lv.fires(encounter, level)
+            if fires is not None:
+                out = np.where(fires, lv.number, out)
+        return out
+
+    def hold(self, encounter: Encounter, level: SensitivityLevel, previous: np.ndarray, candidates: np.ndarray,
+             max_level: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Apply the levels' continuations: a pair that had a level (`previous` (N,) int) and whose candidate is now
+        below it keeps the level while its continuation holds. Returns (candidates, continued (N,) bool)."""
+        continued = np.zeros(len(candidates), bool)
+        for lv in self.levels:
+            if lv.continuation is None or (max_level is not None and lv.number > max_level):
+                continue
+            thresholds = lv.thresholds(level)
+            if thresholds is None:
+                continue
+            keep = lv.continuation(encounter, thresholds, previous == lv.number) & (candidates < lv.number)
+            candidates = np.where(keep, lv.number, candidates)
+            continued |= keep
+        return candidates, continued
+
+
+def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Alerter:
+    """The TCAS II alerter: level 1 "TA" and level 2 "RA" (AdvisoryLevel.TA, .RA), both TCAS3D with the columns
+    of whatever sensitivity-level table the profile carries (tcas2, small-uas, do365, daidalus-tcas3d)."""
+    ta = AlertLevel(int(AdvisoryLevel.TA), AdvisoryLevel.TA.name, TCAS3D(altitude_required=False, hmd_filter=False),
+                    ta_thresholds, min_duration_s=ta_min_duration_s)
+    ra = AlertLevel(int(AdvisoryLevel.RA), AdvisoryLevel.RA.name, TCAS3D(altitude_required=True, hmd_filter=hmd_filter),
+                    ra_thresholds, continuation=TcasRaContinuation(hmd_filter))
+    return Alerter("tcas2", (ta, ra))
+
+
+CD3D_D_M, CD3D_H_M, CD3D_LOOKAHEAD_S = 5.0 * NM, 1000.0 * FT, 180.0  # DAIDALUS Alerter.CD3D()
+
+
+def cd3d_alerter(d_m: float = CD3D_D_M, h_m: float = CD3D_H_M, lookahead_s: float = CD3D_LOOKAHEAD_S,
+                 name: str = "CD3D") -> Alerter:
+    """One level: the CD3D cylinder's loss within the lookahead, the same at every sensitivity level (DAIDALUS
+    Alerter.CD3D(): CDCylinder(5 nmi, 1000 ft), alerting time 180 s)."""
+    thresholds = CylinderThresholds(d_m, h_m, lookahead_s)
+    return Alerter("cd3d", (AlertLevel(1, name, CD3D(), lambda _level: thresholds),))
