@@ -1,4 +1,9 @@
-"""`avionics` command line: run, demo, bench, config, monitor, router."""
+"""`avionics` command line of the flight package: run, config, monitor, router.
+
+Flight code only: nothing here imports the simulator (sitl) or avionics_eval, not even lazily. The `avionics`
+console script is avionics_eval.cli, which adds `demo` and `bench` to this parser through `add_commands`;
+`python -m avionics.cli` has the flight commands only.
+"""
 
 from __future__ import annotations
 
@@ -16,14 +21,13 @@ from avionics.config import ConfigError, as_dict, load_config
 # Exit codes (README): 0 success, 1 a link, zenoh session or listening socket could not be opened, 2 configuration,
 # scenario or file error. Every error these cover is one line on stderr, `PROG: message`. Named by module so that
 # a command that never imported pymavlink or zenoh does not import them to classify its error (an exception of a
-# class can only exist once its module is loaded).
+# class can only exist once its module is loaded). The shells above (sitl.cli, avionics_eval.cli) extend the
+# table with their own errors (a bad scenario, a demo's onboard process) and pass it to `call`.
 ERRORS = (  # (module, class, exit code, prefix of the line)
-    ("avionics.config", "ConfigError", 2, "configuration error: "),
-    ("avionics.demo", "ScenarioError", 2, ""),
+    ("avionics.core.params", "ConfigError", 2, "configuration error: "),
     ("avionics.io.link", "LinkError", 1, ""),
     ("avionics.io.zenoh_bus", "ZenohBusError", 1, ""),
     ("avionics.monitor.app", "HttpServerError", 1, ""),
-    ("avionics.demo", "OnboardError", 1, ""),
 )
 EXIT_INTERNAL = 70  # EX_SOFTWARE: anything else is a bug, shown with its traceback and one summary line
 EXIT_INTERRUPTED = 130  # Ctrl-C
@@ -33,25 +37,25 @@ def _one_line(exc: BaseException) -> str:
     return " | ".join(line.strip() for line in str(exc).splitlines() if line.strip()) or type(exc).__name__
 
 
-def classify(exc: BaseException) -> tuple[int, str] | None:
+def classify(exc: BaseException, errors=ERRORS) -> tuple[int, str] | None:
     """(exit code, prefix) of an expected error, None for an unexpected one."""
-    for module, name, code, prefix in ERRORS:
+    for module, name, code, prefix in errors:
         cls = getattr(sys.modules.get(module), name, None)
         if cls is not None and isinstance(exc, cls):
             return code, prefix
     return None
 
 
-def call(prog: str, func, args) -> int:
-    """Run one command and return its exit code: an expected error is one line on stderr; an unexpected one
-    keeps its traceback, followed by one line that says it is a bug."""
+def call(prog: str, func, args, errors=ERRORS) -> int:
+    """Run one command and return its exit code: an expected error (one of `errors`) is one line on stderr; an
+    unexpected one keeps its traceback, followed by one line that says it is a bug."""
     try:
         return func(args)
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as exc:  # noqa: BLE001  (expected errors by type, in ERRORS; the rest is reported as a bug)
-        known = classify(exc)
+        known = classify(exc, errors)
         if known is None:
             traceback.print_exc()
             print(f"{prog}: internal error (a bug; traceback above): {type(exc).__name__}: {_one_line(exc)}",
@@ -110,24 +114,12 @@ def cmd_run(args) -> int:
     from avionics.runner import run
 
     config = _load(args)
-    if args.tlog_out:
-        check_output_file(args.tlog_out, "--tlog-out")
-    counters = run(config, duration_s=args.duration, tlog_out=args.tlog_out)
+    for path, option in ((args.tlog_out, "--tlog-out"), (args.csv, "--csv")):
+        if path:
+            check_output_file(path, option)
+    counters = run(config, duration_s=args.duration, tlog_out=args.tlog_out, csv_out=args.csv)
     if args.counters:
         print(json.dumps(dict(sorted(counters.items())), indent=1))
-    return 0
-
-
-def cmd_demo(args) -> int:
-    from avionics.demo import demo
-
-    return demo(args.scenario, port=args.port, zenoh_port=args.zenoh_port, noise=args.noise)
-
-
-def cmd_bench(args) -> int:
-    from avionics.bench import bench
-
-    print(json.dumps(bench([int(n) for n in args.intruders.split(",")], args.seconds), indent=1))
     return 0
 
 
@@ -170,7 +162,9 @@ def cmd_router(args) -> int:
     return run_router(cfg)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(add_commands=None) -> argparse.ArgumentParser:
+    """The flight commands; `add_commands(sub)`, when given, adds more subcommands after `run` (avionics_eval.cli:
+    demo and bench)."""
     parser = OneLineParser(prog="avionics", description="Onboard detect-and-avoid for UAVs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
@@ -183,20 +177,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-zenoh", action="store_true", help="do not publish on zenoh")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (default: run until killed)")
     p.add_argument("--tlog-out", metavar="FILE", help="record every frame received and sent as a .tlog")
+    p.add_argument("--csv", metavar="FILE.csv", help="write every advisory change as a CSV row (as sitl replay --out)")
     p.add_argument("--counters", action="store_true", help="print the input/rejection counters at exit")
     p.set_defaults(func=cmd_run)
-
-    p = sub.add_parser("demo", help="fly the SITL head-on encounter against the onboard process on loopback")
-    p.add_argument("--scenario", default="head-on", help="built-in encounter (sitl list) or scenario file")
-    p.add_argument("--port", type=port_number, default=14650, help="loopback UDP port of the MAVLink link")
-    p.add_argument("--zenoh-port", type=port_number, default=17447, help="loopback TCP port of the zenoh session")
-    p.add_argument("--noise", choices=("default", "none"), default="default", help="ADS-B impairments")
-    p.set_defaults(func=cmd_demo)
-
-    p = sub.add_parser("bench", help="end-to-end throughput and report-to-advisory latency (JSON)")
-    p.add_argument("--intruders", default="10,100,1000", help="comma-separated intruder counts")
-    p.add_argument("--seconds", type=float, default=20.0, help="simulated seconds of traffic per count")
-    p.set_defaults(func=cmd_bench)
+    if add_commands is not None:
+        add_commands(sub)
 
     p = sub.add_parser("config", help="print the effective configuration as JSON")
     _config_args(p)
@@ -224,11 +209,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv=None, add_commands=None, errors=ERRORS) -> int:
+    args = build_parser(add_commands).parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
-    return call("avionics", args.func, args)
+    return call("avionics", args.func, args, errors)
 
 
 if __name__ == "__main__":

@@ -25,27 +25,26 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 from typing import Iterable
 
 import numpy as np
 
-from avionics.advisory.gating import AlertGate
-from avionics.advisory.inhibits import LowAltitudeInhibits
-from avionics.advisory.logic import AdvisoryState, detect, ra_continues
-from avionics.advisory.resolution import ResolutionLogic, Threat
-from avionics.advisory.tables import LevelSelector, SensitivityLevel, load_profile
+from avionics.advisory.alerting import Encounter
+from avionics.advisory.logic import AdvisoryState
+from avionics.advisory.resolution import Threat
+from avionics.advisory.tables import SensitivityLevel
+from avionics.compose import Components, build_components
 from avionics.config import Config
-from avionics.conflict.assess import ConflictAssessor
 from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.frame import FrameChange, TrackingFrame
 from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
+from avionics.tracking.interface import Tracker
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
-from avionics.tracking.imm_tracker import make_tracker
 
 
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
@@ -79,19 +78,22 @@ class Fault:
 
 
 class DaaCore:
-    def __init__(self, config: Config, counters: Counter | None = None):
+    def __init__(self, config: Config, counters: Counter | None = None, components: Components | None = None):
+        """components: the parts (compose.py); by default built from config by the composition root."""
         self.config = config
         self.counters = counters if counters is not None else Counter()
-        self.profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
-        self.levels = LevelSelector(self.profile)
-        self.resolution = ResolutionLogic(self.profile)
-        self.inhibits = LowAltitudeInhibits(self.profile)
+        parts = components if components is not None else build_components(config, self.counters)
+        self.profile = parts.profile
+        self.levels = parts.levels
+        self.resolution = parts.resolution
+        self.inhibits = parts.inhibits
         self._ra_threats: dict[IntruderKey, Threat] = {}
-        self.gate = AlertGate(config.advisory)
-        self.conflict = ConflictAssessor(config.conflict)
+        self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels
+        self.gate = parts.gate  # advisory.criterion and advisory.persistence
+        self.conflict = parts.conflict  # conflict.prefilter and conflict.method
         self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
         self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
-        self.tracker = make_tracker(config.tracking, self.counters)  # tracking.filter: cv or an IMM
+        self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
         self.assessments: dict[IntruderKey, _Assessment] = {}
         self.level: SensitivityLevel | None = None
         self._last_full_assessment_s = -math.inf
@@ -267,7 +269,7 @@ class DaaCore:
         if ev is None:
             return []
         keys, xs, tracks, has_alt, mismatch = ev.keys, ev.xs, ev.tracks, ev.has_alt, ev.mismatch
-        geometry, threat_eligible, pc_ta, pc_ra, pc = ev.geometry, ev.threat_eligible, ev.pc_ta, ev.pc_ra, ev.pc
+        geometry, pc_ta, pc_ra, pc = ev.geometry, ev.pc_ta, ev.pc_ra, ev.pc
         within_age = ev.within_age
         self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
         failed: set[IntruderKey] = set()
@@ -276,6 +278,7 @@ class DaaCore:
         mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
                    AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
         mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
+        ta_hold_s = self.alerter.level(int(AdvisoryLevel.TA)).min_duration_s  # TCAS II: a TA stays 8 s
         states = []
         for i, key in enumerate(keys):
             states.append(None)
@@ -285,7 +288,7 @@ class DaaCore:
                 entry = self.assessments.get(key)
                 state = entry.state if entry else AdvisoryState()
                 candidate = AdvisoryLevel(NONE if stale[i] else int(candidates[i]))
-                state.next(now_s, candidate, cfg.advisory.ta_min_duration_s, force=bool(stale[i]))
+                state.next(now_s, candidate, ta_hold_s, force=bool(stale[i]))
                 states[i] = (state, candidate, entry.advisory if entry else None)
                 if state.level is AdvisoryLevel.RA:
                     self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
@@ -362,7 +365,9 @@ class DaaCore:
         # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
-        sigma_h, sigma_v = self.config.tracking.horizontal_accel_sigma_mps2, self.config.tracking.vertical_accel_sigma_mps2
+        # the conflict stage's prediction noise (relative white acceleration, [conflict]); the [tracking] values
+        # are the CV filter's process noise only
+        sigma_h, sigma_v = self.config.conflict.accel_sigma_h_mps2, self.config.conflict.accel_sigma_v_mps2
         volumes = [(level.ta_dmod_m, level.ta_zthr_m)]
         if level.ra_tau_s is not None:
             volumes.append((level.ra_hmd_m if level.ra_hmd_m is not None else level.ra_dmod_m, level.alim_m))
@@ -474,11 +479,12 @@ class DaaCore:
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
-        candidates = detect(geometry, level, has_alt, margin, ra_allowed, cfg.advisory.hmd_filter, threat_eligible)
+        encounter = Encounter(geometry, has_alt, margin, threat_eligible)
+        candidates = self.alerter.alert(encounter, level, None if ra_allowed else int(AdvisoryLevel.TA))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
                                                         full)
         within_age = self.conflict.within_age(now_s, keys)
-        candidates = self.gate.criterion(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
+        candidates = self.gate.admit(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
         # ADS-B integrity (docs/tracking.md, "Integrity monitor"): a degraded track inside DMOD and ZTHR by its last
         # reported position gets at least a TA, whatever its (possibly wrong) track says; unknown altitude counts
         # as inside ZTHR, as TCAS treats a non-altitude-reporting intruder.
@@ -495,27 +501,24 @@ class DaaCore:
                                        g.vmd_m, pc_ta, pc_ra, pc["pc_now"], pc["pc_max"], pc["t_pc_max_s"]])).all(axis=0)
         finite &= ~np.isnan(np.stack([g.range_tau_s, g.vertical_tau_s])).any(axis=0)
         return SimpleNamespace(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, mismatch=mismatch, geometry=geometry,
-                               threat_eligible=threat_eligible, candidates=candidates, pc_ta=pc_ta, pc_ra=pc_ra, pc=pc,
-                               within_age=within_age, finite=finite)
+                               threat_eligible=threat_eligible, encounter=encounter, candidates=candidates,
+                               pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)
 
     def _decided(self, now_s, keys, ev, level, ra_allowed, updated, failed, changes):
         """The advisory logic's vectorised part (persistence, RA continuation, staleness) over every row; a row
         whose intruder fails here is in `failed` and its values are NONE."""
         cfg = self.config
-        candidates, geometry, has_alt = ev.candidates, ev.geometry, ev.has_alt
+        candidates = ev.candidates
 
         def run(rows):
             ks = [keys[i] for i in rows]
             cands = self.gate.persist(ks, candidates[rows], ev.pc_ta[rows], ev.pc_ra[rows], updated)
-            was_ra = np.array([(e := self.assessments.get(k)) is not None and e.state.level is AdvisoryLevel.RA
-                               for k in ks], bool)
-            continued = np.zeros(len(ks), bool)  # RA threats kept although the RA tests no longer hold
-            if ra_allowed and level.ra_tau_s is not None:
-                g = geometry if len(rows) == len(keys) else _rows(geometry, rows)
-                continued = ra_continues(g, level, was_ra, cfg.advisory.hmd_filter) & has_alt[rows] & \
-                    ev.threat_eligible[rows]
-                continued &= cands < int(AdvisoryLevel.RA)
-                cands = np.where(continued, int(AdvisoryLevel.RA), cands)
+            previous = np.array([int(e.state.level) if (e := self.assessments.get(k)) is not None else NONE
+                                 for k in ks], int)
+            # the levels' continuations: RA threats kept although the RA tests no longer hold (alerting.py)
+            encounter = ev.encounter if len(rows) == len(keys) else ev.encounter.take(rows)
+            cands, continued = self.alerter.hold(encounter, level, previous, cands,
+                                                 None if ra_allowed else int(AdvisoryLevel.TA))
             stale = np.array([now_s - ev.tracks[i].last_report_s > cfg.tracking.max_coast_s for i in rows], bool)
             return cands, continued, stale
 
@@ -563,16 +566,7 @@ class DaaCore:
 
     def _drop_track(self, key: IntruderKey) -> None:
         """Forget an intruder in every stage: its next report starts a new track."""
-        tracker = self.tracker
-        gone = [tracker.tracks.pop(key, None)]
-        competitors = getattr(tracker, "competitors", None)  # the IMM tracker's competing tracks
-        if competitors is not None:
-            gone.append(competitors.pop(key, None))
-        release = getattr(tracker, "_release", None)  # the IMM tracker's filter-bank slots
-        if release is not None:
-            for track in gone:
-                if track is not None:
-                    release(track)
+        self.tracker.drop(key)
         self._ra_threats.pop(key, None)
         self.gate.forget(key)
         self.conflict.forget(key)
@@ -628,12 +622,6 @@ def _ra_fields(r, threat) -> dict:
     return dict(ra_sense=r.sense_against(threat).value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
                 ra_separation_m=r.separation_m)
-
-
-def _rows(geometry, rows):
-    """The rows of a PairGeometry."""
-    return replace(geometry, **{f.name: getattr(geometry, f.name)[rows] for f in fields(geometry)
-                                if getattr(geometry, f.name) is not None})
 
 
 def _finite_input(item) -> bool:

@@ -14,7 +14,8 @@ from typing import Callable
 
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.units import FPM, FT, G0, KT, NM
-from sitl.scenario import AircraftSpec, Leg, Scenario
+from sitl.aircraft import AircraftSpec, Leg
+from sitl.scenario import Scenario
 from sitl.trajectory import LegKinematics, plane_velocity_to_true
 
 REFERENCE = (47.4, 8.5)  # lat, lon of the plane every built-in encounter is authored in

@@ -6,12 +6,14 @@ import argparse
 import json
 import sys
 
-from avionics.cli import OneLineParser, call, check_output_file
+from avionics.cli import ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file
 from sitl.impairments import PRESETS
+
+ERRORS = FLIGHT_ERRORS + (("sitl.encounters", "ScenarioError", 2, ""),)  # a bad encounter name or file: exit 2
 
 
 def _scenario(spec: str):
-    from avionics.demo import load_scenario  # ScenarioError (exit 2) for a bad name or file
+    from sitl.encounters import load_scenario  # ScenarioError (exit 2) for a bad name or file
 
     return load_scenario(spec)
 
@@ -42,7 +44,7 @@ def cmd_replay(args) -> int:
     else:
         import csv
 
-        from sitl.replay import CSV_COLUMNS
+        from avionics.ports import CSV_COLUMNS
 
         writer = csv.DictWriter(sys.stdout, fieldnames=CSV_COLUMNS)
         writer.writeheader()
@@ -107,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    return call("sitl", args.func, args)  # exit codes as avionics: 1 link, 2 configuration, scenario or file
+    return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file
 
 
 if __name__ == "__main__":

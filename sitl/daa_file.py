@@ -32,7 +32,8 @@ import numpy as np
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
 from avionics.core.units import FPM, FT, KT, NM
-from sitl.scenario import DEFAULT_ADDRESS_BASE, AircraftSpec, Scenario
+from sitl.aircraft import AircraftSpec
+from sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
 from sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
 
 EUCLIDEAN_ORIGIN = (47.4, 8.5)  # lat, lon where sx = sy = 0 lands (same point as the built-in encounters)

@@ -1,7 +1,8 @@
-"""Fast-time replay: the scenario's MAVLink schedule, framed and de-framed, drives DaaNode on simulated time.
+"""Fast-time replay: the scenario's MAVLink schedule, framed and de-framed, drives the DAA loop on simulated time.
 
-Same decoder, core and output policy as `avionics run`; no sockets, no waiting. The node is stepped at every
-message delivery and on the assessment grid between them, as the live loop does.
+Same decoder, facade and MAVLink port as `avionics run` (avionics/loop.py); no sockets, no waiting. The loop is
+stepped at every message delivery and on the assessment grid between them, as the live loop does. What the DAA
+process sends is framed and decoded on the autopilot's side: the closed loop flies the DAA_ADVISORY it receives.
 """
 
 from __future__ import annotations
@@ -17,16 +18,15 @@ from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
 from avionics.core.types import Advisory, IntruderKey
+from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
-from avionics.node import DaaNode
+from avionics.loop import Batch, Loop, MavlinkInput
+from avionics.ports import CSV_COLUMNS, NOTHING, MavlinkOut, csv_row
 from sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
 from sitl.impairments import AdsbImpairments
 from sitl.response import RaResponder
 from sitl.scenario import Scenario
 
-CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
-               "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
-               "mod_tau_s", "vertical_tau_s", "ra_separation_m")
 # One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop).
 MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m")
 
@@ -40,19 +40,7 @@ class ReplayResult:
     misses: list = field(default_factory=list)  # VerticalMiss per intruder
 
     def rows(self) -> list[dict]:
-        def num(v):
-            return "" if v is None or (isinstance(v, float) and math.isinf(v)) else f"{v:.3f}"
-
-        return [{
-            "time_s": f"{a.time_s:.2f}", "intruder": str(a.intruder), "advisory": a.level.name,
-            "ra": a.ra_words or "", "ra_sense": a.ra_sense or "", "target_vertical_rate_mps": num(a.target_vertical_rate_mps),
-            "ra_separation_m": num(a.ra_separation_m),
-            "name": self.names.get(a.intruder.address, ""), "reason": a.reason,
-            "sensitivity_level": a.sensitivity_level, "range_m": num(a.range_m),
-            "closure_rate_mps": num(a.closure_rate_mps), "t_cpa_s": num(a.t_cpa_s), "hmd_m": num(a.hmd_m),
-            "vmd_m": num(a.vmd_m), "range_tau_s": num(a.range_tau_s), "mod_tau_s": num(a.mod_tau_s),
-            "vertical_tau_s": num(a.vertical_tau_s),
-        } for a in self.changes]
+        return [csv_row(a, self.names.get(a.intruder.address, "")) for a in self.changes]
 
     def write_csv(self, path: str | Path) -> None:
         with open(path, "w", newline="") as fh:
@@ -73,55 +61,96 @@ class ReplayResult:
             writer.writerows(self.miss_rows())
 
 
+class _Recorder:
+    """The replay's port: the advisory changes, in order."""
+
+    def __init__(self, changes: list):
+        self.changes = changes
+
+    def wants(self, now_s):
+        return NOTHING
+
+    def publish(self, result) -> None:
+        self.changes.extend(result.changes)
+
+    def close(self) -> None:
+        pass
+
+
+class _Autopilot:
+    """The autopilot's side of the link: every frame the DAA process sends is packed, framed and decoded;
+    COLLISION is recorded and DAA_ADVISORY goes to the responder (closed loop)."""
+
+    def __init__(self, config: Config, result: ReplayResult, responder: RaResponder | None, clock):
+        self.link = mavlink2.MAVLink(None, srcSystem=config.mavlink.source_system,
+                                     srcComponent=config.mavlink.source_component)
+        self.rx = FrameScanner(Counter())
+        self.result, self.responder, self.clock = result, responder, clock
+
+    def send(self, msg) -> None:
+        now_s = self.clock()
+        for back in self.rx.feed(bytes(msg.pack(self.link)), end_of_datagram=True):
+            if back.get_type() == "COLLISION":
+                self.result.collisions.append((now_s, back))
+            elif back.get_type() == "DAA_ADVISORY" and self.responder is not None:
+                self.responder.receive(back, now_s)
+
+
+class _ScheduleSource:
+    """The scenario's MAVLink schedule on simulated time: a batch per delivery and one per assessment tick; with
+    a responder, ownship flies the RAs it received and its GLOBAL_POSITION_INT follows."""
+
+    def __init__(self, scenario, impairments, seed, autopilot, tick_s, mavlink: MavlinkInput, counters,
+                 responder: RaResponder | None):
+        self.scenario, self.tick_s, self.mavlink, self.responder = scenario, tick_s, mavlink, responder
+        self.events = schedule(scenario, impairments, seed, autopilot, ownship=responder is None)
+        self.own_period = 1.0 / autopilot.ownship_hz
+        self.scanner = FrameScanner(counters)
+        self.packer = Packer(autopilot)
+        self.own_traj, self.intruder_trajs = scenario.trajectories()
+        self.offsets: list[tuple[float, float]] = []  # (t, ownship altitude offset from the response)
+        self.now_s = 0.0
+
+    def _batch(self, msg, now_s: float) -> Batch:
+        self.now_s = now_s
+        return Batch(now_s, self.mavlink.decode(self.scanner.feed(self.packer.pack(msg), end_of_datagram=True), now_s))
+
+    def __iter__(self):
+        events, i = self.events, 0
+        for k in range(int(math.floor(self.scenario.duration_s / self.tick_s)) + 1):
+            t_tick = k * self.tick_s
+            while i < len(events) and events[i].deliver_s <= t_tick + 1e-9:
+                yield self._batch(events[i].msg, events[i].deliver_s)
+                i += 1
+            if self.responder is not None:
+                own = self.responder.fly(self.own_traj.state_at(t_tick))
+                self.offsets.append((t_tick, self.responder.offset_m))
+                if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6:
+                    for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):
+                        yield self._batch(msg, t_tick)
+            self.now_s = t_tick
+            yield Batch(t_tick, [])
+
+    def status(self):
+        return self.mavlink.status()
+
+
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
-           autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False) -> ReplayResult:
-    """Fly the encounter through DaaNode in fast time. respond=True closes the loop: ownship flies the RAs
-    it receives (sitl.response) and the result records the vertical miss with and without the response."""
+           autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=()) -> ReplayResult:
+    """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
+    it receives (sitl.response) and the result records the vertical miss with and without the response.
+    ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut."""
     counters: Counter = Counter()
-    node = DaaNode(config, counters)
-    scanner = FrameScanner(counters)
-    packer = Packer(autopilot)
-    # The autopilot's side of the link: what the DAA process sends back is framed and decoded too.
-    daa_side = mavlink2.MAVLink(None, srcSystem=config.mavlink.source_system,
-                                srcComponent=config.mavlink.source_component)
-    autopilot_rx = FrameScanner(Counter())
+    daa = Daa(config, counters)
     result = ReplayResult([], {a.icao_address: a.name for a in scenario.intruders}, counters=counters)
-    responder = RaResponder(node.core.profile.response) if respond else None
-    own_traj, intruder_trajs = scenario.trajectories()
-
-    def step(msgs, now_s: float) -> None:
-        result.changes.extend(node.handle(msgs, now_s).changes)
-        for out in node.mavlink_out:
-            for back in autopilot_rx.feed(bytes(out.pack(daa_side)), end_of_datagram=True):
-                if back.get_type() == "COLLISION":
-                    result.collisions.append((now_s, back))
-                elif back.get_type() == "DAA_ADVISORY" and responder is not None:
-                    responder.receive(back, now_s)
-        node.mavlink_out.clear()
-        node.zenoh_out.clear()
-
-    tick = 1.0 / config.advisory.assessment_hz
-    events = schedule(scenario, impairments, seed, autopilot, ownship=not respond)
-    own_period = 1.0 / autopilot.ownship_hz
-    n_ticks = int(math.floor(scenario.duration_s / tick))
-    offsets = []  # (t, ownship altitude offset from the response)
-    i = 0
-    for k in range(n_ticks + 1):
-        t_tick = k * tick
-        while i < len(events) and events[i].deliver_s <= t_tick + 1e-9:
-            event = events[i]
-            step(scanner.feed(packer.pack(event.msg), end_of_datagram=True), event.deliver_s)
-            i += 1
-        if responder is not None:
-            own = responder.fly(own_traj.state_at(t_tick))
-            offsets.append((t_tick, responder.offset_m))
-            if abs(t_tick / own_period - round(t_tick / own_period)) < 1e-6:
-                for msg in ownship_messages(own, scenario.ground_elevation_m, int(t_tick * 1000)):
-                    step(scanner.feed(packer.pack(msg), end_of_datagram=True), t_tick)
-        step([], t_tick)
-    result.misses = [_vertical_miss(scenario, own_traj, traj, spec.name, offsets,
+    responder = RaResponder(daa.response_model) if respond else None
+    source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,
+                             MavlinkInput(config, counters), counters, responder)
+    autopilot_side = _Autopilot(config, result, responder, lambda: source.now_s)
+    Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes), *ports]).run()
+    result.misses = [_vertical_miss(scenario, source.own_traj, traj, spec.name, source.offsets,
                                     IntruderKey(spec.icao_address, spec.address_source))
-                     for spec, traj in zip(scenario.intruders, intruder_trajs)]
+                     for spec, traj in zip(scenario.intruders, source.intruder_trajs)]
     return result
 
 

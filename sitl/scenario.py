@@ -1,4 +1,4 @@
-"""What an encounter is: aircraft, their initial states and leg programs, and how long to fly them.
+"""What an encounter is: aircraft (sitl.aircraft: initial states and leg programs) and how long to fly them.
 
 Everything here is SI (m, s, m/s) and true-north headings; feet, knots and fpm exist only in the TOML file
 reader below (docs/scenarios.md describes the file format). `Scenario.trajectories()` turns the description
@@ -18,103 +18,10 @@ from typing import Any, Iterator
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.core.units import FPM, FT, KT, NM
+from sitl.aircraft import (
+    GROUND_RANGE_M, MAX_ABS_LAT_DEG, MAX_DURATION_S, MAX_PLANE_OFFSET_M, AircraftSpec, Leg, check_finite, check_range,
+)
 from sitl.trajectory import LegTrajectory, Trajectory
-
-# Plausibility bounds. They catch unit mix-ups (knots given as m/s, feet as metres) rather than describe any
-# airframe: a 311 m/s jet (Radosavljević et al.) and a hovering multirotor must both pass.
-MAX_ABS_LAT_DEG = 85.0  # the tangent-plane model degrades near the poles
-ALT_RANGE_M = (-1000.0, 20000.0)
-MAX_SPEED_MPS = 400.0
-MAX_VERTICAL_RATE_MPS = 100.0
-MAX_TURN_RATE_DPS = 90.0
-MAX_ACCELERATION_MPS2 = 20.0
-MAX_DURATION_S = 86400.0
-GROUND_RANGE_M = (-500.0, 9000.0)
-MAX_PLANE_OFFSET_M = 500e3  # east/north offsets from [reference]: keep the tangent plane honest
-CALLSIGN_RE = re.compile(r"[A-Z0-9 ]{0,8}")  # what an ADS-B identification message can carry
-MAX_EMITTER_TYPE = 19  # MAVLink ADSB_EMITTER_TYPE values 0..19
-
-
-def _check_finite(name: str, value: float) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-
-
-def _check_range(name: str, value: float, lo: float, hi: float, unit: str = "") -> None:
-    _check_finite(name, value)
-    if not lo <= value <= hi:
-        raise ValueError(f"{name} = {value:g}{unit} is outside [{lo:g}, {hi:g}]{unit}")
-
-
-@dataclass(frozen=True, slots=True)
-class Leg:
-    """A segment flown for duration_s with constant rates. turn_rate_dps > 0 turns right (heading increases)."""
-
-    duration_s: float
-    turn_rate_dps: float = 0.0
-    vertical_rate_mps: float = 0.0
-    acceleration_mps2: float = 0.0  # along-track: speed changes, heading does not
-
-    def __post_init__(self) -> None:
-        _check_finite("duration_s", self.duration_s)
-        if not 0.0 < self.duration_s <= MAX_DURATION_S:
-            raise ValueError(f"duration_s = {self.duration_s:g} s must be in (0, {MAX_DURATION_S:g}] s")
-        _check_range("turn_rate_dps", self.turn_rate_dps, -MAX_TURN_RATE_DPS, MAX_TURN_RATE_DPS, " deg/s")
-        _check_range(
-            "vertical_rate_mps", self.vertical_rate_mps, -MAX_VERTICAL_RATE_MPS, MAX_VERTICAL_RATE_MPS, " m/s"
-        )
-        _check_range(
-            "acceleration_mps2", self.acceleration_mps2, -MAX_ACCELERATION_MPS2, MAX_ACCELERATION_MPS2, " m/s^2"
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class AircraftSpec:
-    """Initial state and leg program of one aircraft.
-
-    With no legs the aircraft flies straight at constant velocity (including `vertical_rate_mps`) forever.
-    With legs, each leg sets its own vertical rate, and after the last leg the aircraft flies straight and
-    level at the speed reached; `vertical_rate_mps` must then be 0 (it would be ambiguous)."""
-
-    name: str
-    icao_address: int
-    lat_deg: float
-    lon_deg: float
-    alt_msl_m: float  # in `altitude_datum`
-    heading_deg: float  # true track, 0 = north, 90 = east
-    speed_mps: float  # ground speed
-    vertical_rate_mps: float = 0.0
-    legs: tuple[Leg, ...] = ()
-    altitude_datum: AltitudeDatum = AltitudeDatum.PRESSURE
-    address_source: AddressSource = AddressSource.ES1090
-    callsign: str = ""
-    emitter_type: int = 1  # MAVLink ADSB_EMITTER_TYPE_LIGHT
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.icao_address, int) or not 0 <= self.icao_address <= 0xFFFFFF:
-            raise ValueError(f"icao_address must be a 24-bit integer, got {self.icao_address!r}")
-        _check_range("lat_deg", self.lat_deg, -MAX_ABS_LAT_DEG, MAX_ABS_LAT_DEG, " deg")
-        _check_range("lon_deg", self.lon_deg, -180.0, 180.0, " deg")
-        _check_range("alt_msl_m", self.alt_msl_m, *ALT_RANGE_M, " m")
-        _check_finite("heading_deg", self.heading_deg)
-        if not 0.0 <= self.heading_deg < 360.0:
-            raise ValueError(f"heading_deg = {self.heading_deg:g} must be in [0, 360)")
-        _check_range("speed_mps", self.speed_mps, 0.0, MAX_SPEED_MPS, " m/s")
-        _check_range(
-            "vertical_rate_mps", self.vertical_rate_mps, -MAX_VERTICAL_RATE_MPS, MAX_VERTICAL_RATE_MPS, " m/s"
-        )
-        if not isinstance(self.legs, tuple) or not all(isinstance(leg, Leg) for leg in self.legs):
-            raise ValueError("legs must be a tuple of Leg")
-        if self.legs and self.vertical_rate_mps != 0.0:
-            raise ValueError("vertical_rate_mps applies only without legs; give each leg its vertical rate")
-        if not isinstance(self.altitude_datum, AltitudeDatum):
-            raise ValueError(f"altitude_datum must be an AltitudeDatum, got {self.altitude_datum!r}")
-        if not isinstance(self.address_source, AddressSource):
-            raise ValueError(f"address_source must be an AddressSource, got {self.address_source!r}")
-        if not isinstance(self.callsign, str) or not CALLSIGN_RE.fullmatch(self.callsign):
-            raise ValueError(f"callsign {self.callsign!r}: up to 8 characters of A-Z, 0-9, space")
-        if not isinstance(self.emitter_type, int) or not 0 <= self.emitter_type <= MAX_EMITTER_TYPE:
-            raise ValueError(f"emitter_type must be an integer in [0, {MAX_EMITTER_TYPE}], got {self.emitter_type!r}")
 
 
 @dataclass(frozen=True)
@@ -140,10 +47,10 @@ class Scenario:
             raise ValueError("ownship must be an AircraftSpec")
         if not isinstance(self.intruders, tuple) or not all(isinstance(a, AircraftSpec) for a in self.intruders):
             raise ValueError("intruders must be a tuple of AircraftSpec")
-        _check_finite("duration_s", self.duration_s)
+        check_finite("duration_s", self.duration_s)
         if not 0.0 < self.duration_s <= MAX_DURATION_S:
             raise ValueError(f"duration_s = {self.duration_s:g} s must be in (0, {MAX_DURATION_S:g}] s")
-        _check_range("ground_elevation_m", self.ground_elevation_m, *GROUND_RANGE_M, " m")
+        check_range("ground_elevation_m", self.ground_elevation_m, *GROUND_RANGE_M, " m")
         keys = [(a.icao_address, a.address_source) for a in self.aircraft]
         if len(set(keys)) != len(keys):
             raise ValueError("two aircraft share an ICAO address and address source")
@@ -152,8 +59,8 @@ class Scenario:
             if len(tuple(intr)) != len(self.intruders):
                 raise ValueError("precomputed_trajectories must hold one trajectory per intruder")
         if self.origin is not None:
-            _check_range("origin latitude", self.origin[0], -MAX_ABS_LAT_DEG, MAX_ABS_LAT_DEG, " deg")
-            _check_range("origin longitude", self.origin[1], -180.0, 180.0, " deg")
+            check_range("origin latitude", self.origin[0], -MAX_ABS_LAT_DEG, MAX_ABS_LAT_DEG, " deg")
+            check_range("origin longitude", self.origin[1], -180.0, 180.0, " deg")
 
     @property
     def aircraft(self) -> tuple[AircraftSpec, ...]:
@@ -330,8 +237,8 @@ def parse_scenario_toml(text: str, default_name: str = "scenario") -> Scenario:
     if top.has("reference"):
         ref = _Table(data["reference"], "reference", _REFERENCE_KEYS)
         lat, lon = ref.number("lat_deg"), ref.number("lon_deg")
-        _check_range("reference.lat_deg", lat, -MAX_ABS_LAT_DEG, MAX_ABS_LAT_DEG, " deg")
-        _check_range("reference.lon_deg", lon, -180.0, 180.0, " deg")
+        check_range("reference.lat_deg", lat, -MAX_ABS_LAT_DEG, MAX_ABS_LAT_DEG, " deg")
+        check_range("reference.lon_deg", lon, -180.0, 180.0, " deg")
         reference, origin = LocalTangentPlane(lat, lon), (lat, lon)
     if not top.has("ownship"):
         raise ValueError("scenario: missing table [ownship]")
@@ -366,21 +273,3 @@ def load_scenario_file(path: str | Path) -> Scenario:
         return parse_scenario_toml(text, default_name=path.stem)
     except ValueError as e:
         raise ValueError(f"{path}: {e}") from None
-
-
-def load_encounter(spec: str) -> Scenario:
-    """A built-in encounter name (sitl.builtin.BUILTIN), a .toml scenario file or a DAIDALUS .daa file."""
-    from sitl.builtin import BUILTIN  # late: builtin and daa_file build on this module
-    from sitl.daa_file import read_daa
-
-    if spec in BUILTIN:
-        return BUILTIN[spec]()
-    suffix = Path(spec).suffix.lower()
-    if suffix == ".toml":
-        return load_scenario_file(spec)
-    if suffix == ".daa":
-        return read_daa(Path(spec))
-    raise ValueError(
-        f"unknown encounter {spec!r}: expected a .toml or .daa file or one of {', '.join(sorted(BUILTIN))}"
-    )
-

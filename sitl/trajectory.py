@@ -23,14 +23,12 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol, Sequence
+from typing import Protocol, Sequence
 
 import numpy as np
 
 from avionics.core.geodesy import LocalTangentPlane
-
-if TYPE_CHECKING:  # scenario.py imports this module; only the type is needed here
-    from sitl.scenario import AircraftSpec, Leg
+from sitl.aircraft import AircraftSpec, Leg
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,7 +154,7 @@ class LegKinematics:
         heading_deg: float,
         speed_mps: float,
         vertical_rate_mps: float = 0.0,
-        legs: Sequence["Leg"] = (),
+        legs: Sequence[Leg] = (),
     ):
         psi = math.radians(heading_deg)
         first_vs = legs[0].vertical_rate_mps if legs else vertical_rate_mps
@@ -202,7 +200,7 @@ class LegTrajectory:
     The spec's true heading and speed become the plane's at the start point; turn rates and accelerations
     act in the plane."""
 
-    def __init__(self, spec: "AircraftSpec", plane: LocalTangentPlane):
+    def __init__(self, spec: AircraftSpec, plane: LocalTangentPlane):
         self.spec = spec
         self.plane = plane
         east, north = plane.to_en(spec.lat_deg, spec.lon_deg)

@@ -25,7 +25,7 @@ from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, Int
 from avionics.core.types import OwnshipPressure
 from avionics.core.units import KT, NM
 from avionics.io.decode import MessageDecoder
-from avionics.node import DaaNode
+from harness import Harness
 from avionics.tracking.baro_check import BaroCrossCheck
 from synthetic import PLANE
 
@@ -80,7 +80,7 @@ def scaled_pressure(t, press_abs):
 def fly(press_abs, until_s=90.0, overrides=(), status_every_s=1.0):
     """Ownship 5 Hz (fix + SCALED_PRESSURE press_abs(t)), intruder 1 Hz, steps at 10 Hz.
     Returns (node, [(t, advisory change)], {t: status})."""
-    node = DaaNode(load_config(overrides=list(overrides)))
+    node = Harness(load_config(overrides=list(overrides)))
     core = node.core
     changes, statuses = [], {}
     for k in range(int(round(until_s * 10)) + 1):
@@ -262,7 +262,7 @@ def test_without_the_cross_check_the_same_faults_lose_or_delay_the_alerts():
 # -- core-level implausible and recovery ---------------------------------------------------------------------
 def test_implausible_pressure_altitude_through_the_core_api_is_counted_and_recovers():
     """A core caller (not the decoder) handing over a pressure altitude above 20 km, then good ones again."""
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     core = node.core
     for k in range(0, 151):
         t = k * 0.2
@@ -280,7 +280,7 @@ def test_implausible_pressure_altitude_through_the_core_api_is_counted_and_recov
 def test_counters_reach_the_core_counters():
     """The cross-check counts into the core's counters (status.counters on zenoh, `avionics run --counters`):
     pipeline.py must build OwnshipFilter(config.altitude, config.input, self.counters)."""
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     assert node.core.ownship.counters is node.core.counters
 
 

@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from avionics.cli import main
+from avionics_eval.cli import main
 
 pytestmark = pytest.mark.live  # a real zenoh session on loopback, the live loop on the wall clock
 

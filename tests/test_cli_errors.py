@@ -29,6 +29,9 @@ def free_port(kind: int) -> int:
         return s.getsockname()[1]
 
 
+EVAL_CLI = "avionics_eval.cli"  # the `avionics` console script: the flight commands of avionics.cli plus demo, bench
+
+
 def cli(*argv: str, module: str = "avionics.cli") -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", module, *argv], capture_output=True, text=True, timeout=TIMEOUT_S,
                           cwd=ROOT)
@@ -63,20 +66,21 @@ def busy_udp_port():
 # --- configuration, scenario and file errors: exit 2 --------------------------------------------------------------
 
 def test_demo_unknown_scenario():
-    line = assert_one_line_error(cli("demo", "--scenario", "no-such"), 2, "avionics:", "'no-such'")
+    line = assert_one_line_error(cli("demo", "--scenario", "no-such", module=EVAL_CLI), 2, "avionics:",
+                                 "'no-such'")
     assert "unknown encounter" in line and "head-on" in line  # says what would have been accepted
 
 
 def test_demo_malformed_daa_scenario(tmp_path):
     path = tmp_path / "broken.daa"
     path.write_text("NAME lat lon alt\nownship 1 2\n")
-    line = assert_one_line_error(cli("demo", "--scenario", str(path)), 2, str(path))
+    line = assert_one_line_error(cli("demo", "--scenario", str(path), module=EVAL_CLI), 2, str(path))
     assert "header lacks" in line
 
 
 def test_demo_missing_scenario_file(tmp_path):
     path = tmp_path / "absent.daa"
-    assert_one_line_error(cli("demo", "--scenario", str(path)), 2, str(path), "No such file")
+    assert_one_line_error(cli("demo", "--scenario", str(path), module=EVAL_CLI), 2, str(path), "No such file")
 
 
 def test_run_tlog_out_into_a_missing_directory(tmp_path):
@@ -113,7 +117,7 @@ def test_monitor_malformed_http_address(address):
 
 
 def test_usage_error_is_one_line():
-    assert_one_line_error(cli("demo", "--port", "70000"), 2, "--port", "70000")
+    assert_one_line_error(cli("demo", "--port", "70000", module=EVAL_CLI), 2, "--port", "70000")
     assert_one_line_error(cli("no-such-command"), 2, "avionics: error:")
 
 
@@ -147,13 +151,15 @@ def test_monitor_http_port_in_use(busy_tcp_port):
 
 def test_demo_zenoh_port_in_use_fails_before_flying(busy_tcp_port):
     # Before: the onboard process died at once, the demo flew its 80 s to nobody, then said so.
-    proc = cli("demo", "--port", str(free_port(socket.SOCK_DGRAM)), "--zenoh-port", str(busy_tcp_port))
+    proc = cli("demo", "--port", str(free_port(socket.SOCK_DGRAM)), "--zenoh-port", str(busy_tcp_port),
+               module=EVAL_CLI)
     assert_one_line_error(proc, 1, f"zenoh TCP port 127.0.0.1:{busy_tcp_port} is in use", "--zenoh-port")
     assert "pid" not in proc.stdout  # refused before the onboard process was started
 
 
 def test_demo_mavlink_port_in_use_fails_before_flying(busy_udp_port):
-    proc = cli("demo", "--port", str(busy_udp_port), "--zenoh-port", str(free_port(socket.SOCK_STREAM)))
+    proc = cli("demo", "--port", str(busy_udp_port), "--zenoh-port", str(free_port(socket.SOCK_STREAM)),
+               module=EVAL_CLI)
     assert_one_line_error(proc, 1, f"MAVLink UDP port 127.0.0.1:{busy_udp_port} is in use", "--port")
     assert "pid" not in proc.stdout
 
@@ -165,7 +171,7 @@ def _listening(port: int) -> bool:
 
 def test_demo_stops_at_once_when_the_onboard_process_dies():
     udp, tcp = free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_STREAM)
-    proc = subprocess.Popen([sys.executable, "-m", "avionics.cli", "demo", "--port", str(udp),
+    proc = subprocess.Popen([sys.executable, "-m", EVAL_CLI, "demo", "--port", str(udp),
                              "--zenoh-port", str(tcp)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             cwd=ROOT)
     lines: queue.Queue = queue.Queue()
@@ -219,12 +225,13 @@ def test_an_unexpected_error_keeps_its_traceback_and_says_it_is_a_bug(capsys):
 
 
 def test_expected_errors_map_to_the_documented_codes(capsys):
-    from avionics.cli import call
     from avionics.config import ConfigError
-    from avionics.demo import OnboardError, ScenarioError
     from avionics.io.link import LinkError
     from avionics.io.zenoh_bus import ZenohBusError
     from avionics.monitor.app import HttpServerError
+    from avionics_eval.cli import call  # the flight table plus the demo's errors
+    from avionics_eval.demo import OnboardError
+    from sitl.encounters import ScenarioError
 
     for exc, code in ((ConfigError("x"), 2), (ScenarioError("x"), 2), (LinkError("x"), 1), (ZenohBusError("x"), 1),
                       (HttpServerError("x"), 1), (OnboardError("x"), 1)):

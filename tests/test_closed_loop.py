@@ -8,7 +8,7 @@ from avionics.config import load_config
 from avionics.core.types import AdvisoryLevel
 from sitl.impairments import PRESETS
 from sitl.replay import replay
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 
 ENCOUNTERS = ["head-on", "crossing-90", "overtaking", "climbing-intruder"]
 

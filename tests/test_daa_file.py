@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from avionics.core.geodesy import LocalTangentPlane
 from sitl.builtin import BUILTIN
 from sitl.daa_file import EUCLIDEAN_ORIGIN, format_daa, read_daa
-from sitl.scenario import Leg
+from sitl.aircraft import Leg
 from sitl.trajectory import LegKinematics, SampledTrajectory
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+# one xdist worker runs both files: they read the same cached replays (tests/golden/generate.py)
+pytestmark = pytest.mark.xdist_group("replays")
 CONFORMANCE = Path(__file__).resolve().parents[1].parent / "shared" / "conformance" / "daidalus"
 TOLERANCE_S = 1.0
 

@@ -1,6 +1,6 @@
 """MessageDecoder on real pymavlink frames: every invalid flag, sentinel and out-of-range value of ADSB_VEHICLE,
 GLOBAL_POSITION_INT and SCALED_PRESSURE is rejected under its own counter, exactly once, and valid fields come
-out in SI units. End to end: a DaaNode fed only invalid reports of a threatening intruder never alerts."""
+out in SI units. End to end: the onboard process fed only invalid reports of a threatening intruder never alerts."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from avionics.core.types import (
 from avionics.core.units import FT, INT16_MAX, INT32_MAX, KT, UINT16_MAX
 from avionics.io.decode import MessageDecoder
 from avionics.io.framing import FrameScanner
-from avionics.node import DaaNode
+from harness import Harness
 
 NOW = 1000.0
 OWN_ICAO = 0xC0FFEE
@@ -407,7 +407,7 @@ def _intruder_frame(t: float, mav, **wrong) -> bytes:
 
 
 def test_invalid_reports_of_a_threat_never_alert_then_valid_ones_give_a_ta():
-    node = DaaNode(config(own_icao=OWN_ICAO))
+    node = Harness(config(own_icao=OWN_ICAO))
     autopilot = m2.MAVLink(None, srcSystem=1, srcComponent=1)
     adsb_in = m2.MAVLink(None, srcSystem=1, srcComponent=156)  # the ADS-B receiver behind the autopilot
     scanner = FrameScanner(node.counters)

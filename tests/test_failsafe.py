@@ -28,10 +28,10 @@ from avionics.core.types import AdvisoryLevel
 from avionics.io.dialect import daa as m2
 from avionics.io.link import MavlinkLink
 from avionics.io.zenoh_bus import open_session
-from avionics.node import DaaNode
+from harness import Harness
 from sitl.autopilot import AutopilotConfig, Packer, schedule
 from sitl.impairments import PRESETS
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S, free_port, wait_for
 
 HEAD_ON = 0xA10001  # the head-on intruder (callsign HEADON): TA ~55 s, RA ~65.3 s, CPA 86.4 s
@@ -257,7 +257,7 @@ def test_loss_of_ownship_is_announced_as_daa_unavailable_never_as_clear_of_confl
     assert ("NONE", "no_ownship") in [(p["level"], p["reason"]) for p in onboard.of("advisory")]
 
 
-# -- the same policy in fast time (DaaNode, no sockets) ----------------------------------------------------------
+# -- the same policy in fast time (Harness, no sockets) ----------------------------------------------------------
 
 def _fly(node, events, until_s, drop=lambda t, msg: False):
     mav = m2.MAVLink(None, 1, 1)
@@ -278,7 +278,7 @@ def _fly(node, events, until_s, drop=lambda t, msg: False):
 
 
 def test_node_heartbeat_follows_availability_and_no_pressure_when_needed_is_unavailable():
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     events = head_on_events(start_s=0.0, end_s=70.0)
     # pressure altitude missing from 30 s to 40 s (the intruder reports pressure altitude), ownship from 50 to 55 s
     out = _fly(node, events, 70.0, drop=lambda t, m: 30 <= t < 40 and m.get_type() == "SCALED_PRESSURE"
@@ -300,10 +300,10 @@ def test_node_heartbeat_follows_availability_and_no_pressure_when_needed_is_unav
 
 def test_node_shutdown_ends_active_advisories_with_reason_shutdown():
     config = load_config()
-    node = DaaNode(config)
+    node = Harness(config)
     _fly(node, head_on_events(start_s=0.0, end_s=67.0), 67.0)
     assert [a.level for a in node.core.advisories().values()] == [AdvisoryLevel.RA]
-    ended = node.shutdown(67.0)
+    ended = node.shutdown(67.0).changes
     assert [(str(a.intruder), a.level, a.reason) for a in ended] == [("1090es-A10001", AdvisoryLevel.NONE, "shutdown")]
     kinds = [(m.get_type(), getattr(m, "threat_level", getattr(m, "level", None))) for m in node.mavlink_out]
     assert ("COLLISION", 0) in kinds and ("DAA_ADVISORY", 0) in kinds

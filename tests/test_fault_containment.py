@@ -281,7 +281,7 @@ def test_a_tlog_with_corrupted_timestamps_runs_through_the_cli(tmp_path):
     run --connection FILE.tlog` exits 0, counts them as bad input and still gives the TA and the RA."""
     from sitl.autopilot import Packer, schedule
     from sitl.impairments import PRESETS
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     path = tmp_path / "corrupted.tlog"
     base_us = 1_700_000_000 * 10**6  # a plausible UNIX time

@@ -5,7 +5,7 @@ real MAVLink traffic (ownship GLOBAL_POSITION_INT and SCALED_PRESSURE, ADS-B int
 messages an autopilot sends, signed and MAVLink 1 frames) and mutates most frames: bit flips, marker bytes,
 cuts, insertions, wrong lengths and message ids, splices, pure noise, and payload rewrites whose CRC is then
 made valid again (so wild field values reach the decoder and the core). Datagrams of mutated frames and noise
-go through FrameScanner as UDP datagrams, every message through DaaNode (MessageDecoder, DaaCore, output
+go through FrameScanner as UDP datagrams, every message through Harness (MessageDecoder, DaaCore, output
 policy) and every output through its encoder (MAVLink pack, zenoh JSON); the same bytes go through a second
 FrameScanner as a TCP stream in random chunks, and its messages through a second MessageDecoder. Nothing may
 raise, and the core's fault containment must never have been needed (no `fault.*` counter): an exception
@@ -39,7 +39,7 @@ from avionics.io.dialect import daa as m2
 from avionics.io.decode import MessageDecoder
 from avionics.io.framing import KNOWN_MESSAGES, FrameScanner
 from avionics.io.zenoh_bus import to_json
-from avionics.node import DaaNode
+from harness import Harness
 
 FUZZ_FRAMES = int(os.environ.get("AVIONICS_FUZZ_FRAMES", "12000"))
 LAT0, LON0, ALT0_M = 47.40, 8.55, 900.0
@@ -168,7 +168,7 @@ def mutate(rnd: random.Random, frame: bytes, other: bytes) -> tuple[str, bytes]:
     return kind, bytes(f)
 
 
-def _serialise(node: DaaNode, out_mav, counts: Counter) -> None:
+def _serialise(node: Harness, out_mav, counts: Counter) -> None:
     for msg in node.mavlink_out:
         msg.pack(out_mav)
     for _, payload in node.zenoh_out:
@@ -180,13 +180,13 @@ def _serialise(node: DaaNode, out_mav, counts: Counter) -> None:
 
 
 def fuzz(n_frames: int, seed: int) -> dict:
-    """Run n_frames (mutated or not) through both scanners and a DaaNode each; return every count."""
+    """Run n_frames (mutated or not) through both scanners and a Harness each; return every count."""
     rnd = random.Random(seed)
     config = load_config()
     traffic = Traffic(rnd)
     udp_counters, tcp_counters = Counter(), Counter()
     udp, tcp = FrameScanner(udp_counters), FrameScanner(tcp_counters)
-    udp_node, tcp_decoder = DaaNode(config, udp_counters), MessageDecoder(config, tcp_counters)
+    udp_node, tcp_decoder = Harness(config, udp_counters), MessageDecoder(config, tcp_counters)
     out_mav = m2.MAVLink(None, srcSystem=1, srcComponent=191)
     counts: Counter = Counter()
     advisories: Counter = Counter()
@@ -262,7 +262,7 @@ def test_same_seed_same_counts():
                 min_size=1, max_size=20))
 def test_random_bytes_and_mutated_frames_never_raise_through_the_node(chunks):
     counters = Counter()
-    node, scanner = DaaNode(load_config(), counters), FrameScanner(counters)
+    node, scanner = Harness(load_config(), counters), FrameScanner(counters)
     out_mav = m2.MAVLink(None, srcSystem=1, srcComponent=191)
     for k, chunk in enumerate(chunks):
         node.handle(scanner.feed(chunk, end_of_datagram=k % 2 == 0), 0.1 * k)

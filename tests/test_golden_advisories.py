@@ -15,6 +15,8 @@ import pytest
 
 from tests.golden.generate import CONFORMANCE, HERE, cases, replayed_csv
 
+# one xdist worker runs both files: they read the same cached replays (tests/golden/generate.py)
+pytestmark = pytest.mark.xdist_group("replays")
 CASES = cases()
 
 

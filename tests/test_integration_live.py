@@ -16,7 +16,7 @@ from avionics.config import ZenohConfig
 from avionics.io.zenoh_bus import open_session
 from sitl.impairments import PRESETS
 from sitl.live import fly
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S, wait_for
 
 pytestmark = pytest.mark.live  # a child process, UDP and zenoh on loopback

@@ -10,8 +10,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.stats import chi2
 
+from avionics.compose import build_tracker
 from avionics.config import load_config
-from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, \
+    TrackView
 from avionics.core.units import KT
 from avionics.io import encode
 from avionics.io.dialect import daa
@@ -19,7 +21,6 @@ from avionics.io.framing import FrameScanner
 from avionics.io.payloads import advisory_payload, track_payload
 from avionics.monitor.schema import clean_sample
 from avionics.tracking import integrity as im
-from avionics.tracking.imm_tracker import make_tracker
 
 KEY = IntruderKey(0xA1B2C3, AddressSource.ES1090)
 M_PER_DEG = 111_195.0  # only for the lat/lon the monitor uses across a plane change (none here)
@@ -27,7 +28,7 @@ M_PER_DEG = 111_195.0  # only for the lat/lon the monitor uses across a plane ch
 
 def _tracker(filter_name="imm"):
     counters = Counter()
-    return make_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters), counters
+    return build_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters), counters
 
 
 def _fly(fault=None, filter_name="imm", seed=0, duration=300, onset=140.0, speed=150 * KT, turn_dps=0.0,
@@ -163,7 +164,7 @@ def test_the_flag_reaches_the_zenoh_payloads_and_the_monitor_accepts_them():
     track = track_tracker.tracks[KEY]
     assert track.integrity.label == "degraded:inconsistent"
     x, p = track_tracker.predict([KEY], 20.0)
-    payload = track_payload("uav1", track, 20.0, x[0], p[0], 0.0, 0.0, True, _advisory(track.integrity.label))
+    payload = track_payload("uav1", TrackView.of(track, x[0], p[0], 0.0, 0.0, True, _advisory(track.integrity.label)), 20.0)
     assert payload["integrity"] == "degraded:inconsistent" and payload["integrity_fault_m"] >= im.RC_NIC7_M
     assert clean_sample("tracks", payload)["integrity"] == "degraded:inconsistent"
     adv = advisory_payload("uav1", _advisory("degraded:inconsistent"))
@@ -213,7 +214,7 @@ def test_the_core_advisory_carries_the_integrity_label():
 
 
 def test_the_report_runs_small():
-    from avionics.reports.tracking import integrity
+    from avionics_eval.reports.tracking import integrity
 
     res = integrity(encounters=2, clean_tracks=2, clean_duration_s=300.0)
     assert set(res["modes"]) == {"loss", "step", "ramp", "oscillation", "frozen"}

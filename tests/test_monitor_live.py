@@ -23,7 +23,7 @@ import pytest
 from avionics.config import load_config
 from avionics.monitor.browser import why_unavailable
 from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
-from avionics.monitor.sim import SimVehicle, _percentiles
+from avionics_eval.monitor_sim import SimVehicle, _percentiles
 from avionics.monitor.state import FleetState
 from avionics.monitor.web import MonitorServer
 from tests.conftest import DEADLINE_S, free_port
@@ -116,7 +116,7 @@ def test_browser_head_on_from_the_real_onboard_process(udp_port, tcp_port, capsy
     """`avionics run` + SITL head-on over UDP; the monitor is a zenoh client of the onboard peer."""
     from sitl.impairments import PRESETS
     from sitl.live import fly
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     start_s, end_s = 49.0, 70.0  # head-on: TA 54.9 s, RA (DESCEND) 65.2 s
     endpoint = f"tcp/127.0.0.1:{tcp_port}"
@@ -242,11 +242,11 @@ def test_late_join_comes_from_the_snapshot_and_exit_is_seen(tcp_port, capsys):
 # each, the advisory changes its loop has made and published: the test waits for the RA onset instead of sleeping.
 SIM_TELLING = """
 import json, sys
-import avionics.monitor.sim as sim
+import avionics_eval.monitor_sim as sim
 step = sim.SimVehicle._step
-def step_and_tell(self, msgs, t, publish):
+def step_and_tell(self, msgs, t):
     seen = len(self.changes)
-    step(self, msgs, t, publish)
+    step(self, msgs, t)
     for _, a in self.changes[seen:]:
         print(json.dumps({"change": a.level.name, "time_s": a.time_s}), flush=True)
 sim.SimVehicle._step = step_and_tell
@@ -377,7 +377,7 @@ def test_fleet_of_three_vehicles_in_the_selector_each_with_its_own_traffic(capsy
 
 @pytest.mark.browser
 def test_throughput_benchmark_500_intruders(capsys):
-    from avionics.monitor.bench import run_bench
+    from avionics_eval.monitor_bench import run_bench
 
     with_browser = why_unavailable() is None
     if not with_browser and os.environ.get("CI"):

@@ -1,4 +1,4 @@
-"""DaaNode: the output policy and the status a ground monitor sees, driven by real MAVLink messages."""
+"""Harness: the output policy and the status a ground monitor sees, driven by real MAVLink messages."""
 
 import json
 
@@ -7,10 +7,10 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from avionics.config import load_config
 from avionics.io.zenoh_bus import to_json
-from avionics.node import DaaNode
+from harness import Harness
 from sitl.autopilot import ownship_messages, schedule
 from sitl.impairments import PRESETS
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 
 
 def fly(node, scenario, until_s, drop_pressure=False):
@@ -35,7 +35,7 @@ def fly(node, scenario, until_s, drop_pressure=False):
 
 
 def test_collision_is_refreshed_every_second_while_active_and_heartbeat_runs_at_1_hz():
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     out = fly(node, load_encounter("head-on"), 80.0)
     collisions = [(t, m) for t, mav, _ in out for m in mav if m.get_type() == "COLLISION"]
     heartbeats = [t for t, mav, _ in out for m in mav if m.get_type() == "HEARTBEAT"]
@@ -49,7 +49,7 @@ def test_collision_is_refreshed_every_second_while_active_and_heartbeat_runs_at_
 
 
 def test_tracks_and_status_are_published_at_their_rates_as_json():
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     out = fly(node, load_encounter("head-on"), 10.0)
     tracks = [(t, p) for t, _, z in out for s, p in z if s.startswith("tracks/")]
     status = [(t, p) for t, _, z in out for s, p in z if s == "status"]
@@ -61,7 +61,7 @@ def test_tracks_and_status_are_published_at_their_rates_as_json():
 
 
 def test_status_says_when_only_mismatched_datums_exist():
-    node = DaaNode(load_config())
+    node = Harness(load_config())
     fly(node, load_encounter("head-on"), 60.0, drop_pressure=True)
     status = node.status(60.0)
     assert not status["pressure_altitude_available"]
@@ -71,7 +71,7 @@ def test_status_says_when_only_mismatched_datums_exist():
 
 def test_own_address_and_other_systems_never_become_traffic_or_ownship():
     config = load_config(overrides=["vehicle.own_icao=0xA10001"])
-    node = DaaNode(config)
+    node = Harness(config)
     fly(node, load_encounter("head-on"), 70.0)
     assert node.core.tracker.tracks == {} and node.counters["adsb.own_address"] > 50
     # an ownship fix from another system id is not ours
@@ -79,6 +79,6 @@ def test_own_address_and_other_systems_never_become_traffic_or_ownship():
     own, _ = scenario.trajectories()
     gpi, _ = ownship_messages(own.state_at(0.0), 0.0, 0)
     gpi.pack(mavlink2.MAVLink(None, 7, 1))
-    fresh = DaaNode(load_config())
+    fresh = Harness(load_config())
     fresh.handle([gpi], 0.0)
     assert fresh.core.ownship.last_fix is None and fresh.counters["gpi.other_system"] == 1

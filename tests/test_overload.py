@@ -2,7 +2,7 @@
 path equal to the Python one, the UDP link's bounded step (reports before garbage, the rest carried, our own
 drops counted), the kernel's drop counter, and zenoh status/ownship samples that tracks cannot starve.
 
-Nothing here asserts a duration or a rate (those are in `python -m avionics.io.flood_bench`, docs/performance.md);
+Nothing here asserts a duration or a rate (those are in `python -m avionics_eval.flood_bench`, docs/performance.md);
 waits poll for their condition up to DEADLINE_S."""
 
 from __future__ import annotations
@@ -360,7 +360,7 @@ def test_status_queue_overflow_is_counted():
 
 # -- the benchmark runs and accounts for every byte (its numbers are measurements, not asserted) ------------------
 def test_framing_benchmark_prints_json_with_every_byte_accounted_for(capsys, tmp_path):
-    from avionics.io import flood_bench
+    from avionics_eval import flood_bench
 
     reference = tmp_path / "framing_reference.py"
     reference.write_text(open(framing.__file__).read())  # a "before" that is this one: the same counts

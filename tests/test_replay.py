@@ -12,7 +12,7 @@ from avionics.config import load_config
 from avionics.core.units import KT, NM
 from sitl.impairments import PRESETS
 from sitl.replay import replay
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 
 DATA = Path(__file__).parent / "data"
 CLOSING = 250 * KT

@@ -13,7 +13,7 @@ from avionics.io.framing import FrameScanner
 from avionics.io.link import LinkError, MavlinkLink
 from sitl.autopilot import Packer, schedule
 from sitl.impairments import PRESETS
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S
 
 

@@ -317,7 +317,7 @@ def test_a_real_gap_in_a_tlog_is_kept_once_the_next_frame_confirms_it(tmp_path):
 def _head_on_tlog(path, corrupt: dict[int, int]) -> None:
     from sitl.autopilot import Packer, schedule
     from sitl.impairments import PRESETS
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     packer = Packer()
     with open(path, "wb") as fh:
@@ -329,15 +329,22 @@ def _head_on_tlog(path, corrupt: dict[int, int]) -> None:
 def _run_log(path) -> tuple[list, Counter]:
     from avionics.runner import Runner
 
+    from avionics.ports import NOTHING
+
     runner = Runner(load_config(overrides=[f'mavlink.connection="{path}"', "zenoh.enabled=false"]))
-    changes, handle = [], runner.node.handle
+    changes = []
 
-    def recording(msgs, now_s):
-        result = handle(msgs, now_s)
-        changes.extend((round(now_s, 2), str(a.intruder), a.level.name) for a in result.changes)
-        return result
+    class Changes:  # one more output port: the advisory changes, as (time, intruder, level)
+        def wants(self, now_s):
+            return NOTHING
 
-    runner.node.handle = recording
+        def publish(self, result):
+            changes.extend((round(result.time_s, 2), str(a.intruder), a.level.name) for a in result.changes)
+
+        def close(self):
+            pass
+
+    runner.loop.ports.append(Changes())
     try:
         runner.run()
     finally:

@@ -1,6 +1,6 @@
 """Trusted traffic sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's
 system, any component), and an intruder belongs to the first sender that reported it. The head-on encounter is
-flown through real pymavlink framing (sitl's autopilot and ADS-B receiver, FrameScanner, DaaNode) with a second
+flown through real pymavlink framing (sitl's autopilot and ADS-B receiver, FrameScanner, Harness) with a second
 MAVLink system sending the intruder's address at 5 Hz from somewhere harmless: it can neither take over the
 track nor suppress the RA. A fabricated intruder from an untrusted system gets nothing."""
 
@@ -18,10 +18,10 @@ from avionics.core.types import AddressSource, IntruderKey
 from avionics.io.decode import MessageDecoder
 from avionics.io.framing import FrameScanner
 from avionics.io.zenoh_bus import to_json
-from avionics.node import DaaNode
+from harness import Harness
 from sitl.autopilot import Packer, adsb_vehicle, schedule
 from sitl.impairments import PRESETS
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 from sitl.trajectory import KinematicState
 
 SCENARIO = load_encounter("head-on")
@@ -42,10 +42,10 @@ def spoof_report(t: float):
 
 def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10.0, spoof_hz: float = 5.0,
         real_intruder: bool = True, intruder_sender: tuple[int, int] | None = None):
-    """Fly the head-on on a 0.1 s grid through FrameScanner and DaaNode, as sitl.replay does. spoofer: the
+    """Fly the head-on on a 0.1 s grid through FrameScanner and Harness, as sitl.replay does. spoofer: the
     (system, component) of a second sender of the intruder's address; intruder_sender: who sends the real
     intruder's reports (default: the autopilot's ADS-B receiver, system 1 component 156)."""
-    node = DaaNode(config)
+    node = Harness(config)
     scanner = FrameScanner(node.counters)
     packer = Packer()
     fake_sender = m2.MAVLink(None, *spoofer) if spoofer else None
@@ -119,7 +119,7 @@ def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the
 
 def _status_payloads(node):
     node.zenoh_out.clear()
-    node._status.next_s = None  # due now
+    node.zenoh._status.next_s = None  # due now
     node.handle([], DURATION_S)
     return [(s, p) for s, p in node.zenoh_out if s == "status"]
 

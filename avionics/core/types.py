@@ -127,3 +127,47 @@ class Advisory:
     def ra_key(self) -> tuple:
         """What a pilot would hear change: level, sense, strength, reversal."""
         return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed)
+
+
+# An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as
+# "DAA UNAVAILABLE", at warning severity, never as "CLEAR OF CONFLICT".
+UNAVAILABLE_REASONS = ("no_ownship", "fault", "shutdown")
+
+
+@dataclass(frozen=True, slots=True)
+class TrackView:
+    """One intruder track as the facade publishes it (avionics/daa.py): identity, report bookkeeping, and the
+    state predicted to the result's time: x = (east, north, altitude, v_east, v_north, v_up) with the position in
+    the tracking plane (metres) and the velocity in true east/north at the aircraft; p its covariance (read-only)."""
+
+    key: IntruderKey
+    callsign: str | None
+    squawk: int | None
+    emitter_type: int
+    simulated: bool
+    last_report_s: float
+    n_updates: int
+    datum: AltitudeDatum | None
+    altitude_valid: bool  # an altitude report within tracking.max_coast_s
+    lat_deg: float
+    lon_deg: float
+    x: object  # numpy (6,)
+    p: object  # numpy (6, 6)
+    integrity: str  # "ok" | "degraded:<mode>"
+    integrity_fault_m: float | None
+    advisory: Advisory | None  # its latest assessment
+    modes: dict | None  # the IMM tracker's mode outputs (None for the CV filter)
+    spoof_suspected: bool
+
+    @classmethod
+    def of(cls, record, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None = None,
+           modes: dict | None = None, spoof_suspected: bool = False) -> "TrackView":
+        """The view of a tracker's record (tracking/record.py) with its predicted state; x and p made read-only."""
+        x.flags.writeable = False
+        p.flags.writeable = False
+        integrity = record.integrity
+        return cls(key=record.key, callsign=record.callsign, squawk=record.squawk, emitter_type=record.emitter_type,
+                   simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
+                   datum=record.datum, altitude_valid=altitude_valid, lat_deg=lat_deg, lon_deg=lon_deg, x=x, p=p,
+                   integrity=integrity.label, integrity_fault_m=integrity.fault_m if integrity.degraded else None,
+                   advisory=advisory, modes=modes, spoof_suspected=spoof_suspected)

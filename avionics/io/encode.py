@@ -7,7 +7,7 @@ import math
 import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
 
-from avionics.core.types import Advisory, AdvisoryLevel
+from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.core.units import FPM, FT
 
 THREAT_LEVEL = {
@@ -26,10 +26,7 @@ SEVERITY = {
     AdvisoryLevel.RA: mavlink2.MAV_SEVERITY_CRITICAL,
 }
 STATUSTEXT_LEN = 50
-# An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as
-# "DAA UNAVAILABLE", at warning severity, never as "CLEAR OF CONFLICT".
-UNAVAILABLE_REASONS = ("no_ownship", "fault", "shutdown")
-# Why DAA is unavailable (DaaNode.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
+# Why DAA is unavailable (DaaResult.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
 UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude": "no pressure altitude",
                      "fault": "fault", "shutdown": "shutdown"}
 
@@ -110,7 +107,7 @@ def advisory_severity(advisory: Advisory) -> int:
 
 
 def availability_text(reason: str | None, detail: str = "") -> str:
-    """"DAA UNAVAILABLE <why>[ <detail>]" (reason from DaaNode.unavailable_reason), or "DAA AVAILABLE"."""
+    """"DAA UNAVAILABLE <why>[ <detail>]" (reason: DaaResult.unavailable_reason), or "DAA AVAILABLE"."""
     if reason is None:
         return "DAA AVAILABLE"
     return " ".join(w for w in ("DAA UNAVAILABLE", UNAVAILABLE_WORDS.get(reason, reason), detail) if w)[:STATUSTEXT_LEN]

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from avionics import __version__
-from avionics.core.types import Advisory, AdvisoryLevel
-from avionics.tracking.tracker import IntruderTrack
+from avionics.core.types import Advisory, AdvisoryLevel, TrackView
 
 SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate, conflict probabilities
 
@@ -22,6 +19,9 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "address_source": advisory.intruder.source.value,
         "callsign": callsign,
         "level": advisory.level.name,
+        # the alerter's level number and name (advisory/alerting.py; tcas2: 0 NONE, 1 TA, 2 RA)
+        "alert_level": int(advisory.level),
+        "alert_name": advisory.level.name,
         "reason": advisory.reason,
         "time_s": advisory.time_s,
         "sensitivity_level": advisory.sensitivity_level,
@@ -58,13 +58,12 @@ TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s"
                            "pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_within_age_s")
 
 
-def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarray, p: np.ndarray,
-                  lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None,
-                  modes: dict | None = None, spoof_suspected: bool = False) -> dict:
-    """modes: the tracker's mode_infos entry for this track (IMM filters; None for the CV filter): filter
-    name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s, positive right),
-    vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink sender also
-    reported this intruder (its reports are dropped; docs/mavlink.md, "Trusted sources")."""
+def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
+    """One track as the facade publishes it (core/types.py TrackView). Its `modes` (IMM filters; None for the CV
+    filter): filter name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s,
+    positive right), vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink
+    sender also reported this intruder (its reports are dropped; docs/mavlink.md, "Trusted sources")."""
+    x, p, advisory, altitude_valid = track.x, track.p, track.advisory, track.altitude_valid
     ve, vn, vu = (float(v) for v in x[3:6])
     return {
         "schema": SCHEMA_VERSION,
@@ -76,14 +75,14 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "squawk": track.squawk,
         "emitter_type": track.emitter_type,
         "simulated": track.simulated,
-        "spoof_suspected": spoof_suspected,
+        "spoof_suspected": track.spoof_suspected,
         "model": "cv-kalman",  # an IMM filter's modes overwrite this with the filter's name
         "time_s": now_s,
         "last_report_s": track.last_report_s,
         "age_s": now_s - track.last_report_s,
         "updates": track.n_updates,
-        "lat_deg": lat_deg,
-        "lon_deg": lon_deg,
+        "lat_deg": track.lat_deg,
+        "lon_deg": track.lon_deg,
         "altitude_m": float(x[2]) if altitude_valid else None,
         "altitude_datum": track.datum.value if altitude_valid and track.datum else None,
         "velocity_enu_mps": [ve, vn, vu],
@@ -93,10 +92,10 @@ def track_payload(vehicle: str, track: IntruderTrack, now_s: float, x: np.ndarra
         "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
         "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
-        "integrity": track.integrity.label,  # "ok" | "degraded:<mode>" (docs/tracking.md, "Integrity monitor")
-        "integrity_fault_m": track.integrity.fault_m if track.integrity.degraded else None,
+        "integrity": track.integrity,  # "ok" | "degraded:<mode>" (docs/tracking.md, "Integrity monitor")
+        "integrity_fault_m": track.integrity_fault_m,
         **{name: getattr(advisory, name) if advisory else None for name in TRACK_ASSESSMENT_FIELDS},
-        **(modes or {}),
+        **(track.modes or {}),
     }
 
 

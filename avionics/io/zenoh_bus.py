@@ -22,14 +22,14 @@ Peer mode on loopback with multicast and gossip scouting off unless configured o
 from __future__ import annotations
 
 import json
-import math
 import threading
 import time
 from collections import Counter, deque
 
 import zenoh
 
-from avionics.config import ZenohConfig
+from avionics.core.jsonsafe import dumps
+from avionics.io.params import ZenohConfig
 
 SNAPSHOT_SCHEMA = 1
 # The publisher thread is Python too, so it must not take the interpreter lock or a CPU from the onboard
@@ -90,22 +90,9 @@ def open_session(cfg: ZenohConfig) -> zenoh.Session:
                             f"connect={list(cfg.connect)}): {exc}") from exc
 
 
-def _finite(value):
-    """JSON has no inf/NaN: an infinite tau becomes null."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
 def to_json(payload: dict) -> bytes:
-    try:  # the C encoder alone when every float is finite (most samples)
-        return json.dumps(payload, separators=(",", ":"), allow_nan=False).encode()
-    except ValueError:
-        return json.dumps(_finite(payload), separators=(",", ":"), allow_nan=False).encode()
+    """The payload as compact JSON; JSON has no inf/NaN: an infinite tau becomes null."""
+    return dumps(payload).encode()
 
 
 def advisory_state(payload: dict) -> tuple:

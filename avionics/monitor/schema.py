@@ -257,7 +257,8 @@ TRACK = {
     "vb_noise": _map(_num(0.0, 1e8), 16), "integrity": ID, "integrity_fault_m": DIST,
 }
 ADVISORY = {
-    **INTRUDER, "level": ID, "reason": TEXT, "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
+    **INTRUDER, "level": ID, "alert_level": _int(0, 9), "alert_name": ID, "reason": TEXT,
+    "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
     "ra_strength": ID, "ra_words": TEXT, "target_vertical_rate_mps": RATE, "ra_reversed": _bool,
     "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST, "integrity": ID,
 }

@@ -25,8 +25,6 @@ from __future__ import annotations
 import base64
 import hashlib
 import io
-import json
-import math
 import re
 import socket
 import sys
@@ -36,6 +34,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from urllib.parse import parse_qs, unquote, urlparse
 
+from avionics.core.jsonsafe import dumps  # inf/NaN as null
 from avionics.monitor.state import Cursor, FleetState
 
 MIN_PUSH_PERIOD_S = 0.1  # track updates are batched to at most 10 pushes per second
@@ -47,20 +46,6 @@ LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
 _BUSY_BODY = b"too many connections\n"
 _BUSY = (b"HTTP/1.0 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: %d\r\n"
          b"Retry-After: 1\r\nConnection: close\r\n\r\n%s") % (len(_BUSY_BODY), _BUSY_BODY)
-
-
-def _clean(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    return value
-
-
-def dumps(obj) -> str:
-    return json.dumps(_clean(obj), separators=(",", ":"), allow_nan=False)
 
 
 def page_html() -> bytes:

@@ -1,4 +1,4 @@
-"""Advisory reports. `python -m avionics.reports.advisories closed-loop [--noise default] [--seed N]` prints,
+"""Advisory reports. `python -m avionics_eval.reports.advisories closed-loop [--noise default] [--seed N]` prints,
 for each built-in encounter, the RA history and the vertical miss at CPA with and without ownship flying
 the RAs (the SITL response model, fast time, every MAVLink frame encoded and decoded)."""
 
@@ -19,7 +19,7 @@ ENCOUNTERS = ("head-on", "crossing-90", "overtaking", "climbing-intruder", "baek
 def closed_loop(noise: str = "default", seed: int = 1, profile: str = "tcas2") -> dict:
     from sitl.impairments import PRESETS
     from sitl.replay import replay
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     config = load_config(overrides=["zenoh.enabled=false", f'advisory.profile="{profile}"'])
     levels = {}
@@ -46,7 +46,7 @@ def closed_loop(noise: str = "default", seed: int = 1, profile: str = "tcas2") -
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.reports.advisories")
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.reports.advisories")
     sub = parser.add_subparsers(dest="report", required=True)
     p = sub.add_parser("closed-loop", help="vertical miss at CPA with and without flying the RAs")
     p.add_argument("--noise", default="default", choices=("none", "default"))

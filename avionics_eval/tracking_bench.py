@@ -1,6 +1,6 @@
 """Tracking benchmark: microseconds per track update of the vectorised IMM against filterpy's IMMEstimator.
 
-    python -m avionics.tracking.bench [--sizes 1,10,100,1000] [--cycles 30]
+    python -m avionics_eval.tracking_bench [--sizes 1,10,100,1000] [--cycles 30]
 
 Prints JSON. Three timings, all in this process, on the same machine, in one run:
 
@@ -23,14 +23,14 @@ from collections import Counter
 
 import numpy as np
 
+from avionics.compose import build_tracker
 from avionics.config import load_config
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import models
-from avionics.tracking.imm import ImmBank, ModeSpec
-from avionics.tracking.imm_tracker import ImmTracker
+from avionics.tracking.imm import ImmBank
 
 SIGMA = np.array([50.0, 50.0, 3.0, 3.0])  # Hwang's example: 50 m, 3 m/s
-MODES = [ModeSpec("cv", 0.05), ModeSpec("ct", 3.0)]
+MODES = [models.ConstantVelocity(0.05), models.CoordinatedTurn(3.0)]
 
 
 CLOCK = time.process_time  # CPU time of this process: robust to other processes sharing the cores
@@ -82,7 +82,7 @@ def bench_tracker(n: int, cycles: int, filter_name: str = "imm") -> float:
     batches = [_reports(n, float(k), rng) for k in range(cycles + 3)]
 
     def run():
-        tracker = ImmTracker(config, Counter(), capacity=n)
+        tracker = build_tracker(config, Counter(), capacity=n)
         tracker.ingest_many(*batches[0])  # initiation is not timed below
         t0 = CLOCK()
         for reps, e, no in batches[1:]:
@@ -136,7 +136,7 @@ def bench(sizes=(1, 10, 100, 1000), cycles: int = 30) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.tracking.bench", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.tracking_bench", description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", default="1,10,100,1000")
     parser.add_argument("--cycles", type=int, default=30)
     args = parser.parse_args(argv)

@@ -36,7 +36,9 @@ from avionics.core.units import KT
 from avionics.io.framing import FrameScanner
 from avionics.io.link import MAX_DATAGRAMS_PER_RECEIVE
 from avionics.io.zenoh_bus import ZenohBus
-from avionics.node import DaaNode
+from avionics.daa import Daa
+from avionics.loop import Batch, Loop, MavlinkInput
+from avionics.ports import MavlinkOut, ZenohOut
 
 LAT0, LON0, ALT0 = 47.40, 8.55, 1500.0
 
@@ -84,59 +86,67 @@ def _traffic(n: int, seconds: float, seed: int = 1):
     return events
 
 
+class _Sent:
+    """Counts what the ports send: MAVLink packed for the wire, zenoh samples queued on the bus."""
+
+    def __init__(self, bus: ZenohBus):
+        self.count, self.bus = 0, bus
+        self.mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=191)
+
+    def mavlink(self, msg) -> None:
+        msg.pack(self.mav)
+        self.count += 1
+
+    def zenoh(self, suffix: str, payload: dict) -> None:
+        self.bus.publish(suffix, payload)
+        self.count += 1
+
+
 def _setup(n: int, seconds: float, port: int):
+    """The live loop's parts (avionics/runner.py) without the socket: MAVLink input, facade, MAVLink and zenoh
+    ports; the bench makes the batches."""
     config = load_config(overrides=[f'zenoh.listen=["tcp/127.0.0.1:{port}"]'])
     counters: Counter = Counter()
-    node = DaaNode(config, counters)
-    return config, counters, node, FrameScanner(counters), ZenohBus(config.zenoh, config.vehicle.id), \
-        mavlink2.MAVLink(None, srcSystem=1, srcComponent=191), _traffic(n, seconds)
+    bus = ZenohBus(config.zenoh, config.vehicle.id)
+    sent = _Sent(bus)
+    mavlink = MavlinkInput(config, counters)
+    loop = Loop(Daa(config, counters), mavlink, [MavlinkOut(sent.mavlink, config), ZenohOut(sent.zenoh, config)])
+    return config, counters, loop, mavlink, FrameScanner(counters), bus, sent, _traffic(n, seconds)
 
 
-def _flush(node: DaaNode, bus: ZenohBus, out_mav) -> int:
-    for msg in node.mavlink_out:
-        msg.pack(out_mav)
-    for suffix, payload in node.zenoh_out:
-        bus.publish(suffix, payload)
-    sent = len(node.mavlink_out) + len(node.zenoh_out)
-    node.mavlink_out.clear()
-    node.zenoh_out.clear()
-    return sent
-
-
-def _summary(node: DaaNode, counters: Counter, lat_s: list[float], outputs: int) -> dict:
+def _summary(loop: Loop, counters: Counter, lat_s: list[float], outputs: int) -> dict:
     lat_us = np.array(lat_s) * 1e6
     return {
         "latency_us_p50": round(float(np.percentile(lat_us, 50)), 1),
         "latency_us_p99": round(float(np.percentile(lat_us, 99)), 1),
         "latency_us_max": round(float(lat_us.max()), 1),
-        "tracks": len(node.core.tracker.tracks),
-        "alerts_at_end": sum(a.level > 0 for a in node.core.advisories().values()),
+        "tracks": loop.daa.status(loop.now_s)["tracks"],
+        "alerts_at_end": len(loop.last.active) if loop.last else 0,
         "outputs": outputs,
         "rejected": sum(v for k, v in counters.items() if not k.startswith(("rx.", "track.", "assessment."))),
     }
 
 
 def _run_per_report(n: int, seconds: float, port: int) -> dict:
-    config, counters, node, scanner, bus, out_mav, events = _setup(n, seconds, port)
-    latencies, outputs = [], 0
+    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port)
+    latencies = []
     wall_start = time.perf_counter()
     for t, data, is_report in events:
         t0 = time.perf_counter()
-        node.handle(scanner.feed(data, end_of_datagram=True), t)
-        outputs += _flush(node, bus, out_mav)
+        loop.last = loop.step(Batch(t, mavlink.decode(scanner.feed(data, end_of_datagram=True), t)))
         if is_report:
             latencies.append(time.perf_counter() - t0)
     wall = time.perf_counter() - wall_start
     bus.close()
     return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
             "reports_per_s": round(len(latencies) / wall, 1), "realtime_factor": round(seconds / wall, 2),
-            **_summary(node, counters, latencies, outputs)}
+            **_summary(loop, counters, latencies, sent.count)}
 
 
 def _run_real_time(n: int, seconds: float, port: int) -> dict:
-    config, counters, node, scanner, bus, out_mav, events = _setup(n, seconds, port)
+    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port)
     tick = 1.0 / config.advisory.assessment_hz
-    latencies, outputs, busy, steps, biggest = [], 0, 0.0, 0, 0
+    latencies, busy, steps, biggest = [], 0.0, 0, 0
     i = 0
     start = time.perf_counter()
     last_step = 0.0
@@ -155,8 +165,7 @@ def _run_real_time(n: int, seconds: float, port: int) -> dict:
             if is_report:
                 arrived.append(t)
             i += 1
-        node.handle(msgs, now)
-        outputs += _flush(node, bus, out_mav)
+        loop.last = loop.step(Batch(now, mavlink.decode(msgs, now)))
         t1 = time.perf_counter()
         busy += t1 - t0
         steps += 1
@@ -167,7 +176,7 @@ def _run_real_time(n: int, seconds: float, port: int) -> dict:
     bus.close()
     return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
             "cpu_load": round(busy / wall, 3), "lag_at_end_s": round(max(0.0, wall - events[-1][0]), 3),
-            "steps": steps, "largest_batch": biggest, **_summary(node, counters, latencies, outputs)}
+            "steps": steps, "largest_batch": biggest, **_summary(loop, counters, latencies, sent.count)}
 
 
 def bench(intruder_counts: list[int], seconds: float) -> dict:

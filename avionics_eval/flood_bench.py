@@ -1,8 +1,8 @@
 """Overload benchmarks (JSON on stdout): framing throughput on garbage, and a garbage flood over real UDP.
 
-    python -m avionics.io.flood_bench framing [--reference OLD_framing.py] [--datagrams 40]
-    python -m avionics.io.flood_bench flood [--rate 1e6] [--size 8192] [--kind markers] [--repeat 1]
-    python -m avionics.io.flood_bench all
+    python -m avionics_eval.flood_bench framing [--reference OLD_framing.py] [--datagrams 40]
+    python -m avionics_eval.flood_bench flood [--rate 1e6] [--size 8192] [--kind markers] [--repeat 1]
+    python -m avionics_eval.flood_bench all
 
 `framing`: FrameScanner.feed() on 64 KiB datagrams (UDP) and on the same bytes as a stream in 4 KiB chunks
 (TCP/serial), per kind of input: uniform random bytes, bytes a quarter / half of which are 0xFD/0xFE, crafted
@@ -226,7 +226,7 @@ def _run_encounter(scenario_name: str, start_s: float, duration_s: float, flood:
     from avionics.config import ZenohConfig
     from sitl.impairments import PRESETS
     from sitl.live import fly
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     scenario = load_encounter(scenario_name)
     port, zport = _free_port(socket.SOCK_DGRAM), _free_port()
@@ -255,7 +255,7 @@ def _run_encounter(scenario_name: str, start_s: float, duration_s: float, flood:
     try:
         if flood is not None:
             flood_proc = subprocess.Popen([
-                sys.executable, "-m", "avionics.io.flood_bench", "_flood", "--port", str(port),
+                sys.executable, "-m", "avionics_eval.flood_bench", "_flood", "--port", str(port),
                 "--rate", str(flood["rate"]), "--size", str(flood["size"]), "--seconds", f"{duration_s:.3f}",
                 "--kind", flood["kind"], "--seed", str(seed)], stdout=subprocess.PIPE, text=True)
             if flood_proc.stdout.readline().strip() != "ready":
@@ -337,7 +337,7 @@ def _header() -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.io.flood_bench", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.flood_bench", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="mode", required=True)
     for name in ("framing", "all"):
         p = sub.add_parser(name)

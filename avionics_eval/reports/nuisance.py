@@ -1,4 +1,4 @@
-"""Nuisance-alert study: `python -m avionics.reports.nuisance [--encounters 500] [--seed 1]` prints JSON.
+"""Nuisance-alert study: `python -m avionics_eval.reports.nuisance [--encounters 500] [--seed 1]` prints JSON.
 
 Random encounters at 3000 ft (TCAS SL 4) with ADS-B noise (sitl.impairments.DEFAULT): ownship northbound at
 150 kt; an intruder from a random direction at 100-250 kt whose true closest approach at t = 60 s misses by a
@@ -143,7 +143,7 @@ def study(n: int = 500, seed: int = 1, overrides=()) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.reports.nuisance")
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.reports.nuisance")
     parser.add_argument("--encounters", type=int, default=500)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--set", action="append", default=[], help="config override for every criterion")

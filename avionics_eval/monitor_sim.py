@@ -1,9 +1,9 @@
 """A simulated vehicle for monitor tests, demos and fleets: the SITL autopilot's MAVLink schedule drives a real
-DaaNode on a real clock (optionally sped up), and a real ZenohBus publishes what it queues, exactly as
-`avionics run` does, minus the UDP link. It measures its own loop: how long each tick's handle()+publish()
+DAA loop on a real clock (optionally sped up), and a real ZenohBus publishes what its zenoh port sends, exactly
+as `avionics run` does, minus the UDP link. It measures its own loop: how long each tick's handle()+publish()
 takes and how late each tick starts, so the cost of zenoh on the onboard loop can be read off.
 
-    python -m avionics.monitor.sim --vehicle uav2 --scenario crossing-90 --connect tcp/127.0.0.1:7447 --report r.json
+    python -m avionics_eval.monitor_sim --vehicle uav2 --scenario crossing-90 --connect tcp/127.0.0.1:7447 --report r.json
 """
 
 from __future__ import annotations
@@ -21,10 +21,12 @@ import avionics.io  # noqa: F401  (MAVLink 2)
 from avionics.config import Config, load_config
 from avionics.io.framing import FrameScanner
 from avionics.io.zenoh_bus import ZenohBus
-from avionics.node import DaaNode
+from avionics.daa import Daa
+from avionics.loop import Batch, Loop, MavlinkInput
+from avionics.ports import ZenohOut
 from sitl.autopilot import Packer, schedule
 from sitl.impairments import PRESETS
-from sitl.scenario import load_encounter
+from sitl.encounters import load_encounter
 
 
 def _percentiles(values: list[float]) -> dict:
@@ -50,11 +52,12 @@ class SimVehicle:
         self.end_s = self.scenario.duration_s if end_s is None else min(end_s, self.scenario.duration_s)
         self.speed = speed
         self.counters: Counter = Counter()
-        self.node = DaaNode(config, self.counters)
         self.bus = ZenohBus(config.zenoh, config.vehicle.id, session=session, counters=self.counters)
+        self.mavlink = MavlinkInput(config, self.counters)
+        self.loop = Loop(Daa(config, self.counters), self.mavlink, [ZenohOut(self._publish, config)])
         self._events = [e for e in schedule(self.scenario, PRESETS[noise], seed, duration_s=self.end_s)
                         if e.deliver_s >= start_s - 10.0]  # 10 s of history before the start: tracks exist
-        self.changes: list = []  # (wall time, Advisory) of every change the node made
+        self.changes: list = []  # (wall time, Advisory) of every change the DAA made
         self.ticks: list[tuple[float, float, float]] = []  # (wall_s since start, work_s, lateness_s)
         self.publish_calls: list[float] = []  # seconds per bus.publish() call
         self.stop = threading.Event()
@@ -80,7 +83,7 @@ class SimVehicle:
         # catch up on the 10 s before start_s in fast time: tracks, filters and the bus's picture warmed up
         while i < len(self._events) and self._events[i].deliver_s < self.start_s:
             e = self._events[i]
-            self._step(scanner.feed(packer.pack(e.msg), end_of_datagram=True), e.deliver_s, publish=True)
+            self._step(scanner.feed(packer.pack(e.msg), end_of_datagram=True), e.deliver_s)
             i += 1
         wall0 = time.monotonic()
         k = 0
@@ -97,23 +100,21 @@ class SimVehicle:
             while i < len(self._events) and self._events[i].deliver_s <= t + 1e-9:
                 msgs.extend(scanner.feed(packer.pack(self._events[i].msg), end_of_datagram=True))
                 i += 1
-            self._step(msgs, t, publish=True)
+            self._step(msgs, t)
             work = time.monotonic() - started
             self.ticks.append((started - wall0, work, max(0.0, started - due_wall)))
             self.sim_time_s = t
             k += 1
 
-    def _step(self, msgs, t: float, publish: bool) -> None:
-        result = self.node.handle(msgs, t)
+    def _step(self, msgs, t: float) -> None:
+        result = self.loop.step(Batch(t, self.mavlink.decode(msgs, t)))
         for a in result.changes:
             self.changes.append((time.time(), a))
-        self.node.mavlink_out.clear()
-        if publish:
-            for suffix, payload in self.node.zenoh_out:
-                c0 = time.perf_counter()
-                self.bus.publish(suffix, payload)
-                self.publish_calls.append(time.perf_counter() - c0)
-        self.node.zenoh_out.clear()
+
+    def _publish(self, suffix: str, payload: dict) -> None:
+        c0 = time.perf_counter()
+        self.bus.publish(suffix, payload)
+        self.publish_calls.append(time.perf_counter() - c0)
 
     def wait_until(self, sim_time_s: float, timeout_s: float = 60.0) -> bool:
         deadline = time.monotonic() + timeout_s
@@ -134,7 +135,7 @@ class SimVehicle:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m avionics.monitor.sim", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m avionics_eval.monitor_sim", description=__doc__.split("\n\n")[0])
     p.add_argument("--vehicle", default="sim1")
     p.add_argument("--scenario", default="head-on")
     p.add_argument("--start", type=float, default=0.0, help="scenario time to start at (s)")

@@ -23,29 +23,15 @@ import time
 
 from avionics.config import ZenohConfig
 from avionics.core.units import FT
+from sitl.encounters import ScenarioError, load_scenario  # noqa: F401  (ScenarioError: exit 2, avionics_eval.cli)
 
 DEMO_START_S = {"head-on": 40.0}  # skip the quiet minute of the head-on: TA ~15 s into the demo
 THREAT = {0: "NONE", 1: "TA  ", 2: "RA  "}
 START_TIMEOUT_S = 30.0  # for the onboard process to listen on its zenoh port
 
 
-class ScenarioError(ValueError):
-    """The encounter cannot be loaded: an unknown name, or a scenario file that cannot be read or parsed."""
-
-
 class OnboardError(RuntimeError):
     """The onboard process did not start, or exited before the demo stopped it."""
-
-
-def load_scenario(spec: str):
-    """sitl.scenario.load_encounter, with its ValueError (every bad name, file or field) as a ScenarioError."""
-    from sitl.scenario import load_encounter
-
-    try:
-        return load_encounter(spec)
-    except ValueError as exc:
-        message = str(exc)
-        raise ScenarioError(message if spec in message else f"scenario {spec!r}: {message}") from exc
 
 
 def check_ports_free(port: int, zenoh_port: int) -> None:

@@ -1,13 +1,13 @@
 """Monitor throughput benchmark: how many track updates and advisories per second the monitor takes in with
 500 intruders, and the page's frame rate while it does.
 
-A publisher process (`python -m avionics.monitor.bench publish ...`) plays a vehicle `bench` with N intruders:
+A publisher process (`python -m avionics_eval.monitor_bench publish ...`) plays a vehicle `bench` with N intruders:
 phase `nominal` sends every track at 2 Hz (as `avionics run` does) plus advisory changes; phase `max` sends
 as fast as it can. This process runs the monitor (FleetState + ZenohFeed + web server), counts what it applied
 and how late (publisher wall clock in the payload -> applied), and optionally measures the page in headless
 Chromium (frames drawn per second with every frame redrawn). Output: JSON.
 
-    python -m avionics.monitor.bench --intruders 500 [--browser] [--out bench.json]
+    python -m avionics_eval.monitor_bench --intruders 500 [--browser] [--out bench.json]
 """
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def run_bench(intruders: int = 500, nominal_s: float = 4.0, max_s: float = 3.0, 
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     endpoint = f"tcp/127.0.0.1:{port}"
-    pub = subprocess.Popen([sys.executable, "-m", "avionics.monitor.bench", "publish", "--connect", endpoint,
+    pub = subprocess.Popen([sys.executable, "-m", "avionics_eval.monitor_bench", "publish", "--connect", endpoint,
                             "--intruders", str(intruders), "--nominal", str(nominal_s), "--max", str(max_s)],
                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     result: dict = {"benchmark": "avionics monitor: zenoh -> FleetState -> SSE -> page", "intruders": intruders,
@@ -239,7 +239,7 @@ def run_bench(intruders: int = 500, nominal_s: float = 4.0, max_s: float = 3.0, 
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m avionics.monitor.bench", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m avionics_eval.monitor_bench", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd")
     pp = sub.add_parser("publish")
     pp.add_argument("--connect", required=True, help="endpoint to listen on (the monitor connects)")

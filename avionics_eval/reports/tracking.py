@@ -1,4 +1,4 @@
-"""Tracking reports: `python -m avionics.reports.tracking {hwang,baek-bang-1,dai-vb,equivalence,replay,bench}`.
+"""Tracking reports: `python -m avionics_eval.reports.tracking {hwang,baek-bang-1,dai-vb,equivalence,replay,bench}`.
 
 Each prints JSON (the numbers quoted in docs/tracking.md) and the first three write a plot to docs/img/.
 
@@ -14,7 +14,7 @@ dai-vb       Dai et al.: VB-IMM noise estimate against an injected sinusoidal AD
 equivalence  The standard IMM against filterpy's IMMEstimator, identical models, 300 steps: largest differences.
 replay       `sitl replay` TA/RA onsets with the default ADS-B noise against noise-free, per filter, on the
              built-in encounters, several seeds (the default-filter decision of docs/tracking.md).
-bench        avionics.tracking.bench (us per track update, N = 1..1000, filterpy in the same run).
+bench        avionics_eval.tracking_bench (us per track update, N = 1..1000, filterpy in the same run).
 integrity    ADS-B integrity monitor (tracking/integrity.py): Dai et al.'s failure modes (loss, step, ramp,
              oscillation) and a frozen position injected into random encounters (default 100 per mode), detection
              rate and delay per mode; false detections on clean tracks per track-hour; the frozen 150 kt case.
@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from avionics.config import load_config
-from avionics.reports import save_figure
+from avionics_eval.reports import save_figure
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import models
-from avionics.tracking.imm import ImmBank, ModeSpec
+from avionics.tracking.imm import ImmBank
 
 IMG_DIR = Path(__file__).resolve().parents[2] / "docs" / "img"
 
@@ -62,7 +62,7 @@ def builtin_truth(name: str, t_end: float, dt: float = 1.0, intruder: int = 0):
     return times, states, rate
 
 
-def monte_carlo(truth: np.ndarray, turning: np.ndarray, modes: list[ModeSpec], sigma: np.ndarray, runs: int,
+def monte_carlo(truth: np.ndarray, turning: np.ndarray, modes: list[models.MotionModel], sigma: np.ndarray, runs: int,
                 seed: int = 0, likelihood: str = "standard", switch: float = 0.05, floor: float = RMIMM_FLOOR,
                 accel0: float = 3.0, dt: float = 1.0) -> dict:
     """`runs` noisy realisations of a horizontal truth tracked by one ImmBank (one run per slot, all runs in
@@ -78,7 +78,7 @@ def monte_carlo(truth: np.ndarray, turning: np.ndarray, modes: list[ModeSpec], s
     bank.init(slots, x0, np.diag(np.r_[sigma**2, accel0**2, accel0**2]))
     r = np.broadcast_to(sigma**2, (runs, 4))
     mask = np.ones((runs, 4), bool)
-    manoeuvre = np.array([m.kind != "cv" for m in modes])
+    manoeuvre = np.array([m.name != "cv" for m in modes])
     pos2, vel2, false, mu, yaw = [], [], [], [], []
     for k in range(1, k_steps):
         bank.commit(bank.update(slots, dt, z[:, k], mask, r))
@@ -111,7 +111,7 @@ def _public(d: dict) -> dict:
 def hwang(runs: int = 100, seed: int = 0, plot: bool = True) -> dict:
     times, truth, rate = builtin_truth("hwang-tracking", 150.0)
     turning = np.abs(rate) > 1e-6
-    modes = [ModeSpec(k, s) for k, s in HWANG_MODES]
+    modes = [models.ConstantVelocity(HWANG_MODES[0][1]), models.CoordinatedTurn(HWANG_MODES[1][1])]
     raw = np.sqrt(((np.random.default_rng(seed + 1).normal(size=(runs, 150, 4)) * HWANG_SIGMA) ** 2).mean(axis=(0, 1)))
     out = {
         "scenario": "sitl hwang-tracking, 0-150 s at 1 Hz; measurement sigma 50 m and 3 m/s per axis",
@@ -177,7 +177,7 @@ def baek_bang_1(runs: int = 100, seed: int = 0, plot: bool = True) -> dict:
     times, truth, rate = builtin_truth("baek-bang-1", 130.0)
     turning = np.abs(rate) > 1e-6
     sigma = np.array([DEFAULT.position_sigma_m] * 2 + [DEFAULT.velocity_sigma_mps] * 2)
-    modes = [ModeSpec("cv", 0.3), ModeSpec("ca", 3.0, heading_noise=True)]
+    modes = [models.ConstantVelocity(0.3), models.ConstantAcceleration(3.0, heading_noise=True)]
     res = monte_carlo(truth, turning, modes, sigma, runs, seed, switch=0.05)
     mu_ca = res["_mu"][:, 1]
     t = times[1:]
@@ -252,11 +252,11 @@ def noisy_reports(sigma_pos: np.ndarray, speed: float = 120.0, seed: int = 0, ve
 def track_reports(filter_name: str, reports, truth, extra=()):
     """Feed reports one by one to the tracker the configuration selects; per step: position error (m) and the
     VB position-noise estimate (m, NaN without VB); and the counters."""
-    from avionics.tracking.imm_tracker import make_tracker
+    from avionics.compose import build_tracker
 
     cfg = load_config(overrides=[f"tracking.filter={filter_name}", *extra]).tracking
     counters: Counter = Counter()
-    tracker = make_tracker(cfg, counters)
+    tracker = build_tracker(cfg, counters)
     err, est = [], []
     for (rep, e, n), (te, tn) in zip(reports, truth):
         tracker.ingest(rep, e, n)
@@ -356,7 +356,7 @@ def equivalence(steps: int = 300, seed: int = 1) -> dict:
     from filterpy.kalman import IMMEstimator, KalmanFilter
 
     rng = np.random.default_rng(seed)
-    modes = [ModeSpec(k, s) for k, s in HWANG_MODES]
+    modes = [models.ConstantVelocity(HWANG_MODES[0][1]), models.CoordinatedTurn(HWANG_MODES[1][1])]
     trans = models.switching_matrix(2, 0.05)
     r = HWANG_SIGMA**2
     h = np.eye(4, 6)
@@ -364,7 +364,7 @@ def equivalence(steps: int = 300, seed: int = 1) -> dict:
     bank.init([0], np.array([0.0, 0.0, 247.0, 0.0, 0.0, 0.0]), np.diag(np.r_[r, 9.0, 9.0]))
     filters = []
     for j, mode in enumerate(modes):
-        f, _, q = mode.build(np.array([1.0]), np.zeros((1, 6)), None)
+        f, _, q = mode.matrices(np.array([1.0]), np.zeros((1, 6)), None)
         kf = KalmanFilter(6, 4)
         kf.F, kf.Q, kf.H, kf.R = f[0], q[0], h, np.diag(r)
         kf.x, kf.P = bank.x[0, j].copy(), bank.p[0, j].copy()
@@ -396,7 +396,7 @@ def replay_onsets(filters=("cv", "imm", "rmimm", "vb-imm"), seeds=(7, 1, 2, 3, 4
                   names=("head-on", "crossing-90", "overtaking", "climbing-intruder")) -> dict:
     from sitl.impairments import PRESETS
     from sitl.replay import replay
-    from sitl.scenario import load_encounter
+    from sitl.encounters import load_encounter
 
     def onset(result, level):
         return next((c.time_s for c in result.changes if c.level.name == level), None)
@@ -438,7 +438,7 @@ OSC_PERIOD_S = (10.0, 60.0)
 
 def _random_legs(rng, duration_s: float):
     """A leg program of straight segments and standard-rate-or-less turns, some with climbs (sitl Leg)."""
-    from sitl.scenario import Leg
+    from sitl.aircraft import Leg
 
     legs, t = [], 0.0
     while t < duration_s:
@@ -510,7 +510,7 @@ def _run_integrity(fault: str | None, n: int, seed: int, duration_s: float, filt
     """n intruders in one tracker (vectorised), reports applied in receipt order on a 0.1 s assessment grid (as
     the pipeline's 10 Hz assessments); per key: first time degraded at or after the onset, labels seen, restarts."""
     from avionics.core.geodesy import LocalTangentPlane
-    from avionics.tracking.imm_tracker import make_tracker
+    from avionics.compose import build_tracker
 
     plane = LocalTangentPlane(47.4, 8.5)
     rng = np.random.default_rng(seed)
@@ -524,7 +524,7 @@ def _run_integrity(fault: str | None, n: int, seed: int, duration_s: float, filt
         infos.append(info)
     stream.sort(key=lambda r: r[0])
     counters: Counter = Counter()
-    tracker = make_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
+    tracker = build_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
     first = [None] * n
     labels = [Counter() for _ in range(n)]
     false_first = []  # clean run: (key index, time) of each ok -> degraded transition
@@ -626,11 +626,11 @@ def _poisson_upper_95(k: int) -> float:
 def frozen_case(filter_name: str = "imm", seed: int = 5) -> dict:
     """The measured OpenSky case: position frozen for 300 s while the velocity says 150 kt (after 60 s clean)."""
     from avionics.core.units import KT
-    from avionics.tracking.imm_tracker import make_tracker
+    from avionics.compose import build_tracker
 
     rng = np.random.default_rng(seed)
     counters: Counter = Counter()
-    tracker = make_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
+    tracker = build_tracker(load_config(overrides=[f"tracking.filter={filter_name}"]).tracking, counters)
     v = 150 * KT
     flagged = 0
     for k in range(360):
@@ -665,7 +665,8 @@ def monitor_cost(n: int = 2000) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.reports.tracking", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.reports.tracking",
+                                     description=__doc__.split("\n")[0])
     parser.add_argument("report", choices=["hwang", "baek-bang-1", "dai-vb", "equivalence", "replay", "bench",
                                            "integrity"])
     parser.add_argument("--runs", type=int, default=None, help="Monte Carlo runs (hwang 100, baek-bang-1 100, "
@@ -686,7 +687,7 @@ def main(argv=None) -> int:
     elif args.report == "integrity":
         res = integrity(args.runs or 100)
     else:
-        from avionics.tracking.bench import bench
+        from avionics_eval.tracking_bench import bench
 
         res = bench()
     print(json.dumps(res, indent=1))

@@ -1,4 +1,4 @@
-"""Conflict-probability reports: `python -m avionics.reports.conflict {scenario2,scenario1,bench}` prints JSON.
+"""Conflict-probability reports: `python -m avionics_eval.reports.conflict {scenario2,scenario1,bench}` prints JSON.
 
 scenario2   Baek & Bang scenario 2 (overtake with 2 nm lateral clearance, R = 2 nm), the table of their Fig. 9:
             Pc over time by one block, set of blocks (several N), Paielli-Erzberger (Hwang eq 24) and exact,
@@ -30,9 +30,10 @@ import numpy as np
 from scipy import integrate
 
 from avionics.conflict import probability as prob
-from avionics.conflict.prediction import ModeSet, combine, imm_predict, model_predict, tracking_model
+from avionics.conflict.prediction import ModeSet, combine, imm_predict, model_predict
 from avionics.core.units import KT, NM
-from avionics.reports import save_figure
+from avionics.tracking import models
+from avionics_eval.reports import save_figure
 
 IMG_DIR = Path(__file__).resolve().parents[2] / "docs" / "img"
 
@@ -252,8 +253,8 @@ def _scenario1_run(seed: int, plot: bool) -> dict:
     truth = scenario1_truth(t)
     r_var = np.array([SIGMA_POS_M**2] * 2 + [SIGMA_VEL_MPS**2] * 2)
     meas = truth + rng.standard_normal(truth.shape) * np.sqrt(r_var)
-    cv = tracking_model("cv", SIGMA_CV)
-    ca = tracking_model("ca", SIGMA_CA, heading_noise=True)  # Baek & Bang eq 31
+    cv = models.ConstantVelocity(SIGMA_CV)
+    ca = models.ConstantAcceleration(SIGMA_CA, heading_noise=True)  # Baek & Bang eq 31
     modes = ModeSet((cv, ca), PI, ("cv", "ca"))
     xm, pm, mu = _imm_filter(meas, modes, r_var)
     xc, pc = combine(xm, pm, mu)  # (K, 6), (K, 6, 6)
@@ -449,7 +450,7 @@ def bench(n: int = 10_000, seed: int = 7, n_dblquad: int = 50) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m avionics.reports.conflict")
+    parser = argparse.ArgumentParser(prog="python -m avionics_eval.reports.conflict")
     sub = parser.add_subparsers(dest="report", required=True)
     p2 = sub.add_parser("scenario2", help="Baek & Bang scenario 2 table (Fig. 9)")
     p2.add_argument("--no-plot", action="store_true")

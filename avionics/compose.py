@@ -1,0 +1,132 @@
+"""The composition root: every variant of the core (tracker, motion models, gating, persistence, prefilter,
+Pc method, alerter) is built here from the configuration, and nowhere else. The stages receive objects, never
+strings that name a variant. `build_components` is what the core (pipeline.py DaaCore) is made of; a shell
+or a test may hand the core other objects behind the same interfaces instead."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Components:
+    """The core's parts: the alerting profile (data) and the objects built from it and from the configuration."""
+
+    profile: object  # advisory/tables.py Profile: sensitivity levels, inhibits, response model
+    levels: object  # LevelSelector: the sensitivity level from altitude
+    alerter: object  # advisory/alerting.py Alerter: the alert levels, each with its detector
+    gate: object  # advisory/gating.py AlertGate: criterion and persistence
+    resolution: object  # advisory/resolution.py ResolutionLogic: RA sense and strength
+    inhibits: object  # advisory/inhibits.py LowAltitudeInhibits
+    conflict: object  # conflict/assess.py ConflictAssessor: prefilter and Pc method
+    tracker: object  # tracking/interface.py Tracker
+
+
+def build_components(config, counters: Counter) -> Components:
+    """Every part of the core from a validated configuration (avionics/config.py)."""
+    from avionics.advisory.inhibits import LowAltitudeInhibits
+    from avionics.advisory.resolution import ResolutionLogic
+    from avionics.advisory.tables import LevelSelector, load_profile
+
+    profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
+    return Components(
+        profile=profile, levels=LevelSelector(profile), alerter=build_alerter(profile, config.advisory),
+        gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
+        conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
+
+
+def build_tracker(tracking_params, counters, capacity: int = 16):
+    """The intruder tracker tracking.filter names (docs/tracking.md): cv, one CV Kalman filter per track
+    (tracking/tracker.py); imm, rmimm (Hwang eqs 11-14's residual-mean likelihood), vb-imm, vb-rmimm (Dai eqs
+    17-25's variational-Bayes measurement noise), the IMM tracker (tracking/imm_tracker.py) over the motion
+    models of tracking.imm_horizontal_modes and imm_vertical_modes (tracking/models.py); capacity: the IMM
+    banks' initial number of track slots (they grow as needed)."""
+    from avionics.tracking import models
+    from avionics.tracking.imm import VbParams
+    from avionics.tracking.imm_tracker import ImmTracker
+    from avionics.tracking.tracker import IntruderTracker
+
+    t = tracking_params
+    if t.filter == "cv":
+        return IntruderTracker(t, counters)
+    motion = {  # the mode filters by name, their noise from [tracking]
+        "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2),  # Baek & Bang eq 5
+        "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2, heading_noise=True),  # eq 6 with eq 31
+        "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2),  # Hwang eq 18
+        "cs": lambda: models.CurrentStatistical(t.imm_cs_alpha_per_s, t.imm_cs_max_accel_mps2),  # Dai eqs 8-12
+        "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps),  # Baek & Bang eq 7
+        "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2),  # Baek & Bang eq 8
+    }
+    vb = VbParams(t.vb_iterations, t.vb_c1, t.vb_c2, t.vb_c3) if t.filter.startswith("vb-") else None
+    return ImmTracker(t, counters, [motion[k]() for k in t.imm_horizontal_modes],
+                      [motion[k]() for k in t.imm_vertical_modes],
+                      likelihood="rmimm" if "rmimm" in t.filter else "standard", vb=vb, name=t.filter,
+                      capacity=capacity)
+
+
+def build_alerter(profile, advisory_params):
+    """The alerter (advisory/alerting.py): the `tcas2` alerter, levels 1 "TA" and 2 "RA", both TCAS3D with the
+    columns of the profile's sensitivity-level table ([B71] Table 3 for tcas2); the RA's HMD filter from
+    advisory.hmd_filter, the TA's minimum duration from advisory.ta_min_duration_s. Every built-in profile
+    (tcas2, small-uas, do365, daidalus-tcas3d) is a TCAS-style table; `alerting.cd3d_alerter` is the DAIDALUS
+    CD3D alternative, not selectable by configuration yet. profile: the alerting profile; its levels are not
+    copied in, the core hands the alerter the sensitivity level it selected in it at each assessment."""
+    from avionics.advisory.alerting import tcas2_alerter
+
+    return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)
+
+
+def build_gate(advisory_params):
+    """The alert gate (advisory/gating.py): the criterion advisory.criterion names (tcas | tcas+pc | pc) and the
+    persistence advisory.persistence names (none | m-of-n | binomial, advisory/persistence.py)."""
+    from avionics.advisory import gating, persistence
+
+    a = advisory_params
+    criterion = {
+        "tcas": lambda: gating.TcasCriterion(),
+        "tcas+pc": lambda: gating.TcasPcCriterion(a.pc_ta_threshold, a.pc_ra_threshold),
+        "pc": lambda: gating.PcCriterion(a.pc_ta_threshold, a.pc_ra_threshold),
+    }[a.criterion]()
+    persist = {
+        "none": lambda: persistence.NoPersistence(),
+        "m-of-n": lambda: persistence.MOfNPersistence(a.persistence_m, a.persistence_n),
+        "binomial": lambda: persistence.BinomialPersistence(a.persistence_m, a.persistence_n,
+                                                            a.persistence_confidence),
+    }[a.persistence]()
+    return gating.AlertGate(criterion, persist)
+
+
+def build_prefilter(conflict_params):
+    """The pair pre-filter conflict.prefilter names (conflict/scheduling.py, Hwang condition 2): min_distance
+    (2(b) widened by 3 sigma), hwang (2(a) as printed and 2(b)), none."""
+    from avionics.conflict import scheduling
+
+    c = conflict_params
+    if c.prefilter == "none":
+        return scheduling.NoPrefilter()
+    cls = {"min_distance": scheduling.MinDistancePrefilter, "hwang": scheduling.HwangPrefilter}[c.prefilter]
+    return cls(c.zone_radius_m, c.zone_half_height_m, c.lookahead_s, c.step_s, c.prefilter_alpha,
+               c.accel_sigma_h_mps2, c.accel_sigma_v_mps2)
+
+
+def build_pc_method(conflict_params):
+    """The Pc method conflict.method names (conflict/probability.py): exact, one_block, blocks (n_blocks), pe,
+    mc (mc_samples)."""
+    from avionics.conflict import probability
+
+    c = conflict_params
+    return {
+        "exact": lambda: probability.ExactPc(),
+        "one_block": lambda: probability.OneBlockPc(),
+        "blocks": lambda: probability.BlocksPc(c.n_blocks),
+        "pe": lambda: probability.PaielliErzbergerPc(),
+        "mc": lambda: probability.MonteCarloPc(c.mc_samples),
+    }[c.method]()
+
+
+def build_conflict_assessor(conflict_params):
+    """The conflict stage (conflict/assess.py) with its pre-filter and Pc method."""
+    from avionics.conflict.assess import ConflictAssessor
+
+    return ConflictAssessor(conflict_params, build_prefilter(conflict_params), build_pc_method(conflict_params))

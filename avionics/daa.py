@@ -1,0 +1,257 @@
+"""The DAA facade: one object fed with decoded inputs and a time, returning one immutable `DaaResult`.
+
+NASA DAIDALUS's `Daidalus` over `DaidalusCore` is the model: every shell (the live loop, fast-time replay, the
+bench, the demo, the monitor's simulated vehicle) drives this object and reads only its results, never the
+core's insides. What the result carries is what the output ports need: the step's advisory changes, the active
+advisories with their intruders' callsigns, DAA availability (and when it changed), and, when asked for, the
+published track states (geodetic and local) and the status with the counters.
+
+Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, without ownship
+pressure altitude while a pressure-altitude intruder is tracked, while an intruder or the step is in the failed
+state (pipeline.py), and once the process stops. A change is reported once (`availability_changed`); start-up
+without ownship, and the first fix after it, are not changes (HEARTBEAT and status say it).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Iterable, Mapping
+
+from avionics.config import Config
+from avionics.core.faults import FaultLog
+from avionics.core.schedule import Every
+from avionics.core.types import (
+    Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
+)
+from avionics.pipeline import DaaCore
+
+STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
+_UNSET = object()
+
+
+@dataclass(frozen=True, slots=True)
+class SourceStatus:
+    """What the input side knows that the core cannot: intruders a second sender also reports (their reports
+    are dropped: docs/mavlink.md, "Trusted sources"), and our last ownship pressure rejected as implausible."""
+
+    spoof_suspected: frozenset[IntruderKey] = frozenset()
+    pressure_rejected: bool = False
+
+
+NO_SOURCE_STATUS = SourceStatus()
+
+
+@dataclass(frozen=True, slots=True)
+class DaaResult:
+    """Everything a shell needs of one step. Read-only: mappings are views of copies, tuples are tuples."""
+
+    time_s: float
+    changes: tuple[Advisory, ...]  # advisories whose level, RA sense or strength changed (announce these)
+    assessed: tuple[Advisory, ...]  # the advisory of every intruder assessed in this step
+    active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
+    callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active
+    unavailable_reason: str | None  # no_ownship | no_pressure_altitude | fault | shutdown; None: DAA available
+    availability_changed: bool  # announce it (STATUSTEXT, log)
+    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault
+    sensitivity_level: int | None
+    tracks: tuple[TrackView, ...] | None = None  # when asked for: every track, predicted to time_s
+    status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
+    counters: Mapping[str, int] | None = None  # when asked for (with the status): a snapshot
+    final: bool = False  # the last result: the process stops
+
+    @property
+    def available(self) -> bool:
+        return self.unavailable_reason is None
+
+
+class Daa:
+    """The DAA process's core behind one door: step(now, inputs) -> DaaResult; shutdown(now) -> the last one."""
+
+    def __init__(self, config: Config, counters: Counter | None = None, core: DaaCore | None = None):
+        self.config = config
+        self.counters = counters if counters is not None else Counter()
+        self._core = core if core is not None else DaaCore(config, self.counters)
+        self._active: dict[IntruderKey, Advisory] = {}
+        self._availability = Every(1.0 / config.advisory.assessment_hz)
+        self._unavailable: str | None = STARTUP  # the availability last reported (None: available)
+        self._fault_detail = ""
+        self._stopped = False
+        self._fault = FaultLog(self.counters)
+
+    @property
+    def response_model(self):
+        """The alerting profile's model of how ownship flies an RA (sitl's closed loop flies it)."""
+        return self._core.profile.response
+
+    def step(self, now_s: float, inputs: Iterable[Input] = (), *, sources: SourceStatus = NO_SOURCE_STATUS,
+             tracks: bool = False, status: bool = False) -> DaaResult:
+        """One step of the core at now_s with the inputs received since the last one. tracks / status: include
+        the track states and the status (the output ports ask for them at their own rates)."""
+        core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline.py)
+        return self._result(now_s, tuple(core_result.changes), tuple(core_result.assessed), sources, tracks, status)
+
+    def shutdown(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> DaaResult:
+        """The process stops: every active advisory ends with reason `shutdown`, DAA is unavailable (shutdown);
+        the result carries the status for a last publication."""
+        self._stopped = True
+        try:
+            ended = tuple(self._core.end_all(now_s, "shutdown"))
+        except Exception as exc:  # noqa: BLE001  (what it can still end, it ends)
+            self._fault("shutdown", exc)
+            ended = ()
+        return self._result(now_s, ended, (), sources, False, True, final=True)
+
+    # -- the result ------------------------------------------------------------------------------------------
+    def _result(self, now_s, changes, assessed, sources, tracks, status, final=False) -> DaaResult:
+        for advisory in assessed + changes:
+            if advisory.level is AdvisoryLevel.NONE:
+                self._active.pop(advisory.intruder, None)
+            else:
+                self._active[advisory.intruder] = advisory
+        changed = False
+        if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
+            changed = self._check_availability(now_s)
+        track_views = body = None
+        try:  # a publication's fault must not stop the advisories
+            track_views = self.tracks(now_s, sources) if tracks else None
+            body = self.status(now_s, sources) if status else None
+        except Exception as exc:  # noqa: BLE001
+            self._fault("output", exc)
+        level = self._core.level
+        records = self._core.tracker.tracks
+        keys = {a.intruder for a in changes} | set(self._active)
+        return DaaResult(
+            time_s=now_s, changes=changes, assessed=assessed, active=MappingProxyType(dict(self._active)),
+            callsigns=MappingProxyType({k: (records[k].callsign if k in records else None) for k in keys}),
+            unavailable_reason=self._unavailable if self._unavailable != STARTUP else "no_ownship",
+            availability_changed=changed, fault_detail=self._fault_detail,
+            sensitivity_level=level.sl if level else None, tracks=track_views,
+            status=MappingProxyType(body) if body is not None else None,
+            counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final)
+
+    # -- availability ----------------------------------------------------------------------------------------
+    def _unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:
+        """Why DAA cannot protect now; None when it can. A faulty ownship pressure (status "pressure_fault")
+        is no pressure altitude: no_pressure_altitude."""
+        core = self._core
+        if self._stopped:
+            return "shutdown"
+        if own is _UNSET:
+            try:
+                own = core.ownship.state_at(now_s)
+            except Exception:  # noqa: BLE001  (the core restarts a failed ownship filter at its next assessment)
+                own = None
+        if own is None:
+            return "no_ownship"
+        if core.step_fault is not None or core.faults:
+            return "fault"
+        if own.pressure_altitude_m is None and any(t.datum is AltitudeDatum.PRESSURE
+                                                   for t in core.tracker.tracks.values()):
+            return "no_pressure_altitude"
+        return None
+
+    def _detail(self) -> str:
+        core = self._core
+        if core.step_fault is not None:
+            return "step"
+        if core.faults:
+            key, fault = min(core.faults.items(), key=lambda kv: (kv[1].since_s, kv[0]))
+            more = f" +{len(core.faults) - 1}" if len(core.faults) > 1 else ""
+            return f"{fault.stage} {key}{more}"
+        return ""
+
+    def _check_availability(self, now_s: float) -> bool:
+        """Whether availability changed (to be announced once). Start-up without ownship is silent, and so is
+        the first fix after it."""
+        reason = self._unavailable_reason(now_s)
+        previous = self._unavailable
+        if reason == previous or previous == STARTUP and reason in ("no_ownship", None):
+            if previous == STARTUP and reason is None:
+                self._unavailable = None
+            return False
+        self._unavailable = reason
+        self._fault_detail = self._detail() if reason == "fault" else ""
+        return True
+
+    # -- tracks and status -----------------------------------------------------------------------------------
+    def tracks(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> tuple[TrackView, ...]:
+        """Every track predicted to now_s (as DaaResult.tracks; a query: the core does not step)."""
+        core = self._core
+        keys = sorted(core.tracker.tracks)
+        if not keys or core.frame.plane is None:
+            return ()
+        keys, xs, ps = core.predict_tracks(keys, now_s)  # an intruder that fails here fails as in a step
+        if not keys:
+            return ()
+        lats, lons, velocities = core.frame.to_true(xs[:, 0], xs[:, 1], xs[:, 3:5])
+        xs = xs.copy()
+        xs[:, 3:5] = velocities  # published in true east/north at the aircraft (traces of p are unchanged)
+        try:
+            modes = core.tracker.mode_infos(keys, now_s)
+        except Exception as exc:  # noqa: BLE001  (the IMM mode outputs are for displays: left out)
+            self._fault("modes", exc)
+            modes = [None] * len(keys)
+        advisories = core.advisories()
+        max_coast_s = self.config.tracking.max_coast_s
+        out = []
+        for i, key in enumerate(keys):
+            record = core.tracker.tracks[key]
+            out.append(TrackView.of(record, xs[i], ps[i], float(lats[i]), float(lons[i]),
+                                    record.altitude_valid(now_s, max_coast_s), advisories.get(key), modes[i],
+                                    key in sources.spoof_suspected))
+        return tuple(out)
+
+    def status(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> dict:
+        """Health for the status topic: ownship, datums, sensitivity level, advisory counts, warnings (as
+        DaaResult.status; a query: the core does not step)."""
+        core = self._core
+        own = core.ownship.state_at(now_s)
+        advisories = core.advisories().values()
+        pressure_intruders = [str(k) for k, t in core.tracker.tracks.items() if t.datum is AltitudeDatum.PRESSURE]
+        unavailable = self._unavailable_reason(now_s, own)
+        # The cross-check's verdict (tracking/baro_check.py), or the decoder's when it rejected our last
+        # SCALED_PRESSURE (not a number, or outside the range the ISA model inverts).
+        pressure_fault = core.ownship.pressure_fault
+        if pressure_fault is None and sources.pressure_rejected:
+            pressure_fault = "implausible"
+        warnings = []
+        if pressure_fault is not None:
+            warnings.append(f"ownship pressure {pressure_fault}: readings not used; pressure-altitude traffic is "
+                            "compared with GNSS altitude until the pressure is plausible again")
+        if own is None:
+            warnings.append("no ownship position: no advisories")
+        elif own.pressure_altitude_m is None and pressure_intruders:
+            warnings.append(
+                f"no ownship pressure altitude: {len(pressure_intruders)} pressure-altitude intruder(s) compared "
+                f"with GNSS altitude, vertical thresholds widened by {self.config.altitude.datum_mismatch_margin_m:.0f} m")
+        if core.step_fault is not None:
+            warnings.append(f"fault: the DAA step failed ({core.step_fault.error}): no advisories")
+        if core.faults:
+            warnings.append(f"fault: {len(core.faults)} intruder(s) failed in a stage: no advisories for them")
+        if self._stopped:
+            warnings.append("shutdown: no advisories")
+        ownship = None
+        if own is not None:
+            lat, lon, (ve, vn) = core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
+            ownship = {"lat_deg": float(lat), "lon_deg": float(lon), "alt_msl_m": float(own.x[2]),
+                       "pressure_altitude_m": own.pressure_altitude_m,
+                       "height_above_home_m": own.height_above_home_m,
+                       "velocity_enu_mps": [float(ve), float(vn), float(own.x[5])]}
+        return {
+            "ownship": ownship,
+            "ownship_valid": own is not None,
+            "pressure_altitude_available": own is not None and own.pressure_altitude_m is not None,
+            "pressure_fault": pressure_fault,  # stuck | jump | implausible | None (docs/altitude.md)
+            "datum_mismatch_intruders": sorted(str(a.intruder) for a in advisories if a.datum_mismatch),
+            "sensitivity_level": core.level.sl if core.level else None,
+            "tracks": len(core.tracker.tracks),
+            "advisories": {lvl.name: sum(a.level is lvl for a in advisories) for lvl in (AdvisoryLevel.TA,
+                                                                                          AdvisoryLevel.RA)},
+            "warnings": warnings,
+            "daa_available": unavailable is None,
+            "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | fault | shutdown
+            "failed_intruders": {str(k): f.stage for k, f in sorted(core.faults.items())},
+            "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # also sent by a second sender
+        }

@@ -1,0 +1,227 @@
+"""Output ports: what the DAA process tells the world, one small interface each (docs/architecture.md).
+
+Every port gets every `DaaResult` (avionics/daa.py) and decides what to send and when: MAVLink (COLLISION,
+DAA_ADVISORY, STATUSTEXT, HEARTBEAT), zenoh (advisories, tracks, ownship, status), a CSV of advisory changes, the
+log. A port says before each step which of the result's costly parts it needs (`wants`): the tracks and the
+status are computed only when some port publishes them then. Adding an output is one class and one line where
+the loop is built.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+from dataclasses import dataclass
+from typing import IO, Protocol
+
+from avionics.config import Config
+from avionics.core.schedule import Every
+from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
+from avionics.daa import DaaResult
+from avionics.io import encode
+from avionics.io.payloads import advisory_payload, ownship_payload, status_payload, track_payload
+
+
+@dataclass(frozen=True, slots=True)
+class Demand:
+    """The result's costly parts a port needs in the coming step."""
+
+    tracks: bool = False
+    status: bool = False
+
+    def __or__(self, other: "Demand") -> "Demand":
+        return Demand(self.tracks or other.tracks, self.status or other.status)
+
+
+NOTHING = Demand()
+
+
+class OutputPort(Protocol):
+    def wants(self, now_s: float) -> Demand:
+        """What the port will publish from the result of the step at now_s (called once per step, before it)."""
+
+    def publish(self, result: DaaResult) -> None:
+        """Send what is due. A port's fault is contained by the loop: the others still publish."""
+
+    def close(self) -> None:
+        """Flush and release; called once, after the final result."""
+
+
+class AdvisoryRefresh:
+    """An active advisory is repeated every collision_refresh_s, so that a lost message or a late subscriber
+    still sees it; a change restarts its period, NONE ends it."""
+
+    def __init__(self, period_s: float):
+        self.period_s = period_s
+        self._due: dict = {}  # intruder -> next refresh time
+
+    def due(self, result: DaaResult) -> list[Advisory]:
+        """Call after announcing result.changes (see changed()): the active advisories to repeat now."""
+        now = result.time_s
+        out = []
+        for key, due in list(self._due.items()):
+            advisory = result.active.get(key)
+            if now >= due and advisory is not None:
+                out.append(advisory)
+                self._due[key] = now + self.period_s
+        return out
+
+    def changed(self, advisory: Advisory, now_s: float) -> None:
+        if advisory.level is AdvisoryLevel.NONE:
+            self._due.pop(advisory.intruder, None)
+        else:
+            self._due[advisory.intruder] = now_s + self.period_s
+
+    def clear(self) -> None:
+        self._due.clear()
+
+
+class MavlinkOut:
+    """MAVLink to the autopilot and the ground station (docs/mavlink.md): per advisory change COLLISION,
+    DAA_ADVISORY and STATUSTEXT; active ones refreshed; availability changes as STATUSTEXT; HEARTBEAT with
+    system_status ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). send: a link's send(msg)."""
+
+    def __init__(self, send, config: Config):
+        self._send = send
+        self._statustext = config.mavlink.statustext
+        self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
+        self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
+
+    def wants(self, now_s: float) -> Demand:
+        return NOTHING
+
+    def publish(self, result: DaaResult) -> None:
+        now = result.time_s
+        for advisory in result.changes:
+            callsign = result.callsigns.get(advisory.intruder)
+            self._advisory(advisory, callsign)
+            if self._statustext:
+                self._send(encode.statustext(encode.advisory_text(advisory, callsign),
+                                             encode.advisory_severity(advisory)))
+            self._refresh.changed(advisory, now)
+        if result.final:
+            self._refresh.clear()
+        for advisory in self._refresh.due(result):
+            self._advisory(advisory, result.callsigns.get(advisory.intruder))
+        if result.availability_changed and self._statustext:
+            reason = result.unavailable_reason
+            self._send(encode.statustext(
+                encode.availability_text(reason, result.fault_detail),
+                encode.mavlink2.MAV_SEVERITY_NOTICE if reason is None else encode.mavlink2.MAV_SEVERITY_WARNING))
+        if self._heartbeat.due(now) or result.final:
+            status = (encode.mavlink2.MAV_STATE_POWEROFF if result.final else
+                      encode.mavlink2.MAV_STATE_ACTIVE if result.available else encode.mavlink2.MAV_STATE_CRITICAL)
+            self._send(encode.heartbeat(status))
+
+    def _advisory(self, advisory: Advisory, callsign: str | None) -> None:
+        self._send(encode.collision(advisory))
+        self._send(encode.daa_advisory(advisory, callsign))
+
+    def close(self) -> None:
+        pass
+
+
+class ZenohOut:
+    """zenoh topics daa/<vehicle>/... (docs/zenoh.md): advisories on change and refreshed while active, tracks at
+    zenoh.tracks_hz, ownship and status at zenoh.status_hz. publish: a ZenohBus's publish(suffix, payload)."""
+
+    def __init__(self, publish, config: Config):
+        self._publish = publish
+        self.vehicle = config.vehicle.id
+        self._tracks = Every(1.0 / config.zenoh.tracks_hz)
+        self._status = Every(1.0 / config.zenoh.status_hz)
+        self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
+        self._wanted = NOTHING
+
+    def wants(self, now_s: float) -> Demand:
+        self._wanted = Demand(self._tracks.due(now_s), self._status.due(now_s))
+        return self._wanted
+
+    def publish(self, result: DaaResult) -> None:
+        for advisory in result.changes:
+            self._advisory(advisory, result)
+            self._refresh.changed(advisory, result.time_s)
+        if result.final:
+            self._refresh.clear()
+        for advisory in self._refresh.due(result):
+            self._advisory(advisory, result)
+        for track in result.tracks or ():
+            self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, result.time_s))
+        if result.status is not None:
+            self._publish("ownship", ownship_payload(self.vehicle, result.time_s, result.status["ownship"]))
+            self._publish("status", status_payload(self.vehicle, result.time_s, dict(result.status),
+                                                   result.counters or {}))
+
+    def _advisory(self, advisory: Advisory, result: DaaResult) -> None:
+        self._publish(f"advisories/{advisory.intruder}",
+                      advisory_payload(self.vehicle, advisory, result.callsigns.get(advisory.intruder)))
+
+    def close(self) -> None:
+        pass
+
+
+class LogOut:
+    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO) and changes of
+    availability."""
+
+    def __init__(self, logger: logging.Logger | None = None):
+        self.log = logger or logging.getLogger("avionics")
+
+    def wants(self, now_s: float) -> Demand:
+        return NOTHING
+
+    def publish(self, result: DaaResult) -> None:
+        for advisory in result.changes:
+            alert = advisory.level is not AdvisoryLevel.NONE or advisory.reason in UNAVAILABLE_REASONS
+            self.log.log(logging.WARNING if alert else logging.INFO, "t=%7.2f %s", result.time_s,
+                         encode.advisory_text(advisory, result.callsigns.get(advisory.intruder)))
+        if result.availability_changed:
+            reason = result.unavailable_reason
+            self.log.log(logging.INFO if reason is None else logging.WARNING, "t=%7.2f %s", result.time_s,
+                         encode.availability_text(reason, result.fault_detail))
+
+    def close(self) -> None:
+        pass
+
+
+# The advisory CSV (`sitl replay --out`, `avionics run --csv`): one row per advisory change.
+CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
+               "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
+               "mod_tau_s", "vertical_tau_s", "ra_separation_m")
+
+
+def csv_row(a: Advisory, name: str = "") -> dict:
+    """An advisory change as a CSV row: times to 0.01 s, numbers to 0.001, unknown and infinite values empty."""
+    def num(v):
+        return "" if v is None or (isinstance(v, float) and math.isinf(v)) else f"{v:.3f}"
+
+    return {
+        "time_s": f"{a.time_s:.2f}", "intruder": str(a.intruder), "advisory": a.level.name,
+        "ra": a.ra_words or "", "ra_sense": a.ra_sense or "", "target_vertical_rate_mps": num(a.target_vertical_rate_mps),
+        "ra_separation_m": num(a.ra_separation_m), "name": name, "reason": a.reason,
+        "sensitivity_level": a.sensitivity_level, "range_m": num(a.range_m),
+        "closure_rate_mps": num(a.closure_rate_mps), "t_cpa_s": num(a.t_cpa_s), "hmd_m": num(a.hmd_m),
+        "vmd_m": num(a.vmd_m), "range_tau_s": num(a.range_tau_s), "mod_tau_s": num(a.mod_tau_s),
+        "vertical_tau_s": num(a.vertical_tau_s),
+    }
+
+
+class CsvOut:
+    """Advisory changes as CSV rows on an open text file (the caller owns the file). names: ICAO address ->
+    a name for the `name` column (a scenario's aircraft names)."""
+
+    def __init__(self, file: IO[str], names: dict[int, str] | None = None):
+        self._file = file
+        self._names = names or {}
+        self._writer = csv.DictWriter(file, fieldnames=CSV_COLUMNS)
+        self._writer.writeheader()
+
+    def wants(self, now_s: float) -> Demand:
+        return NOTHING
+
+    def publish(self, result: DaaResult) -> None:
+        self._writer.writerows(csv_row(a, self._names.get(a.intruder.address, "")) for a in result.changes)
+
+    def close(self) -> None:
+        self._file.flush()

@@ -1,0 +1,13 @@
+"""Evaluation shells outside the flight package: what composes the onboard code with the SITL simulator.
+
+cli             the `avionics` console script: avionics.cli's flight commands plus `demo` and `bench`
+demo            `avionics demo`: the onboard process and a SITL encounter as two processes on loopback
+bench           `avionics bench`: end-to-end throughput and report-to-advisory latency
+flood_bench     link framing and flood measurements (docs/performance.md)
+tracking_bench  microseconds per track update, against filterpy (docs/tracking.md)
+monitor_bench   monitor throughput and page frame rate (docs/monitor.md)
+monitor_sim     a simulated vehicle publishing on zenoh, for monitor tests, demos and fleets
+reports/        the report commands behind the numbers and plots in docs/
+
+Flight code (avionics) never imports this package or sitl; tests/test_layers.py checks it.
+"""
