@@ -15,11 +15,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from avionics.advisory.inhibits import LowAltitudeInhibits
-from avionics.advisory.logic import detect, ra_continues
+from avionics.advisory.alerting import Encounter as Pairs, tcas2_alerter
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat
 from avionics.advisory.tables import AlertProfile, select_level
 from avionics.conflict.cpa import pair_geometry
 from avionics.core.types import AdvisoryLevel
+
+ALERTER = tcas2_alerter()  # TA and RA, TCAS3D with the HMD filter (advisory/alerting.py)
 
 
 @dataclass(frozen=True)
@@ -129,10 +131,11 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             g = pair_geometry(s, v, iz - own_z, ivz - pilot.vz)
             level = select_level(own_z, own_z, profile.levels)
             inh = inhibits.update(own_z)
-            candidate = detect(g, level, np.ones(len(intr), bool), np.zeros(len(intr)), not inh.ra, True,
-                               np.abs(ivz) <= profile.max_threat_vertical_rate_mps)
-            if not inh.ra:
-                candidate = np.where(ra_continues(g, level, was_ra), int(AdvisoryLevel.RA), candidate)
+            pairs = Pairs(g, np.ones(len(intr), bool), np.zeros(len(intr)),
+                          np.abs(ivz) <= profile.max_threat_vertical_rate_mps)
+            most = None if not inh.ra else int(AdvisoryLevel.TA)
+            candidate = ALERTER.alert(pairs, level, most)
+            candidate, _ = ALERTER.hold(pairs, level, np.where(was_ra, int(AdvisoryLevel.RA), 0), candidate, most)
             ra_now = [j for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
             threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j])) for j in ra_now]
             ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from avionics.advisory.inhibits import HysteresisInhibit, Inhibits, LowAltitudeInhibits
-from avionics.advisory.logic import detect
+from avionics.advisory.alerting import Encounter as Pairs, tcas2_alerter
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat, own_displacement
 from avionics.advisory.tables import load_profile, select_level
 from avionics.conflict.cpa import pair_geometry
@@ -153,7 +153,7 @@ def test_a_slowly_diverging_pair_inside_dmod_is_a_threat(range_nm, expected):
     # on range <= DMOD, closing or not; outside DMOD a diverging pair is clear.
     level = select_level(None, 3000 * FT, TCAS.levels)
     g = pair_geometry(np.array([[range_nm * NM, 0.0]]), np.array([[1.0, 0.0]]), np.array([0.0]), np.array([0.0]))
-    assert detect(g, level, np.array([True]), np.array([0.0]))[0] == int(expected)
+    assert tcas2_alerter().alert(Pairs(g, np.array([True])), level)[0] == int(expected)
 
 
 # -- item 3: multi-threat -----------------------------------------------------------------------------------
