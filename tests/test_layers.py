@@ -28,9 +28,10 @@ PACKAGES = ("avionics", "avionics_eval", "sitl")
 STAGES = ("avionics.tracking", "avionics.conflict", "avionics.advisory")
 ABOVE_THE_STAGES = (  # the facade and what composes it, the shells, the I/O around the core
     "avionics.compose", "avionics.pipeline", "avionics.daa",
-    "avionics.node", "avionics.runner", "avionics.cli", "avionics.ports", "avionics.loop",
+    "avionics.runner", "avionics.cli", "avionics.ports", "avionics.loop",
     "avionics.io", "avionics.monitor",
 )
+SHELLS = ("avionics.runner", "avionics.cli", "avionics.monitor")
 SIMULATOR = ("sitl", "avionics_eval")
 
 # The layer rules, as data: (name, importers, kind, modules). An importer is every module named by, or inside, one
@@ -42,6 +43,19 @@ RULES = [
       for stage in STAGES),
     *((f"{stage} never imports the facade, the shells, io or monitor", (stage,), "not", ABOVE_THE_STAGES + SIMULATOR)
       for stage in STAGES),
+    ("tracking never imports conflict or advisory", ("avionics.tracking",), "not",
+     ("avionics.conflict", "avionics.advisory")),
+    ("conflict never imports advisory", ("avionics.conflict",), "not", ("avionics.advisory",)),
+    ("io (adapters of core values) never imports the core's composition, the facade or the shells", ("avionics.io",),
+     "not", ("avionics.config", "avionics.compose", "avionics.pipeline", "avionics.daa", "avionics.ports",
+             "avionics.loop") + SHELLS),
+    ("the composition root never imports the core or anything above it", ("avionics.compose",), "not",
+     ("avionics.pipeline", "avionics.daa", "avionics.ports", "avionics.loop") + SHELLS),
+    ("the core never imports the facade or anything above it", ("avionics.pipeline",), "not",
+     ("avionics.daa", "avionics.ports", "avionics.loop") + SHELLS),
+    ("the facade never imports the ports, the loop or the shells", ("avionics.daa",), "not",
+     ("avionics.ports", "avionics.loop") + SHELLS),
+    ("ports and the loop never import the shells", ("avionics.ports", "avionics.loop"), "not", SHELLS),
     ("flight code never imports the simulator", ("avionics",), "not", SIMULATOR),
     ("sitl never imports avionics_eval", ("sitl",), "not", ("avionics_eval",)),
 ]

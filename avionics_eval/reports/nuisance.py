@@ -27,7 +27,7 @@ from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
 from avionics.core.units import FPM, FT, KT
-from avionics.pipeline import DaaCore
+from avionics.daa import Daa
 
 CRITERIA = ("tcas", "tcas+pc", "pc")
 T_CPA_S = 60.0
@@ -121,10 +121,10 @@ def study(n: int = 500, seed: int = 1, overrides=()) -> dict:
         protected_outside += outside
         steps = _reports(e, rng)
         for criterion, config in configs.items():
-            core = DaaCore(config)
+            daa = Daa(config)
             levels = set()
             for t, inputs in steps:
-                for change in core.step(t, inputs).changes:
+                for change in daa.step(t, inputs).changes:
                     levels.add(change.level)
             ra = AdvisoryLevel.RA in levels
             c = counts[criterion]
