@@ -31,7 +31,7 @@ def build_components(config, counters: Counter) -> Components:
 
     profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
     return Components(
-        profile=profile, levels=LevelSelector(profile), alerter=build_alerter(profile, config.advisory),
+        profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory),
         gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
         conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
 
@@ -65,13 +65,13 @@ def build_tracker(tracking_params, counters, capacity: int = 16):
                       capacity=capacity)
 
 
-def build_alerter(profile, advisory_params):
+def build_alerter(advisory_params):
     """The alerter (advisory/alerting.py): the `tcas2` alerter, levels 1 "TA" and 2 "RA", both TCAS3D with the
     columns of the profile's sensitivity-level table ([B71] Table 3 for tcas2); the RA's HMD filter from
     advisory.hmd_filter, the TA's minimum duration from advisory.ta_min_duration_s. Every built-in profile
     (tcas2, small-uas, do365, daidalus-tcas3d) is a TCAS-style table; `alerting.cd3d_alerter` is the DAIDALUS
-    CD3D alternative, not selectable by configuration yet. profile: the alerting profile; its levels are not
-    copied in, the core hands the alerter the sensitivity level it selected in it at each assessment."""
+    CD3D alternative, not selectable by configuration yet. The profile's levels are not copied in: the core hands
+    the alerter the sensitivity level it selected at each assessment."""
     from avionics.advisory.alerting import tcas2_alerter
 
     return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)

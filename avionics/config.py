@@ -23,7 +23,7 @@ from pathlib import Path
 
 from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
-from avionics.core.params import ConfigError, _build, _coerce  # noqa: F401  (_coerce: kept importable here)
+from avionics.core.params import ConfigError, _build
 from avionics.io.params import MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
 from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig, TrackingConfig
 

@@ -19,9 +19,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.golden.generate import CONFORMANCE, DAIDALUS_ARGS, replayed_csv
+
 # one xdist worker runs both files: they read the same cached replays (tests/golden/generate.py)
 pytestmark = pytest.mark.xdist_group("replays")
-CONFORMANCE = Path(__file__).resolve().parents[1].parent / "shared" / "conformance" / "daidalus"
 TOLERANCE_S = 1.0
 
 
@@ -55,8 +56,6 @@ def test_the_golden_data_is_there_under_ci():
 
 def _first_alerts(path: Path) -> dict[tuple[str, int], float]:
     """(intruder name, level) -> first time that intruder's advisory reached the level, from sitl replay."""
-    from tests.golden.generate import DAIDALUS_ARGS, replayed_csv
-
     first: dict[tuple[str, int], float] = {}
     for row in csv.DictReader(io.StringIO(replayed_csv(str(path), tuple(DAIDALUS_ARGS)))):
         rank = {"NONE": 0, "TA": 1, "RA": 2}[row["advisory"]]
