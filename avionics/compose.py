@@ -16,6 +16,8 @@ class Components:
     profile: object  # advisory/tables.py Profile: sensitivity levels, inhibits, response model
     levels: object  # LevelSelector: the sensitivity level from altitude
     alerter: object  # advisory/alerting.py Alerter: the alert levels, each with its detector
+    hysteresis: object  # advisory/persistence.py AlertingHysteresis (a DO-365 alerter's) or NoHysteresis
+    bands: object | None  # advisory/bands.py BandsEngine (a DO-365 alerter's guidance); None: no bands
     gate: object  # advisory/gating.py AlertGate: criterion and persistence
     resolution: object  # advisory/resolution.py ResolutionLogic: RA sense and strength
     inhibits: object  # advisory/inhibits.py LowAltitudeInhibits
@@ -31,7 +33,8 @@ def build_components(config, counters: Counter) -> Components:
 
     profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
     return Components(
-        profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory),
+        profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory, profile),
+        hysteresis=build_hysteresis(profile), bands=build_bands(profile),
         gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
         conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
 
@@ -65,16 +68,44 @@ def build_tracker(tracking_params, counters, capacity: int = 16):
                       capacity=capacity)
 
 
-def build_alerter(advisory_params):
-    """The alerter (advisory/alerting.py): the `tcas2` alerter, levels 1 "TA" and 2 "RA", both TCAS3D with the
-    columns of the profile's sensitivity-level table ([B71] Table 3 for tcas2); the RA's HMD filter from
-    advisory.hmd_filter, the TA's minimum duration from advisory.ta_min_duration_s. Every built-in profile
-    (tcas2, small-uas, do365, daidalus-tcas3d) is a TCAS-style table; `alerting.cd3d_alerter` is the DAIDALUS
-    CD3D alternative, not selectable by configuration yet. The profile's levels are not copied in: the core hands
-    the alerter the sensitivity level it selected at each assessment."""
-    from avionics.advisory.alerting import tcas2_alerter
+def build_alerter(advisory_params, profile):
+    """The alerter (advisory/alerting.py) of the profile: without an [alerter] table the `tcas2` alerter, levels
+    1 "TA" and 2 "RA", both TCAS3D with the columns of the profile's sensitivity-level table ([B71] Table 3 for
+    tcas2; the RA's HMD filter from advisory.hmd_filter, the TA's minimum duration from
+    advisory.ta_min_duration_s); with one (kind "wcv": daidalus-do365b-no-sum, do365, do365-non-coop, f3442) the
+    DO-365 well-clear alerter of its levels. `alerting.cd3d_alerter` is the DAIDALUS CD3D alternative, not
+    selectable by configuration. The profile's sensitivity levels are not copied in: the core hands the alerter
+    the level it selected at each assessment."""
+    from avionics.advisory.alerting import tcas2_alerter, wcv_alerter
 
+    if profile.alerter is not None:
+        return wcv_alerter(profile.alerter, profile.name)
     return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)
+
+
+def build_hysteresis(profile):
+    """A DO-365 alerter's alerting hysteresis (advisory/persistence.py AlertingHysteresis: DAIDALUS HysteresisData
+    with the profile's M of N, persistence and hysteresis times); none for the tcas2 alerter."""
+    from avionics.advisory.persistence import AlertingHysteresis, NoHysteresis
+
+    spec = profile.alerter
+    if spec is None:
+        return NoHysteresis()
+    return AlertingHysteresis(spec.hysteresis_time_s, spec.persistence_time_s, spec.alerting_m, spec.alerting_n,
+                              spec.period_s)
+
+
+def build_bands(profile):
+    """A DO-365 alerter's guidance bands (advisory/bands.py, DAIDALUS DaidalusRealBands): the profile's [bands]
+    parameters and the alerter's levels, each painting its region; None for the tcas2 alerter."""
+    from avionics.advisory.bands import BandsEngine, BandsLevel
+
+    spec = profile.alerter
+    if spec is None:
+        return None
+    levels = [BandsLevel(i, lv.region, lv.thresholds, lv.alerting_time_s, lv.early_alerting_time_s)
+              for i, lv in enumerate(spec.levels, start=1)]
+    return BandsEngine(profile.bands, levels)
 
 
 def build_gate(advisory_params):

@@ -60,6 +60,7 @@ class DaaResult:
     status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
     counters: Mapping[str, int] | None = None  # when asked for (with the status): a snapshot
     final: bool = False  # the last result: the process stops
+    bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance bands, once a second
 
     @property
     def available(self) -> bool:
@@ -90,7 +91,8 @@ class Daa:
         """One step of the core at now_s with the inputs received since the last one. tracks / status: include
         the track states and the status (the output ports ask for them at their own rates)."""
         core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline.py)
-        return self._result(now_s, tuple(core_result.changes), tuple(core_result.assessed), sources, tracks, status)
+        return self._result(now_s, tuple(core_result.changes), tuple(core_result.assessed), sources, tracks, status,
+                            bands=core_result.bands)
 
     def shutdown(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> DaaResult:
         """The process stops: every active advisory ends with reason `shutdown`, DAA is unavailable (shutdown);
@@ -104,7 +106,7 @@ class Daa:
         return self._result(now_s, ended, (), sources, False, True, final=True)
 
     # -- the result ------------------------------------------------------------------------------------------
-    def _result(self, now_s, changes, assessed, sources, tracks, status, final=False) -> DaaResult:
+    def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None) -> DaaResult:
         for advisory in assessed + changes:
             if advisory.level is AdvisoryLevel.NONE:
                 self._active.pop(advisory.intruder, None)
@@ -129,7 +131,7 @@ class Daa:
             availability_changed=changed, fault_detail=self._fault_detail,
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
-            counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final)
+            counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands)
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:

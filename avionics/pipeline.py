@@ -58,6 +58,7 @@ class StepResult:
     time_s: float
     changes: list[Advisory]  # advisories whose level, RA sense or RA strength changed in this step
     assessed: list[Advisory]  # the advisory of every intruder assessed in this step
+    bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance, once a second
 
 
 @dataclass
@@ -88,7 +89,12 @@ class DaaCore:
         self.resolution = parts.resolution
         self.inhibits = parts.inhibits
         self._ra_threats: dict[IntruderKey, Threat] = {}
-        self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels
+        self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels; or a DO-365 alerter's three
+        self._alert_names = self.alerter.names()
+        self.bands = parts.bands  # a DO-365 alerter's guidance bands (advisory/bands.py); None: none
+        self._bands_slot: int | None = None  # the second of the last bands computed
+        self._bands_traffic: tuple = (math.nan, [], np.empty((0, 3)), np.empty((0, 3)))  # at the last full tick
+        self.hysteresis = parts.hysteresis  # a DO-365 alerter's M of N and persistence (DAIDALUS HysteresisData)
         self.gate = parts.gate  # advisory.criterion and advisory.persistence
         self.conflict = parts.conflict  # conflict.prefilter and conflict.method
         self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
@@ -220,6 +226,7 @@ class DaaCore:
             for key in self.tracker.prune(now_s):
                 self._ra_threats.pop(key, None)
                 self.gate.forget(key)
+                self.hysteresis.forget(key)
                 self.conflict.forget(key)
                 gone = self.assessments.pop(key, None)
                 if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
@@ -232,7 +239,33 @@ class DaaCore:
         if full and self.step_fault is not None:  # a whole assessment went through again
             log.warning("t=%.2f the DAA step works again after %d failed step(s)", now_s, self.step_fault.count)
             self.step_fault = None
-        return StepResult(now_s, changes, assessed)
+        return StepResult(now_s, changes, assessed, self._guidance(now_s) if full else None)
+
+    def _guidance(self, now_s: float):
+        """The guidance bands (a DO-365 alerter's) on the first full assessment of each second, as DAIDALUS is
+        run at 1 Hz: every intruder with an altitude, at its datum-matched relative altitude, with its alert
+        level. A fault here is counted and logged; it never stops the advisories."""
+        slot = math.floor(now_s + 1e-6)
+        if self.bands is None or slot == self._bands_slot:
+            return None
+        self._bands_slot = slot
+        try:
+            own = self.ownship.state_at(now_s)
+            if own is None:
+                return None
+            t, keys, pos, vel = self._bands_traffic
+            if t != now_s:  # no intruder assessed at this tick
+                keys, pos, vel = [], np.empty((0, 3)), np.empty((0, 3))
+            levels = [self.assessments[k].advisory.alert()[0] if k in self.assessments else NONE for k in keys]
+            bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels)
+            return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
+        except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
+            self.counters["fault.bands"] += 1
+            trace = ("bands", type(exc).__name__) not in self._traced
+            self._traced.add(("bands", type(exc).__name__))
+            log.error("t=%.2f the guidance bands failed (%s: %s); the advisories go on", now_s,
+                      type(exc).__name__, exc, exc_info=exc if trace else None)
+            return None
 
     def _ownship_altitudes(self, own: OwnshipState, datum: AltitudeDatum | None) -> tuple[float, bool]:
         """Ownship altitude in the intruder's datum, and whether it had to be taken from the other datum."""
@@ -270,6 +303,9 @@ class DaaCore:
             return []
         keys, xs, tracks, has_alt, mismatch = ev.keys, ev.xs, ev.tracks, ev.has_alt, ev.mismatch
         geometry, pc_ta, pc_ra, pc = ev.geometry, ev.pc_ta, ev.pc_ra, ev.pc
+        if full and self.bands is not None:  # the traffic of the guidance bands (_guidance)
+            pos = np.column_stack([xs[:, :2], own.x[2] + geometry.sz_m])[has_alt]
+            self._bands_traffic = (now_s, [k for k, h in zip(keys, has_alt) if h], pos, xs[has_alt, 3:6])
         within_age = ev.within_age
         self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
         failed: set[IntruderKey] = set()
@@ -287,9 +323,10 @@ class DaaCore:
             try:
                 entry = self.assessments.get(key)
                 state = entry.state if entry else AdvisoryState()
-                candidate = AdvisoryLevel(NONE if stale[i] else int(candidates[i]))
+                alert = NONE if stale[i] else int(candidates[i])
+                candidate = AdvisoryLevel(self.alerter.advisory_of(alert))
                 state.next(now_s, candidate, ta_hold_s, force=bool(stale[i]))
-                states[i] = (state, candidate, entry.advisory if entry else None)
+                states[i] = (state, candidate, entry.advisory if entry else None, alert)
                 if state.level is AdvisoryLevel.RA:
                     self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
                 else:
@@ -329,7 +366,7 @@ class DaaCore:
     def _advisory(self, now_s, i, key, state_entry, level, geometry, mod_tau, continued, stale, has_alt, tracks,
                   mismatch, pc_ta, pc_ra, pc, within_age, resolution, blocked) -> Advisory:
         """Intruder i's advisory from the step's arrays (the advisory logic's last part, per intruder)."""
-        state, candidate, previous = state_entry
+        state, candidate, previous, alert = state_entry
         if blocked and state.level is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
             state.level = AdvisoryLevel.TA
         threat = self._ra_threats.get(key) if state.level is AdvisoryLevel.RA else None
@@ -351,6 +388,7 @@ class DaaCore:
             pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
             t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
             pc_within_age_s=_finite_or_none(within_age[i]), integrity=tracks[i].integrity.label,
+            **(dict(alert_level=alert, alert_name=self._alert_names[alert]) if self.alerter.own_levels else {}),
             **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
         )
 
@@ -480,7 +518,8 @@ class DaaCore:
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
         encounter = Encounter(geometry, has_alt, margin, threat_eligible)
-        candidates = self.alerter.alert(encounter, level, None if ra_allowed else int(AdvisoryLevel.TA))
+        candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
+                                        previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
                                                         full)
         within_age = self.conflict.within_age(now_s, keys)
@@ -518,7 +557,8 @@ class DaaCore:
             # the levels' continuations: RA threats kept although the RA tests no longer hold (alerting.py)
             encounter = ev.encounter if len(rows) == len(keys) else ev.encounter.take(rows)
             cands, continued = self.alerter.hold(encounter, level, previous, cands,
-                                                 None if ra_allowed else int(AdvisoryLevel.TA))
+                                                 None if ra_allowed else self.alerter.highest_without_ra)
+            cands = self.hysteresis.apply(now_s, ks, cands)
             stale = np.array([now_s - ev.tracks[i].last_report_s > cfg.tracking.max_coast_s for i in rows], bool)
             return cands, continued, stale
 
@@ -569,6 +609,7 @@ class DaaCore:
         self.tracker.drop(key)
         self._ra_threats.pop(key, None)
         self.gate.forget(key)
+        self.hysteresis.forget(key)
         self.conflict.forget(key)
         self.assessments.pop(key, None)
 
@@ -656,6 +697,8 @@ def _finite_or_none(value: float) -> float | None:
 
 
 def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:
+    """The advisory moved to level (NONE: ended) without an RA; a DO-365 alert level ends with it."""
+    ended = level is AdvisoryLevel.NONE and advisory.alert_level is not None
     return replace(advisory, level=level, time_s=now_s, reason=reason, ra_sense=None, ra_strength=None,
                    ra_words=None, target_vertical_rate_mps=None, ra_reversed=False, ra_crossing=False,
-                   ra_separation_m=None)
+                   ra_separation_m=None, **(dict(alert_level=NONE, alert_name="NONE") if ended else {}))

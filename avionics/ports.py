@@ -20,7 +20,7 @@ from avionics.core.schedule import Every
 from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
-from avionics.io.payloads import advisory_payload, ownship_payload, status_payload, track_payload
+from avionics.io.payloads import advisory_payload, bands_payload, ownship_payload, status_payload, track_payload
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +79,8 @@ class AdvisoryRefresh:
 
 class MavlinkOut:
     """MAVLink to the autopilot and the ground station (docs/mavlink.md): per advisory change COLLISION,
-    DAA_ADVISORY and STATUSTEXT; active ones refreshed; availability changes as STATUSTEXT; HEARTBEAT with
+    DAA_ADVISORY and STATUSTEXT; active ones refreshed; a DO-365 alerter's bands as DAA_BANDS once a second;
+    availability changes as STATUSTEXT; HEARTBEAT with
     system_status ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). send: a link's send(msg)."""
 
     def __init__(self, send, config: Config):
@@ -104,6 +105,8 @@ class MavlinkOut:
             self._refresh.clear()
         for advisory in self._refresh.due(result):
             self._advisory(advisory, result.callsigns.get(advisory.intruder))
+        for message in encode.daa_bands(result.bands) if result.bands is not None else ():
+            self._send(message)
         if result.availability_changed and self._statustext:
             reason = result.unavailable_reason
             self._send(encode.statustext(
@@ -133,6 +136,7 @@ class ZenohOut:
         self._status = Every(1.0 / config.zenoh.status_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
         self._wanted = NOTHING
+        self._profile = config.advisory.profile
 
     def wants(self, now_s: float) -> Demand:
         self._wanted = Demand(self._tracks.due(now_s), self._status.due(now_s))
@@ -148,6 +152,8 @@ class ZenohOut:
             self._advisory(advisory, result)
         for track in result.tracks or ():
             self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, result.time_s))
+        if result.bands is not None:
+            self._publish("bands", bands_payload(self.vehicle, self._profile, result.bands))
         if result.status is not None:
             self._publish("ownship", ownship_payload(self.vehicle, result.time_s, result.status["ownship"]))
             self._publish("status", status_payload(self.vehicle, result.time_s, dict(result.status),
@@ -188,7 +194,7 @@ class LogOut:
 # The advisory CSV (`sitl replay --out`, `avionics run --csv`): one row per advisory change.
 CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
                "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
-               "mod_tau_s", "vertical_tau_s", "ra_separation_m")
+               "mod_tau_s", "vertical_tau_s", "ra_separation_m", "alert_level", "alert_name")
 
 
 def csv_row(a: Advisory, name: str = "") -> dict:
@@ -203,7 +209,7 @@ def csv_row(a: Advisory, name: str = "") -> dict:
         "sensitivity_level": a.sensitivity_level, "range_m": num(a.range_m),
         "closure_rate_mps": num(a.closure_rate_mps), "t_cpa_s": num(a.t_cpa_s), "hmd_m": num(a.hmd_m),
         "vmd_m": num(a.vmd_m), "range_tau_s": num(a.range_tau_s), "mod_tau_s": num(a.mod_tau_s),
-        "vertical_tau_s": num(a.vertical_tau_s),
+        "vertical_tau_s": num(a.vertical_tau_s), "alert_level": a.alert()[0], "alert_name": a.alert()[1],
     }
 
 

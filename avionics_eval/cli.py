@@ -27,7 +27,7 @@ def call(prog: str, func, args) -> int:
 def cmd_demo(args) -> int:
     from avionics_eval.demo import demo
 
-    return demo(args.scenario, port=args.port, zenoh_port=args.zenoh_port, noise=args.noise)
+    return demo(args.scenario, port=args.port, zenoh_port=args.zenoh_port, noise=args.noise, profile=args.profile)
 
 
 def cmd_bench(args) -> int:
@@ -45,6 +45,8 @@ def add_commands(sub) -> None:
     p.add_argument("--zenoh-port", type=flight.port_number, default=17447,
                    help="loopback TCP port of the zenoh session")
     p.add_argument("--noise", choices=("default", "none"), default="default", help="ADS-B impairments")
+    p.add_argument("--profile", help="onboard alerting profile (advisory.profile), e.g. do365: DO-365 levels and "
+                                     "guidance bands")
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="end-to-end throughput and report-to-advisory latency (JSON)")

@@ -73,11 +73,27 @@ def _listening(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
-def _start_onboard(port: int, endpoint: str, duration_s: float) -> subprocess.Popen:
+def _start_onboard(port: int, endpoint: str, duration_s: float, profile: str | None) -> subprocess.Popen:
     return subprocess.Popen([
         sys.executable, "-m", "avionics.cli", "--quiet", "run", "--connection", f"udpin:127.0.0.1:{port}",
         "--set", f'zenoh.listen=["{endpoint}"]', "--duration", f"{duration_s + 5:.0f}", "--counters",
+        *(["--set", f"advisory.profile={profile}"] if profile else []),
     ], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+BAND_UNITS = {"track_deg": ("track", 1.0, "deg"), "ground_speed_mps": ("GS", 0.514444, "kt"),
+              "vertical_rate_mps": ("V/S", 0.00508, "fpm"), "altitude_m": ("alt", FT, "ft")}
+
+
+def bands_text(payload: dict) -> str:
+    """The conflict (and recovery) intervals of a bands sample, one kind after the other: what a pilot would have
+    to keep out of (docs/zenoh.md, Bands)."""
+    parts = []
+    for kind, (label, unit, name) in BAND_UNITS.items():
+        shown = [f"{b['region']} {b['lower'] / unit:.0f}-{b['upper'] / unit:.0f}" for b in payload[kind]
+                 if b["region"] != "NONE"]
+        parts.append(f"{label} [{name}] " + (", ".join(shown) if shown else "clear" if payload[kind] else "--"))
+    return "; ".join(parts)
 
 
 def _wait_listening(onboard: subprocess.Popen, zenoh_port: int, endpoint: str) -> None:
@@ -103,7 +119,10 @@ def _stop(onboard: subprocess.Popen) -> tuple[str, str]:
         return onboard.communicate()
 
 
-def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17447, noise: str = "default") -> int:
+def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17447, noise: str = "default",
+         profile: str | None = None) -> int:
+    """profile: the onboard alerting profile (advisory.profile; default tcas2). A DO-365 one (do365, f3442, ...)
+    prints its alert levels and guidance bands as they arrive over zenoh."""
     from avionics.io.zenoh_bus import open_session
     from sitl.impairments import PRESETS
     from sitl.live import fly
@@ -113,11 +132,12 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     duration = scenario.duration_s - start
     endpoint = f"tcp/127.0.0.1:{zenoh_port}"
     check_ports_free(port, zenoh_port)
-    onboard = _start_onboard(port, endpoint, duration)
+    onboard = _start_onboard(port, endpoint, duration, profile)
     try:
         print(f"avionics demo: '{scenario.name}' from t={start:.0f} s for {duration:.0f} s of real time\n"
               f"  onboard DAA process pid {onboard.pid}: MAVLink udpin:127.0.0.1:{port}, zenoh {endpoint}\n"
-              f"  SITL autopilot + ADS-B receiver (this process): ownship 5 Hz, ADS-B 1 Hz, noise '{noise}'\n",
+              f"  SITL autopilot + ADS-B receiver (this process): ownship 5 Hz, ADS-B 1 Hz, noise '{noise}'\n"
+              f"  alerting profile: {profile or 'tcas2 (default)'}\n",
               flush=True)
         _wait_listening(onboard, zenoh_port, endpoint)
         # The flight stops as soon as the onboard process exits: nothing would answer for the rest of it.
@@ -132,18 +152,30 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
             payload = json.loads(sample.payload.to_bytes())
             with lock:
                 previous = zenoh_advisories[-1] if zenoh_advisories else {}
-                if (previous.get("level"), previous.get("ra_words")) != (payload["level"], payload.get("ra_words")):
+                key = ("level", "ra_words", "alert_name")
+                if [previous.get(k) for k in key] != [payload.get(k) for k in key]:
                     tau = "--" if payload["mod_tau_s"] is None else f"{payload['mod_tau_s']:4.1f} s"
                     vmd = "?" if payload["vmd_m"] is None else f"{payload['vmd_m'] / FT:+5.0f} ft"
                     ra = f" {payload['ra_words']}" if payload.get("ra_words") else ""
                     pc = "" if payload.get("pc_ra") is None else f"  Pc(RA) {payload['pc_ra']:.2f}"
-                    print(f"  zenoh      {payload['level']:4s}{ra} {payload['intruder']}  reason "
+                    alert = f" {payload['alert_name']}" if payload.get("alert_name") not in (None, payload["level"]) else ""
+                    print(f"  zenoh      {payload['level']:4s}{alert}{ra} {payload['intruder']}  reason "
                           f"{payload['reason']:9s} mod tau {tau}  range {payload['range_m']:6.0f} m  "
                           f"CPA in {payload['t_cpa_s']:5.1f} s  HMD {payload['hmd_m']:5.0f} m  VMD {vmd}{pc}",
                           flush=True)
                 zenoh_advisories.append(payload)
 
+        bands_seen: list[str] = []
+
+        def on_bands(sample) -> None:
+            text = bands_text(json.loads(sample.payload.to_bytes()))
+            with lock:
+                if not bands_seen or bands_seen[-1] != text:
+                    print(f"  zenoh      bands {text}", flush=True)
+                bands_seen.append(text)
+
         subscriber = session.declare_subscriber("daa/*/advisories/**", on_advisory)
+        bands_subscriber = session.declare_subscriber("daa/*/bands", on_bands)
         last_level: dict[int, int] = {}
 
         def on_receive(received) -> None:
@@ -163,6 +195,7 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
         finally:
             out, err = _stop(onboard)
             subscriber.undeclare()
+            bands_subscriber.undeclare()
             session.close()
         if died:
             raise _onboard_failure(onboard.returncode, err, "during the flight")
@@ -183,5 +216,16 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
           f"rejections: {rejected or 'none'}")
     levels = [THREAT[r.msg.threat_level].strip() for r in collisions]
     ok = "TA" in levels and "RA" in levels and levels[-1] == "NONE"
-    print("result:", "TA, RA and clear received" if ok else f"unexpected advisory sequence {levels}")
+    conflict_bands = any("clear" not in text.split("; ")[0] for text in bands_seen)
+    if profile_has_bands(profile):
+        print(f"guidance bands received: {len(bands_seen)} ({'with' if conflict_bands else 'without'} conflict bands)")
+        ok = ok and conflict_bands
+    print("result:", "TA, RA and clear received" + (", and guidance bands" if profile_has_bands(profile) else "")
+          if ok else f"unexpected advisory sequence {levels}")
     return 0 if ok else 1
+
+
+def profile_has_bands(profile: str | None) -> bool:
+    from avionics.advisory.tables import load_profile
+
+    return profile is not None and load_profile(profile).alerter is not None

@@ -36,6 +36,13 @@ from sitl.aircraft import AircraftSpec
 from sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
 from sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
 
+# DAIDALUS reads geodetic positions on a sphere of this radius (gov.nasa.larcfm.Util GreatCircle
+# .spherical_earth_radius: 1 nmi per minute of arc) and projects them onto the plane at the ownship
+# (Projection: ENUProjection). The same lat/lon on WGS-84 lie up to 0.3 % farther apart (at 37 N), enough to turn
+# an encounter that grazes the well-clear radius in DAIDALUS (daa-displays s_1_turn_*) into a miss; the reader
+# therefore keeps DAIDALUS's geometry: spherical ENU offsets from the ownship's first position, placed on the
+# WGS-84 tangent plane there.
+DAIDALUS_EARTH_RADIUS_M = 1852.0 * 60.0 * 180.0 / math.pi  # 6366707.0195 m
 EUCLIDEAN_ORIGIN = (47.4, 8.5)  # lat, lon where sx = sy = 0 lands (same point as the built-in encounters)
 SNAPSHOT_DURATION_S = 120.0  # a single-time file: long enough for a 2-minute look-ahead encounter to unfold
 DURATION_MARGIN_S = 60.0  # multi-sample files run this long past their last time
@@ -266,6 +273,42 @@ def _rows_by_aircraft(rows: list[_Row]) -> dict[str, list[_Row]]:
     return by_name
 
 
+def _spherical_en(lat_deg, lon_deg, lat0_deg: float, lon0_deg: float):
+    """East/north of points on DAIDALUS's sphere on the tangent plane at (lat0, lon0) (ENUProjection: the ECEF
+    offset rotated into east-north-up, up dropped)."""
+    lat, lon = np.radians(lat_deg), np.radians(lon_deg)
+    lat0, lon0 = math.radians(lat0_deg), math.radians(lon0_deg)
+    r = DAIDALUS_EARTH_RADIUS_M
+    x, y, z = r * np.cos(lat) * np.cos(lon), r * np.cos(lat) * np.sin(lon), r * np.sin(lat)
+    x0, y0, z0 = r * math.cos(lat0) * math.cos(lon0), r * math.cos(lat0) * math.sin(lon0), r * math.sin(lat0)
+    dx, dy, dz = x - x0, y - y0, z - z0
+    east = -math.sin(lon0) * dx + math.cos(lon0) * dy
+    north = -math.sin(lat0) * math.cos(lon0) * dx - math.sin(lat0) * math.sin(lon0) * dy + math.cos(lat0) * dz
+    return east, north
+
+
+def _spherical_geodetic(east_m, north_m, lat0_deg: float, lon0_deg: float):
+    """Inverse of _spherical_en: the point of DAIDALUS's sphere whose tangent-plane projection is (east, north)."""
+    e, n = np.asarray(east_m, float), np.asarray(north_m, float)
+    lat0, lon0 = math.radians(lat0_deg), math.radians(lon0_deg)
+    r = DAIDALUS_EARTH_RADIUS_M
+    up = np.sqrt(r * r - e * e - n * n)  # distance from the centre along the origin's vertical
+    axes_e = np.array([-math.sin(lon0), math.cos(lon0), 0.0])
+    axes_n = np.array([-math.sin(lat0) * math.cos(lon0), -math.sin(lat0) * math.sin(lon0), math.cos(lat0)])
+    axes_u = np.array([math.cos(lat0) * math.cos(lon0), math.cos(lat0) * math.sin(lon0), math.sin(lat0)])
+    p = np.multiply.outer(e, axes_e) + np.multiply.outer(n, axes_n) + np.multiply.outer(up, axes_u)
+    return np.degrees(np.arcsin(p[..., 2] / r)), np.degrees(np.arctan2(p[..., 1], p[..., 0]))
+
+
+def _as_daidalus_places(rows: list[_Row], plane: LocalTangentPlane) -> list[_Row]:
+    """The rows moved to where DAIDALUS's geometry puts them (DAIDALUS_EARTH_RADIUS_M): the same east/north
+    offsets from the plane's origin on WGS-84. Velocities (true east/north) are kept."""
+    east, north = _spherical_en([r.lat for r in rows], [r.lon for r in rows], plane.lat0_deg, plane.lon0_deg)
+    lat, lon = plane.to_geodetic(east, north)
+    return [_Row(r.line, r.name, r.t, float(la), float(lo), r.alt_m, r.ve, r.vn, r.vu)
+            for r, la, lo in zip(rows, np.atleast_1d(lat), np.atleast_1d(lon))]
+
+
 def read_daa(path_or_text: str | Path) -> Scenario:
     """A Scenario from a DAIDALUS .daa file (a Path, or a path string) or from its text (a str with newlines)."""
     text, name = _text_of(path_or_text)
@@ -281,6 +324,8 @@ def read_daa(path_or_text: str | Path) -> Scenario:
     # Euclidean files are exact on their own plane; geodetic ones are integrated around the ownship.
     origin = EUCLIDEAN_ORIGIN if euclidean else (first_own.lat, first_own.lon)
     plane = euclid_plane if euclidean else LocalTangentPlane(*origin)
+    if not euclidean:
+        by_name = {ac: _as_daidalus_places(ac_rows, plane) for ac, ac_rows in by_name.items()}
     specs: list[AircraftSpec] = []
     trajectories: list[Trajectory] = []
     for index, (ac, ac_rows) in enumerate(by_name.items()):
@@ -324,9 +369,13 @@ _WRITE_UNITS = "[none], [deg], [deg], [ft], [deg], [knot], [fpm], [s]"
 def format_daa(scenario: Scenario, times_s) -> str:
     """The scenario's truth trajectories sampled at times_s as .daa text (ownship first at each time).
 
-    Geodetic columns in the DAIDALUS default units, with enough digits (1e-12 deg, 1e-9 kt) that reading the
+    Geodetic columns in the DAIDALUS default units and geometry (DAIDALUS_EARTH_RADIUS_M), with enough digits (1e-12 deg, 1e-9 kt) that reading the
     text back is limited by the geodesy inverse, not by the file: < 1 cm even 50 nm from the plane origin."""
     own, intruders = scenario.trajectories()
+    # positions in DAIDALUS's geometry, as read_daa reads them: the plane offsets from the ownship's first
+    # position, on DAIDALUS's sphere
+    first = own.state_at(float(np.asarray(times_s, dtype=float).reshape(-1)[0]))
+    plane = LocalTangentPlane(first.lat_deg, first.lon_deg)
     lines = [
         f"# {scenario.name}: written by sitl.daa_file.format_daa",
         f"# ground_ft = {scenario.ground_elevation_m / FT:.6f}",
@@ -337,8 +386,9 @@ def format_daa(scenario: Scenario, times_s) -> str:
         for spec, traj in zip(scenario.aircraft, (own, *intruders)):
             s = traj.state_at(float(t))
             name = re.sub(r"[\s,#]", "_", spec.name) or "aircraft"
+            lat, lon = _spherical_geodetic(*plane.to_en(s.lat_deg, s.lon_deg), plane.lat0_deg, plane.lon0_deg)
             lines.append(
-                f"{name}, {s.lat_deg:.12f}, {s.lon_deg:.12f}, {s.alt_msl_m / FT:.6f}, {s.track_deg:.9f}, "
+                f"{name}, {float(lat):.12f}, {float(lon):.12f}, {s.alt_msl_m / FT:.6f}, {s.track_deg:.9f}, "
                 f"{s.ground_speed_mps / KT:.9f}, {s.vel_up_mps / FPM:.6f}, {t:.6f}"
             )
     return "\n".join(lines) + "\n"

@@ -109,7 +109,7 @@ def test_the_tcas2_alerter_is_the_old_tcas_logic(rows, profile, index, ra_enable
 
 
 def test_the_tcas2_alerter_names_its_levels_as_the_advisory_levels():
-    alerter = build_alerter(AdvisoryConfig())
+    alerter = build_alerter(AdvisoryConfig(), PROFILES["tcas2"])
     assert alerter.name == "tcas2" and alerter.most_severe == 2
     assert alerter.names() == {int(v): v.name for v in AdvisoryLevel} == {0: "NONE", 1: "TA", 2: "RA"}
     assert alerter.level(1).min_duration_s == AdvisoryConfig().ta_min_duration_s

@@ -14,43 +14,20 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 from pathlib import Path
 
 import pytest
 
+from tests.golden.first_alerts import golden, problems, require
 from tests.golden.generate import CONFORMANCE, DAIDALUS_ARGS, replayed_csv
 
 # one xdist worker runs both files: they read the same cached replays (tests/golden/generate.py)
 pytestmark = pytest.mark.xdist_group("replays")
-TOLERANCE_S = 1.0
-
-
-def _golden() -> dict[str, list[dict]]:
-    if not (CONFORMANCE / "first_alerts.csv").is_file():
-        return {}
-    by_file: dict[str, list[dict]] = {}
-    with open(CONFORMANCE / "first_alerts.csv", newline="") as fh:
-        for row in csv.DictReader(fh):
-            if row["config"] == "TCAS3D":
-                by_file.setdefault(row["case_file"], []).append(row)
-    return by_file
-
-
-GOLDEN = _golden()
-
-
-def _require_data() -> None:
-    if GOLDEN:
-        return
-    reason = f"DAIDALUS conformance data not found at {CONFORMANCE} (../shared/conformance/daidalus)"
-    if os.environ.get("CI"):
-        pytest.fail(reason + ": required under CI")
-    pytest.skip(reason)
+GOLDEN = golden("TCAS3D")
 
 
 def test_the_golden_data_is_there_under_ci():
-    _require_data()
+    require(GOLDEN)
     assert len(GOLDEN) >= 20, f"expected the published scenarios, found {sorted(GOLDEN)}"
 
 
@@ -66,19 +43,6 @@ def _first_alerts(path: Path) -> dict[tuple[str, int], float]:
 
 @pytest.mark.parametrize("case_file", sorted(GOLDEN) or ["(no data)"])
 def test_first_ta_and_ra_within_1_s_of_daidalus(case_file):
-    _require_data()
-    ours = _first_alerts(CONFORMANCE / case_file)  # read in place
-    problems = []
-    for row in GOLDEN[case_file]:
-        for level, word in ((1, "TA"), (2, "RA")):
-            text = row[f"first_level{level}_sim_s"]
-            theirs = float(text) if text else None
-            mine = ours.pop((row["intruder"], level), None)
-            if theirs is None and mine is not None:
-                problems.append(f"{row['intruder']}: extra {word} at {mine:.1f} s (DAIDALUS: none)")
-            elif theirs is not None and mine is None:
-                problems.append(f"{row['intruder']}: missed {word} (DAIDALUS: {theirs:.1f} s)")
-            elif theirs is not None and abs(mine - theirs) > TOLERANCE_S:
-                problems.append(f"{row['intruder']}: {word} at {mine:.1f} s, DAIDALUS {theirs:.1f} s")
-    problems += [f"{name}: alert level {level} for an aircraft DAIDALUS does not list" for name, level in ours]
-    assert not problems, f"{case_file}: " + "; ".join(problems)
+    require(GOLDEN)
+    found = problems(GOLDEN[case_file], _first_alerts(CONFORMANCE / case_file), {1: "TA", 2: "RA"})
+    assert not found, f"{case_file}: " + "; ".join(found)

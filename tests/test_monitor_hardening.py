@@ -119,6 +119,64 @@ def test_schema_ids_and_snapshot_elements():
             clean_snapshot(bad)
 
 
+# -- bands (DO-365 guidance, issue 16 item 4): the contract's example passes, every malformed form is rejected ----------
+def bands(**extra):
+    """docs/monitor.md's example bands payload (the lead's contract)."""
+    return {"schema": 2, "vehicle": "v", "time_s": 12.0, "alerter": "daidalus-do365b-no-sum",
+            "ownship": {"track_deg": 90.0, "ground_speed_mps": 51.4, "vertical_rate_mps": 0.0, "altitude_m": 1219.2},
+            "track_deg": [{"lower": 0.0, "upper": 87.0, "region": "NONE"}, {"lower": 87.0, "upper": 113.0, "region": "MID"},
+                          {"lower": 113.0, "upper": 360.0, "region": "NONE"}],
+            "ground_speed_mps": [{"lower": 0.0, "upper": 40.0, "region": "NONE"},
+                                 {"lower": 40.0, "upper": 60.0, "region": "NEAR"}],
+            "vertical_rate_mps": [{"lower": -30.48, "upper": 30.48, "region": "RECOVERY"}],
+            "altitude_m": [],
+            "recovery": {"track_deg": False, "ground_speed_mps": False, "vertical_rate_mps": True, "altitude_m": False},
+            "intruders": [{"intruder": "1090es-A1B2C3", "alert_level": 2, "alert_name": "CORRECTIVE"}], **extra}
+
+
+def test_schema_accepts_the_bands_contract_a_future_region_and_keeps_only_interval_fields():
+    assert clean_sample("bands", bands()) == bands()
+    out = clean_sample("bands", bands(track_deg=[{"lower": 0.0, "upper": 360.0, "region": "SOMEDAY", "extra": 1}]))
+    assert out["track_deg"] == [{"lower": 0.0, "upper": 360.0, "region": "SOMEDAY"}]
+    assert clean_sample("bands", bands(altitude_m=None))["altitude_m"] is None
+
+
+@pytest.mark.parametrize("payload, reason", [
+    (bands(track_deg=[{"lower": 113.0, "upper": 87.0, "region": "MID"}]), "track_deg"),  # lower > upper
+    (bands(track_deg=[{"lower": 87.0, "upper": 113.0, "region": "MID"},
+                      {"lower": 0.0, "upper": 87.0, "region": "NONE"}]), "track_deg"),  # not in increasing order
+    (bands(track_deg=[{"lower": 0.0, "upper": 400.0, "region": "NONE"}]), "track_deg.upper"),  # beyond 360
+    (bands(track_deg=[{"lower": 0.0, "upper": float("nan"), "region": "NONE"}]), "track_deg.upper"),
+    (bands(track_deg=[{"lower": 0.0, "upper": 10.0}]), "track_deg"),  # no region
+    (bands(track_deg=[{"lower": 0.0, "upper": 10.0, "region": 3}]), "track_deg.region"),
+    (bands(track_deg=[{"lower": 0.0, "upper": 10.0, "region": "MID\x1b[2J"}]), "track_deg.region"),
+    (bands(track_deg=[[0.0, 10.0, "MID"]]), "track_deg"),
+    (bands(track_deg={"MID": [87.0, 113.0]}), "track_deg"),
+    (bands(track_deg=[{"lower": float(i), "upper": float(i), "region": "NONE"} for i in range(300)]), "track_deg"),
+    (bands(ground_speed_mps=[{"lower": -1.0, "upper": 10.0, "region": "NONE"}]), "ground_speed_mps.lower"),
+    (bands(altitude_m=[{"lower": 0.0, "upper": 1e9, "region": "NONE"}]), "altitude_m.upper"),
+    (bands(recovery={"track_deg": "yes"}), "recovery"),
+    (bands(intruders=[{"intruder": "a", "alert_level": "2"}]), "intruders.alert_level"),
+    (bands(intruders={"a": 2}), "intruders"),
+    (bands(ownship={"track_deg": "east"}), "ownship.track_deg"),
+    (bands(alerter="x" * 65), "alerter"),
+])
+def test_schema_rejects_malformed_bands_naming_the_field(payload, reason):
+    with pytest.raises(Rejected) as exc:
+        clean_sample("bands", payload)
+    assert exc.value.reason == reason
+
+
+def test_snapshot_bands_are_taken_when_present_and_left_out_when_bad():
+    assert clean_snapshot({"time_s": 1.0, "bands": bands()})["bands"] == bands()
+    dropped = {}
+    snap = clean_snapshot({"time_s": 1.0, "bands": bands(track_deg=7), "tracks": [track()]}, dropped)
+    assert "bands" not in snap and len(snap["tracks"]) == 1 and dropped == {"bands.track_deg": 1}
+    s = FleetState()
+    s.apply_snapshot("v", clean_snapshot({"time_s": 12.0, "bands": bands()}))
+    assert s.bands("v")["track_deg"][1]["region"] == "MID"
+
+
 # -- (c) the terminal view -------------------------------------------------------------------------------------------
 def _markup_state(vehicle="[/]") -> FleetState:
     s = FleetState()
@@ -186,9 +244,12 @@ def test_feed_counts_and_drops_bad_samples_and_keeps_applying_good_ones():
         ("daa/v/ownship", json.dumps(dict(OWN, velocity_enu_mps="fast")).encode()),
         ("daa/v/tracks/1090es-A10001/extra", json.dumps(track()).encode()),
         ("daa/" + "v" * 100 + "/status", json.dumps(status()).encode()),
+        ("daa/v/bands", json.dumps(bands(track_deg=[{"lower": 9.0, "upper": 1.0, "region": "MID"}])).encode()),
+        ("daa/v/bands", b'{"track_deg": [{"lower": 0, "upper": Infinity, "region": "MID"}]}'),
+        ("daa/v/bands/extra", json.dumps(bands()).encode()),
     ]
     good = [("daa/v/ownship", OWN), ("daa/v/tracks/1090es-A10001", track(callsign="[/]")),
-            ("daa/v/advisories/1090es-A10001", adv("TA", 10.0, callsign="[/]"))]
+            ("daa/v/advisories/1090es-A10001", adv("TA", 10.0, callsign="[/]")), ("daa/v/bands", bands())]
     try:
         # samples published before the monitor's subscription reaches the publisher are lost: publish until the
         # last good one is seen; the bad ones go first in every round
@@ -197,18 +258,21 @@ def test_feed_counts_and_drops_bad_samples_and_keeps_applying_good_ones():
                 pub.put(key, raw)
             for key, payload in good:
                 pub.put(key, json.dumps(payload).encode())
-            return state.tracks("v") and state.vehicles["v"].advisories and state.stats["rejected"] >= len(bad)
+            return (state.tracks("v") and state.vehicles["v"].advisories and state.bands("v")
+                    and state.stats["rejected"] >= len(bad))
 
         assert wait_for(round_trip, DEADLINE_S, period_s=0.1)
         stats = state.stats_copy()
         assert feed.errors == 0  # nothing raised: every bad sample was a counted rejection
         for reason in ("tracks.json", "tracks.size", "tracks.type", "tracks.lat_deg", "tracks.intruder_key",
                        "tracks.callsign", "tracks.key", "advisories.level", "status.warnings",
-                       "ownship.velocity_enu_mps", "status.key"):
+                       "ownship.velocity_enu_mps", "status.key", "bands.track_deg", "bands.track_deg.upper",
+                       "bands.key"):
             assert stats.get(f"rejected.{reason}", 0) >= 1, (reason, stats)
         [t] = state.tracks("v")
         assert t["callsign"] == "[/]" and math.isfinite(t["range_m"]) and t["level"] == "TA"
         assert list(state.vehicles) == ["v"]  # the 100-character vehicle id never became a vehicle
+        assert state.bands("v")["track_deg"] == bands()["track_deg"]  # the bad bands never hid the good ones
         assert "[/]" in render_text(state, "v", 150, 44)  # what the decoder accepts, the terminal view shows
     finally:
         feed.close()

@@ -121,3 +121,84 @@ def test_terminal_view_shows_symbols_tags_ra_and_offline():
     assert "SL 4" in text and "—" in text  # IMM mode not in the payload
     s.set_alive("v", False)
     assert "v OFFLINE" in render_text(s, "v", 150, 44)
+
+
+# -- DO-365 guidance bands, level names, cleared Pc (issue 16, item 4) ------------------------------------------------
+def bands(t=12.0, **extra):
+    return {"schema": 2, "vehicle": "v", "time_s": t, "alerter": "daidalus-do365b-no-sum",
+            "ownship": {"track_deg": 90.0, "ground_speed_mps": 51.4, "vertical_rate_mps": 0.0, "altitude_m": 1219.2},
+            "track_deg": [{"lower": 0.0, "upper": 87.0, "region": "NONE"}, {"lower": 87.0, "upper": 113.0, "region": "MID"},
+                          {"lower": 113.0, "upper": 360.0, "region": "NONE"}],
+            "ground_speed_mps": [{"lower": 0.0, "upper": 300.0, "region": "NONE"}],
+            "vertical_rate_mps": [{"lower": -30.0, "upper": 30.0, "region": "NEAR"}], "altitude_m": [],
+            "recovery": {"track_deg": False, "ground_speed_mps": False, "vertical_rate_mps": False, "altitude_m": False},
+            "intruders": [{"intruder": "1090es-A1B2C3", "alert_level": 2, "alert_name": "CORRECTIVE"}], **extra}
+
+
+def test_bands_latest_per_vehicle_stale_after_bands_stale_s_and_dropped_on_restart():
+    now = [0.0]
+    s = FleetState(clock=lambda: now[0], bands_stale_s=3.0)
+    s.apply("v", "bands", "", bands(12.0))
+    full, cur = s.view("v")
+    assert full["bands"]["track_deg"][1] == {"lower": 87.0, "upper": 113.0, "region": "MID"}
+    assert full["bands"]["stale"] is False and full["bands"]["altitude_m"] == [] and s.memory()["v"]["bands"] == 1
+    s.apply("v", "bands", "", bands(11.0, alerter="older"))  # an older sample (reordered): ignored
+    assert s.bands("v")["alerter"] == "daidalus-do365b-no-sum"
+    now[0] = 2.9
+    s.expire()
+    delta, cur = s.view("v", cur)
+    assert "bands" not in delta  # nothing changed yet
+    now[0] = 3.1
+    s.expire()  # no newer bands for 3 s: stale, and readers are told
+    delta, cur = s.view("v", cur)
+    assert delta["bands"]["stale"] is True and delta["bands"]["age_s"] == pytest.approx(3.1)
+    assert delta["bands"]["track_deg"][1]["region"] == "MID"  # still shown (greyed), not dropped
+    s.apply("v", "bands", "", bands(13.0))
+    delta, cur = s.view("v", cur)
+    assert delta["bands"]["stale"] is False and delta["bands"]["time_s"] == 13.0
+    s.apply("v", "status", "", {"time_s": 300.0})
+    s.apply("v", "status", "", {"time_s": 2.0})  # the onboard process restarted: its bands go
+    assert s.bands("v") is None and s.view("v", cur)[0]["bands"] is None
+    s.apply("v", "bands", "", bands(3.0))
+    assert s.bands("v")["time_s"] == 3.0
+
+
+def test_a_cleared_intruder_shows_no_stale_pc_and_do365_level_names_are_kept():
+    s = FleetState()
+    s.apply_snapshot("v", None)
+    s.apply("v", "ownship", "", OWN)
+    s.apply("v", "tracks", "1090es-A10001", track(t=10.0, pc_ta=0.6, advisory="RA"))
+    s.apply("v", "advisories", "1090es-A10001", adv("RA", 10.5, pc_ta=1.0, alert_level=3, alert_name="WARNING"))
+    [t] = s.tracks("v")
+    assert (t["pc"], t["alert_name"], t["alert_level"]) == (1.0, "WARNING", 3)
+    # cleared at the closest approach: the NONE advisory still carries the last alerting Pc (1.0)
+    s.apply("v", "advisories", "1090es-A10001", adv("NONE", 11.0, reason="diverging", pc_ta=1.0, alert_level=0,
+                                                    alert_name="NONE"))
+    [t] = s.tracks("v")
+    assert t["level"] == "NONE" and t["pc"] is None and t["tau_s"] is None  # not the stale 1.000
+    s.apply("v", "tracks", "1090es-A10001", track(t=11.5, pc_ta=0.02, advisory="NONE"))
+    [t] = s.tracks("v")
+    assert t["pc"] == 0.02 and t["alert_name"] == "NONE"  # the track's own, newer assessment
+    log = s.advisory_log("v")
+    assert [(e["level"], e["alert_name"], e["pc"]) for e in log] == [("RA", "WARNING", 1.0), ("NONE", "NONE", None)]
+    text = render_text(s, "v", 150, 44)
+    assert "WARNING" in text and "1.000" in text  # the log's RA row keeps its Pc; the cleared row and track do not
+    assert "0.020" in text
+
+
+def test_terminal_view_shows_the_bands_as_text_with_stale_and_empty_kinds():
+    now = [0.0]
+    s = FleetState(clock=lambda: now[0], bands_stale_s=3.0)
+    s.apply_snapshot("v", None)
+    s.apply("v", "ownship", "", OWN)
+    assert "GUIDANCE BANDS" not in render_text(s, "v", 150, 44)  # a TCAS vehicle: no bands panel
+    s.apply("v", "bands", "", bands(12.0, recovery={"track_deg": True}))
+    text = render_text(s, "v", 150, 44)
+    assert "GUIDANCE BANDS daidalus-do365b-no-sum" in text and "STALE" not in text
+    assert "MID 87–113" in text and "NONE 0–87" in text and "NONE 113–360" in text and "RECOVERY MID" not in text
+    assert "NEAR -5906–5906" in text  # vertical rate in fpm (30 m/s)
+    assert "ALT ft   no bands computed" in text and "1090es-A1B2C3 CORRECTIVE" in text
+    assert "TRK °    RECOVERY" in text
+    now[0] = 5.0
+    s.expire()
+    assert "STALE 5 s" in render_text(s, "v", 150, 44)

@@ -75,3 +75,37 @@ def test_binomial_uses_the_mean_pc_of_each_volume():
     assert out == [TA]  # the RA volume's 0.648 < 0.7; the TA volume's P(2 of 3 | 0.9) = 0.972 passes
     with pytest.raises(ValueError):
         ps.BinomialPersistence(m=1, n=3, confidence=1.5)
+
+
+# --- DAIDALUS alerting hysteresis (a DO-365 alerter's) ----------------------------------------------------------
+
+
+def _hysteresis():
+    from avionics.advisory.persistence import AlertingHysteresis
+
+    return AlertingHysteresis(hysteresis_time_s=5.0, persistence_time_s=4.0, m=2, n=4, period_s=1.0)  # DO_365B
+
+
+def test_alerting_hysteresis_follows_daidalus_hysteresisdata_by_hand():
+    # Worked by hand from HysteresisData.applyHysteresisLogic and MofN.m_of_n (DAIDALUS v2.0.4), 2 of 4,
+    # persistence 4 s: the first evaluation resets the queue to [0, 0, -1, -1]; a level needs two of the last
+    # four raw levels at or above it; once up at t = 4 it stays until 4 + 4 s although the raw level drops at 5.
+    h = _hysteresis()
+    raw = [0, 0, 0, 2, 2, 0, 0, 0, 0]
+    out = [int(h.apply(float(t), ["a"], np.array([r]))[0]) for t, r in enumerate(raw)]
+    assert out == [0, 0, 0, 0, 2, 2, 2, 2, 0]
+    # more than hysteresis_time_s without an evaluation: reset, and the reset queue holds m copies of the level
+    assert int(h.apply(15.0, ["a"], np.array([3]))[0]) == 3
+    # the first evaluation of a new intruder alerts at once (MofN.reset(val))
+    assert int(h.apply(15.0, ["b"], np.array([2]))[0]) == 2
+
+
+def test_alerting_hysteresis_evaluates_once_a_second_whatever_the_assessment_rate():
+    h = _hysteresis()
+    out = []
+    for k in range(40):  # 10 Hz assessments, raw 2 from t = 1.0 s on
+        t = k / 10
+        out.append(int(h.apply(t, ["a"], np.array([2 if t >= 1.0 else 0]))[0]))
+    # evaluations at 0, 1, 2, 3 s: raw 0, 2, 2, 2 -> the alert comes at the second evaluation of 2 (t = 2.0 s)
+    assert out.index(2) == 20
+    assert list(h.last(["a", "nobody"])) == [2, 0]

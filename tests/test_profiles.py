@@ -18,8 +18,30 @@ def test_builtin_profiles_load_with_their_documented_values():
     (s,) = small.levels
     assert (s.ra_dmod_m, s.ra_zthr_m) == pytest.approx((2000 * FT, 250 * FT))  # ASTM F3442 well clear
     (d,) = do365.levels
-    assert (d.ra_tau_s, d.ra_dmod_m, d.ra_zthr_m) == pytest.approx((35.0, 4000 * FT, 450 * FT))
     assert math.isinf(s.ceiling_m) and math.isinf(d.ceiling_m)
+    # DO-365B Phase I DWC as DAIDALUS v2.0.4 Configurations/DO_365B_no_SUM.conf states it (alerter DWC_Phase_I):
+    # WCV_TAUMOD DTHR 0.66 nmi, TTHR 35 s, TCOA 0; ZTHR 700/450/450 ft; alerting 55/55/25 s, early 75/75/55 s
+    for name in ("do365", "daidalus-do365b-no-sum"):
+        a = load_profile(name).alerter
+        assert [lv.name for lv in a.levels] == ["PREVENTIVE", "CORRECTIVE", "WARNING"]
+        assert [lv.region for lv in a.levels] == ["NONE", "MID", "NEAR"]
+        got = [(lv.thresholds.dthr_m, lv.thresholds.zthr_m, lv.thresholds.tthr_s, lv.thresholds.tcoa_s)
+               for lv in a.levels]
+        want = [(0.66 * NM, 700 * FT, 35, 0), (0.66 * NM, 450 * FT, 35, 0), (0.66 * NM, 450 * FT, 35, 0)]
+        assert all(g == pytest.approx(w) for g, w in zip(got, want, strict=True))
+        assert [(lv.alerting_time_s, lv.early_alerting_time_s) for lv in a.levels] == [(55, 75), (55, 75), (25, 55)]
+        assert (a.hysteresis_time_s, a.persistence_time_s, a.alerting_m, a.alerting_n) == (5.0, 4.0, 2, 4)
+    noncoop = load_profile("do365-non-coop").alerter  # DWC_Non_Coop: 2200 ft, 450 ft, no tau; early 110/110/90 s
+    assert all((lv.thresholds.dthr_m, lv.thresholds.zthr_m, lv.thresholds.tthr_s) == pytest.approx((2200 * FT, 450 * FT, 0))
+               for lv in noncoop.levels)
+    assert [lv.early_alerting_time_s for lv in noncoop.levels] == [110, 110, 90]
+    assert load_profile("tcas2").alerter is None
+
+
+def test_a_do365_profile_refuses_the_pc_gates_it_has_no_levels_for():
+    with pytest.raises(ConfigError, match="DO-365"):
+        load_config(overrides=["advisory.profile=do365", "advisory.criterion=pc"])
+    load_config(overrides=["advisory.profile=do365", "advisory.persistence=m-of-n"])
 
 
 def test_any_value_can_be_overridden_in_any_unit():

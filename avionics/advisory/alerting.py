@@ -266,7 +266,13 @@ class AlertLevel:
     """One alert level (DAIDALUS AlertThresholds): its number (1 = least severe), name, detector, its thresholds
     per sensitivity level (None where the level has no such alert) and its hysteresis: min_duration_s (an alert
     of this level, once on, is held at least this long: the TCAS TA's 8 s) and a continuation (keeps it on after
-    the detector stops firing: the TCAS RA while the range closes)."""
+    the detector stops firing: the TCAS RA while the range closes).
+
+    alerting_time_s: the detector's conflict must begin within it (None: the thresholds' own, the TCAS TAU);
+    early_alerting_time_s: used instead for an intruder whose alert is already this level (DAIDALUS
+    DaidalusCore.check_alerting_thresholds). advisory: the advisory level it raises (AdvisoryLevel TA or RA;
+    None: its own number, as the tcas2 alerter's TA and RA). region: the guidance-bands region its conflicts
+    paint (DAIDALUS BandsRegion: NONE, FAR, MID, NEAR)."""
 
     number: int
     name: str
@@ -274,13 +280,26 @@ class AlertLevel:
     thresholds: Callable[[SensitivityLevel], object | None]
     min_duration_s: float = 0.0
     continuation: Continuation | None = None
+    alerting_time_s: float | None = None
+    early_alerting_time_s: float | None = None
+    advisory: int | None = None
+    region: str = "NONE"
 
-    def fires(self, encounter: Encounter, level: SensitivityLevel) -> np.ndarray | None:
-        """(N,) bool: the detector's conflict within the thresholds' alerting time; None without thresholds."""
+    @property
+    def advisory_level(self) -> int:
+        return self.number if self.advisory is None else self.advisory
+
+    def fires(self, encounter: Encounter, level: SensitivityLevel, early: np.ndarray | None = None) -> np.ndarray | None:
+        """(N,) bool: the detector's conflict within the alerting time (the early one where `early`, (N,) bool);
+        None without thresholds."""
         thresholds = self.thresholds(level)
         if thresholds is None:
             return None
-        return self.detector.conflict(encounter, thresholds, thresholds.alerting_time_s)
+        time_s = self.alerting_time_s if self.alerting_time_s is not None else thresholds.alerting_time_s
+        fires = self.detector.conflict(encounter, thresholds, time_s)
+        if early is not None and self.early_alerting_time_s is not None and early.any():
+            fires = np.where(early, self.detector.conflict(encounter, thresholds, self.early_alerting_time_s), fires)
+        return fires
 
 
 @dataclass(frozen=True)
@@ -306,14 +325,31 @@ class Alerter:
         """Alert number -> name, with 0 -> "NONE"."""
         return {NONE: "NONE", **{lv.number: lv.name for lv in self.levels}}
 
-    def alert(self, encounter: Encounter, level: SensitivityLevel, max_level: int | None = None) -> np.ndarray:
+    @property
+    def own_levels(self) -> bool:
+        """The alert levels are not the advisory levels (a DO-365 alerter's preventive, corrective, warning):
+        advisories carry the alert level and its name beside TA/RA."""
+        return any(lv.advisory_level != lv.number for lv in self.levels)
+
+    def advisory_of(self, alert: int) -> int:
+        """The advisory level (AdvisoryLevel number) an alert level raises; 0 for 0."""
+        return NONE if alert == NONE else self.level(alert).advisory_level
+
+    @property
+    def highest_without_ra(self) -> int:
+        """The most severe level that raises no RA (the cap while RAs are inhibited)."""
+        return max((lv.number for lv in self.levels if lv.advisory_level < int(AdvisoryLevel.RA)), default=NONE)
+
+    def alert(self, encounter: Encounter, level: SensitivityLevel, max_level: int | None = None,
+              previous: np.ndarray | None = None) -> np.ndarray:
         """(N,) int: the most severe level (<= max_level: e.g. the RA inhibited at low altitude) whose detector
-        fires at this sensitivity level; 0 where none does."""
+        fires at this sensitivity level; 0 where none does. previous (N,) int: each intruder's alert level so
+        far, for the levels' early alerting times (DaidalusCore.raw_alert_level)."""
         out = np.full(len(encounter.has_altitude), NONE, int)
         for lv in self.levels:
             if max_level is not None and lv.number > max_level:
                 break
-            fires = lv.fires(encounter, level)
+            fires = lv.fires(encounter, level, None if previous is None else previous == lv.number)
             if fires is not None:
                 out = np.where(fires, lv.number, out)
         return out
@@ -343,6 +379,24 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
     ra = AlertLevel(int(AdvisoryLevel.RA), AdvisoryLevel.RA.name, TCAS3D(altitude_required=True, hmd_filter=hmd_filter),
                     ra_thresholds, continuation=TcasRaContinuation(hmd_filter))
     return Alerter("tcas2", (ta, ra))
+
+
+def wcv_alerter(spec, name: str = "wcv") -> Alerter:
+    """A DO-365 well-clear alerter from a profile's [alerter] table (advisory/tables.py WcvAlerterSpec): each level
+    a WCV_TAUMOD detector (advisory/wcv.py) with its thresholds at every sensitivity level, its alerting and early
+    alerting times, the advisory it raises and its bands region. A level that raises an RA needs the intruder's
+    altitude (the manoeuvre is vertical); the others show an intruder without altitude on range alone. Their
+    hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""
+    from avionics.advisory.wcv import WCV_TAUMOD
+
+    ra = int(AdvisoryLevel.RA)
+    levels = tuple(
+        AlertLevel(i, lv.name, WCV_TAUMOD(altitude_required=lv.advisory == "RA"),
+                   (lambda thr: lambda _level: thr)(lv.thresholds),
+                   alerting_time_s=lv.alerting_time_s, early_alerting_time_s=lv.early_alerting_time_s,
+                   advisory=ra if lv.advisory == "RA" else int(AdvisoryLevel.TA), region=lv.region)
+        for i, lv in enumerate(spec.levels, start=1))
+    return Alerter(name, levels)
 
 
 CD3D_D_M, CD3D_H_M, CD3D_LOOKAHEAD_S = 5.0 * NM, 1000.0 * FT, 180.0  # DAIDALUS Alerter.CD3D()

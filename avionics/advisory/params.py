@@ -44,6 +44,12 @@ class AdvisoryConfig:
         from avionics.advisory.tables import ProfileError, load_profile
 
         try:
-            load_profile(a.profile, a.profile_overrides)
+            profile = load_profile(a.profile, a.profile_overrides)
         except ProfileError as exc:
             raise ConfigError(f"advisory.profile: {exc}") from exc
+        if profile.alerter is not None and (a.criterion != "tcas" or a.persistence == "binomial"):
+            # the gate's Pc volumes and the binomial filter are the TA's and the RA's; a DO-365 alerter has its
+            # own levels and its own M of N (the profile's [alerter] table)
+            raise ConfigError(f"advisory.profile {a.profile!r} is a DO-365 well-clear alerter: it needs "
+                              f"advisory.criterion = \"tcas\" (its detectors decide) and advisory.persistence "
+                              f"none or m-of-n (it has its own M of N and persistence)")

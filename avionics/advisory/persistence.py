@@ -90,7 +90,7 @@ class MOfNPersistence(_WindowPersistence):
     """advisory.persistence = "m-of-n": a level when at least m of the last n assessments had it (or higher)."""
 
     def _judge(self, history) -> int:
-        for lvl in (RA, TA):
+        for lvl in range(max(c for c, _, _ in history), NONE, -1):
             if sum(c >= lvl for c, _, _ in history) >= self.m:
                 return lvl
         return NONE
@@ -112,3 +112,89 @@ class BinomialPersistence(_WindowPersistence):
             if at_least_m_of_n(p, self.m, self.n) >= self.confidence:
                 return lvl
         return NONE
+
+
+# --- the alerting hysteresis of a DO-365 alerter (DAIDALUS) ---------------------------------------------------
+
+
+class _HysteresisData:
+    """One intruder's DAIDALUS HysteresisData with its MofN (gov.nasa.larcfm.ACCoRD, v2.0.4): the M-of-N filter
+    over the last n raw alert levels (a level counts for every level below it; MofN.m_of_n), persistence (an
+    alert does not drop within persistence_time_s of its last rise), and a reset when an evaluation comes more
+    than hysteresis_time_s after the previous one (or not after it). After a reset the queue holds m copies of
+    the current level (MofN.reset(val)), so the first evaluation alerts at once."""
+
+    __slots__ = ("queue", "max", "init_s", "last_s", "last")
+
+    def __init__(self):
+        self.queue: deque = deque()
+        self.max, self.init_s, self.last_s, self.last = -1, math.nan, math.nan, -1
+
+    def apply(self, raw: int, now_s: float, hysteresis_s: float, persistence_s: float, m: int, n: int) -> int:
+        if math.isnan(self.last_s) or now_s <= self.last_s or now_s - self.last_s > hysteresis_s:
+            self.queue = deque([raw] * m + [-1] * (n - m))  # HysteresisData.reset -> MofN.reset(raw)
+            self.max, self.init_s, self.last_s, self.last = raw, math.nan, math.nan, -1
+        self.max = max(self.max, raw)  # MofN.m_of_n
+        self.queue.popleft()
+        self.queue.append(raw)
+        mofn = next((lvl for lvl in range(self.max, -1, -1) if sum(v >= lvl for v in self.queue) >= m), -1)
+        if not math.isnan(self.init_s) and self.last > 0 and mofn < self.last and \
+                self.init_s <= now_s < self.init_s + persistence_s:
+            pass  # persistence: the previous alert stays
+        else:
+            if mofn > 0 and mofn > self.last:
+                self.init_s = now_s
+            self.last = max(0, mofn)
+        self.last_s = now_s
+        return self.last
+
+
+class AlertingHysteresis:
+    """The alerting hysteresis of a DO-365 alerter (advisory/tables.py WcvAlerterSpec; DAIDALUS
+    DaidalusCore.alerting_hysteresis_current_value): per intruder, once in each period_s of the clock (the first
+    assessment in it), the raw alert level through `_HysteresisData`; between evaluations the level stays. DAIDALUS counts its M of N in evaluations and its
+    published runs evaluate once a second; the core assesses at advisory.assessment_hz and on every report, so
+    the filter samples the raw level at period_s (1 s) to keep the standard's timing."""
+
+    def __init__(self, hysteresis_time_s: float, persistence_time_s: float, m: int, n: int, period_s: float = 1.0):
+        if not 1 <= m <= n:
+            raise ValueError(f"alerting hysteresis: need 1 <= m <= n, got m={m}, n={n}")
+        self.hysteresis_s, self.persistence_s, self.m, self.n = hysteresis_time_s, persistence_time_s, m, n
+        self.period_s = period_s
+        self._data: dict = {}  # key -> _HysteresisData
+
+    def last(self, keys) -> np.ndarray:
+        """(N,) int: each intruder's alert level so far (0 when none), for the early alerting times."""
+        return np.array([max(d.last, 0) if (d := self._data.get(k)) is not None else NONE for k in keys], int)
+
+    def apply(self, now_s: float, keys, raw: np.ndarray) -> np.ndarray:
+        out = np.empty(len(keys), int)
+        for i, key in enumerate(keys):
+            data = self._data.get(key)
+            if data is None:
+                data = self._data[key] = _HysteresisData()
+            due = math.isnan(data.last_s) or self._slot(now_s) > self._slot(data.last_s)
+            out[i] = data.apply(int(raw[i]), now_s, self.hysteresis_s, self.persistence_s, self.m, self.n) \
+                if due else data.last
+        return out
+
+    def forget(self, key) -> None:
+        self._data.pop(key, None)
+
+    def _slot(self, t_s: float) -> int:
+        """The evaluation slot of a time: evaluations fall at the first assessment of each period of the clock
+        (each whole second), as DAIDALUS's 1 s grid does, whatever the assessment's phase."""
+        return math.floor(t_s / self.period_s + 1e-6)
+
+
+class NoHysteresis:
+    """The TCAS alerter's levels need none here (their holds are the levels' own: alerting.py)."""
+
+    def last(self, keys) -> np.ndarray:
+        return np.zeros(len(keys), int)
+
+    def apply(self, now_s: float, keys, raw: np.ndarray) -> np.ndarray:
+        return raw
+
+    def forget(self, key) -> None:
+        pass

@@ -1,8 +1,10 @@
 """Alerting profiles as data: sensitivity-level tables, low-altitude inhibits and the pilot/autopilot response
 model, loaded from TOML (avionics/advisory/profiles/*.toml, also reachable as config/profiles/).
 
-Built-in profiles: `tcas2` (TCAS II v7.1), `small-uas` (well clear for small UAS, ASTM F3442), `do365`
-(DO-365-like well clear). A profile is chosen by name or path (advisory.profile) and any value overridden
+Built-in profiles: `tcas2` (TCAS II v7.1), `small-uas` (well clear for small UAS, ASTM F3442), `daidalus-tcas3d`
+(DAIDALUS TCAS3D.conf), and the DO-365 well-clear alerters with an [alerter] table (kind "wcv"):
+`daidalus-do365b-no-sum` (DAIDALUS DO_365B_no_SUM.conf, Phase I DWC), `do365` (the project's: the same levels),
+`do365-non-coop` (the DO-365B non-cooperative volume) and `small-uas-wcv` (ASTM F3442-like small-UAS volumes). A profile is chosen by name or path (advisory.profile) and any value overridden
 with advisory.profile_overrides, e.g. ["sl4.ra_tau_s=25", "response.delay_s=3"].
 """
 
@@ -10,10 +12,11 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 
+from avionics.advisory.wcv import WcvThresholds
 from avionics.core.units import FT, FPM, G0, NM
 
 PROFILE_DIR = "profiles"
@@ -48,6 +51,36 @@ class ResponseModel:
 
 
 @dataclass(frozen=True, slots=True)
+class WcvLevelSpec:
+    """One alert level of a well-clear alerter (DAIDALUS AlertThresholds with a WCV_TAUMOD detector): its name,
+    the advisory it raises ("TA": traffic to show and watch, "RA": a manoeuvre now), the bands region its
+    conflicts paint (BandsRegion: NONE, FAR, MID, NEAR), the detector thresholds, the alerting time and the early
+    alerting time (used while the intruder's alert is already this level: DaidalusCore.check_alerting_thresholds)."""
+
+    name: str
+    advisory: str
+    region: str
+    thresholds: WcvThresholds
+    alerting_time_s: float
+    early_alerting_time_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class WcvAlerterSpec:
+    """A DO-365 well-clear alerter ([alerter] kind = "wcv" of a profile): its levels 1..n (least severe first)
+    and DAIDALUS's alerting hysteresis (HysteresisData: M of N over evaluations every period_s, persistence,
+    reset after hysteresis_time_s without an evaluation). source: where the numbers come from."""
+
+    source: str
+    levels: tuple[WcvLevelSpec, ...]
+    hysteresis_time_s: float
+    persistence_time_s: float
+    alerting_m: int
+    alerting_n: int
+    period_s: float
+
+
+@dataclass(frozen=True, slots=True)
 class AlertProfile:
     name: str
     description: str
@@ -59,6 +92,8 @@ class AlertProfile:
     sl_hysteresis_m: float
     inhibit_hysteresis_m: float = 0.0  # each inhibit engages below its height - this, releases above + this
     max_threat_vertical_rate_mps: float = math.inf  # no RA against an intruder whose |vertical rate| exceeds this
+    alerter: WcvAlerterSpec | None = None  # None: the TCAS II alerter over the sensitivity-level table
+    bands: object | None = None  # advisory/bands.py BandsParams of a DO-365 alerter's guidance ([bands] table)
 
 
 class ProfileError(ValueError):
@@ -103,6 +138,90 @@ def _level(table: dict, where: str) -> SensitivityLevel:
     )
 
 
+ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s",
+                "levels"}
+WCV_LEVEL_KEYS = {"name", "advisory", "region", "tthr_s", "tcoa_s", "alerting_time_s", "early_alerting_time_s"} | {
+    f"{name}{suffix}" for name in ("dthr", "zthr") for suffix in DISTANCE_UNITS}
+REGIONS = ("NONE", "FAR", "MID", "NEAR")
+
+
+def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
+    unknown = set(table) - ALERTER_KEYS
+    if unknown:
+        raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}")
+    if table.get("kind") != "wcv":
+        raise ProfileError(f"{where}.kind: expected \"wcv\" (the TCAS alerter needs no [alerter] table)")
+    levels = []
+    for i, row in enumerate(table.get("levels", ())):
+        at = f"{where}.levels[{i}]"
+        unknown = set(row) - WCV_LEVEL_KEYS
+        if unknown:
+            raise ProfileError(f"{at}: unknown key(s) {sorted(unknown)}")
+        if row.get("advisory") not in ("TA", "RA"):
+            raise ProfileError(f"{at}.advisory: expected \"TA\" or \"RA\"")
+        if row.get("region", "NONE") not in REGIONS:
+            raise ProfileError(f"{at}.region: expected one of {list(REGIONS)}")
+        try:
+            thresholds = WcvThresholds(_distance(row, "dthr", at), _distance(row, "zthr", at),
+                                       _number(row["tthr_s"], f"{at}.tthr_s"), _number(row.get("tcoa_s", 0.0), f"{at}.tcoa_s"))
+            alerting = _number(row["alerting_time_s"], f"{at}.alerting_time_s")
+            early = _number(row.get("early_alerting_time_s", alerting), f"{at}.early_alerting_time_s")
+            levels.append(WcvLevelSpec(str(row["name"]), row["advisory"], row.get("region", "NONE"), thresholds,
+                                       alerting, early))
+        except KeyError as exc:
+            raise ProfileError(f"{at}: missing key {exc}") from None
+    if not levels:
+        raise ProfileError(f"{where}: no [[alerter.levels]]")
+    if any(a.advisory == "RA" and b.advisory == "TA" for a, b in zip(levels, levels[1:])):
+        raise ProfileError(f"{where}: a level that raises an RA cannot be below one that raises a TA")
+    m, n = table.get("alerting_m", 1), table.get("alerting_n", 1)
+    if not (isinstance(m, int) and isinstance(n, int) and 1 <= m <= n <= 50):
+        raise ProfileError(f"{where}: need integers 1 <= alerting_m <= alerting_n <= 50")
+    return WcvAlerterSpec(
+        source=str(table.get("source", "")), levels=tuple(levels),
+        hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
+        persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),
+        alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"))
+
+
+def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):
+    """BandsParams (advisory/bands.py; DAIDALUS DO_365B_no_SUM.conf by default) with the profile's [bands] values
+    (keys are BandsParams' fields, SI units) and the alerter's hysteresis, persistence and M of N."""
+    from dataclasses import fields
+
+    from avionics.advisory.bands import BandsParams
+
+    known = {f.name: f.type for f in fields(BandsParams)}
+    unknown = set(table) - set(known)
+    if unknown:
+        raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}; known: {sorted(known)}")
+    values = {}
+    for key, value in table.items():
+        if known[key] in ("bool", bool):
+            if isinstance(value, float) and value in (0.0, 1.0):  # an override (key=number): 0 or 1
+                value = bool(value)
+            if not isinstance(value, bool):
+                raise ProfileError(f"{where}.{key}: expected true or false")
+            values[key] = value
+        elif known[key] in ("str", str):
+            if value not in REGIONS:
+                raise ProfileError(f"{where}.{key}: expected one of {list(REGIONS)}")
+            values[key] = value
+        elif key == "min_vs_mps":  # the only signed one (a descent rate)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ProfileError(f"{where}.{key}: expected a finite number, got {value!r}")
+            values[key] = float(value)
+        else:
+            values[key] = _number(value, f"{where}.{key}")
+    values.setdefault("hysteresis_time_s", alerter.hysteresis_time_s)
+    values.setdefault("persistence_time_s", alerter.persistence_time_s)
+    values.setdefault("alerting_m", alerter.alerting_m)
+    values.setdefault("alerting_n", alerter.alerting_n)
+    for key in ("alerting_m", "alerting_n"):
+        values[key] = int(values[key])
+    return BandsParams(**values)
+
+
 def _apply_override(data: dict, text: str) -> None:
     """'sl4.ra_tau_s=25' (every row of SL 4), 'response.delay_s=3' or 'sl_hysteresis_ft=50'."""
     key, sep, raw = text.partition("=")
@@ -121,6 +240,10 @@ def _apply_override(data: dict, text: str) -> None:
         if leaf not in data["response"]:
             raise ProfileError(f"profile override {text!r}: unknown response key {leaf!r}")
         data["response"][leaf] = value
+    elif head == "bands":  # a guidance-bands parameter (advisory/bands.py BandsParams; checked when built)
+        if "alerter" not in data:
+            raise ProfileError(f"profile override {text!r}: the profile has no DO-365 alerter, hence no bands")
+        data.setdefault("bands", {})[leaf] = value
     elif head.startswith("sl") and head[2:].isdigit():
         rows = [row for row in data["levels"] if row["sl"] == int(head[2:])]
         if not rows:
@@ -175,7 +298,12 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
             sl_hysteresis_m=_number(data["sl_hysteresis_ft"], "sl_hysteresis_ft") * FT,
             inhibit_hysteresis_m=_number(data.get("inhibit_hysteresis_ft", 0.0), "inhibit_hysteresis_ft") * FT,
             max_threat_vertical_rate_mps=_number(data.get("max_threat_vertical_rate_fpm", math.inf),
-                                                 "max_threat_vertical_rate_fpm") * FPM)
+                                                 "max_threat_vertical_rate_fpm") * FPM,
+            alerter=_wcv_alerter(data["alerter"], f"{where} [alerter]") if "alerter" in data else None)
+        if profile.alerter is not None:
+            profile = replace(profile, bands=_bands_params(data.get("bands", {}), profile.alerter, f"{where} [bands]"))
+        elif "bands" in data:
+            raise ProfileError(f"{where}: a [bands] table needs a DO-365 [alerter]")
     except KeyError as exc:
         raise ProfileError(f"{where}: missing key {exc}") from None
     if not levels or not math.isinf(levels[-1].ceiling_m):

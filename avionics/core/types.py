@@ -123,10 +123,20 @@ class Advisory:
     ra_separation_m: float | None = None  # least projected vertical separation at CPA with the RA flown
     # ADS-B integrity of the intruder's reports (tracking/integrity.py): "ok" or "degraded:<mode>"
     integrity: str = "ok"
+    # A DO-365 alerter's own level (advisory/alerting.py: 0 NONE, 1 PREVENTIVE, 2 CORRECTIVE, 3 WARNING) and its
+    # name; None where the alert levels are the advisory levels (the tcas2 alerter): see `alert`
+    alert_level: int | None = None
+    alert_name: str | None = None
 
     def ra_key(self) -> tuple:
-        """What a pilot would hear change: level, sense, strength, reversal."""
-        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed)
+        """What a pilot would hear change: level, sense, strength, reversal, the DO-365 alert level."""
+        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.alert_level)
+
+    def alert(self) -> tuple[int, str]:
+        """(alert level, its name): the DO-365 alerter's, or the advisory level's (0 NONE, 1 TA, 2 RA)."""
+        if self.alert_level is None:
+            return int(self.level), self.level.name
+        return self.alert_level, self.alert_name or ""
 
 
 # An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as

@@ -96,7 +96,37 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
         time_to_cpa=advisory.t_cpa_s, horizontal_miss=advisory.hmd_m,
         vertical_miss=_nan_if_none_or_inf(advisory.vmd_m), tau=_nan_if_none_or_inf(advisory.range_tau_s),
         mod_tau=_nan_if_none_or_inf(advisory.mod_tau_s), pc=_nan_if_none_or_inf(pc),
-        callsign=(callsign or "").encode("ascii", "replace")[:9], integrity=INTEGRITY.get(advisory.integrity, 0))
+        callsign=(callsign or "").encode("ascii", "replace")[:9], integrity=INTEGRITY.get(advisory.integrity, 0),
+        alert_level=advisory.alert()[0])
+
+
+BANDS_KINDS = {"track_deg": mavlink2.DAA_BANDS_KIND_TRACK, "ground_speed_mps": mavlink2.DAA_BANDS_KIND_GROUND_SPEED,
+               "vertical_rate_mps": mavlink2.DAA_BANDS_KIND_VERTICAL_SPEED, "altitude_m": mavlink2.DAA_BANDS_KIND_ALTITUDE}
+BANDS_REGIONS = {"NONE": mavlink2.DAA_BANDS_REGION_NONE, "FAR": mavlink2.DAA_BANDS_REGION_FAR,
+                 "MID": mavlink2.DAA_BANDS_REGION_MID, "NEAR": mavlink2.DAA_BANDS_REGION_NEAR,
+                 "RECOVERY": mavlink2.DAA_BANDS_REGION_RECOVERY}
+BANDS_PER_MESSAGE = 10  # DAA_BANDS's arrays
+
+
+def daa_bands(bands) -> list:
+    """The project's DAA_BANDS messages (avionics/io/dialect/daa.xml) of one bands result (advisory/bands.py
+    Bands): per kind one message of up to 10 intervals, more when it has more (part of parts)."""
+    out = []
+    time_boot_ms = int(round(bands.time_s * 1000.0)) & 0xFFFFFFFF
+    for name, kind in BANDS_KINDS.items():
+        intervals = list(getattr(bands, name))
+        flags = (mavlink2.DAA_BANDS_FLAGS_RECOVERY if bands.recovery.get(name) else 0) | \
+            (0 if intervals else mavlink2.DAA_BANDS_FLAGS_NOT_COMPUTED)
+        chunks = [intervals[i:i + BANDS_PER_MESSAGE] for i in range(0, len(intervals), BANDS_PER_MESSAGE)] or [[]]
+        for part, chunk in enumerate(chunks):
+            pad = BANDS_PER_MESSAGE - len(chunk)
+            out.append(mavlink2.MAVLink_daa_bands_message(
+                time_boot_ms=time_boot_ms, kind=kind, flags=flags, part=part, parts=len(chunks), count=len(chunk),
+                lower=[float(b.lower) for b in chunk] + [math.nan] * pad,
+                upper=[float(b.upper) for b in chunk] + [math.nan] * pad,
+                region=[BANDS_REGIONS.get(b.region, mavlink2.DAA_BANDS_REGION_UNKNOWN) for b in chunk]
+                + [mavlink2.DAA_BANDS_REGION_UNKNOWN] * pad))
+    return out
 
 
 def advisory_severity(advisory: Advisory) -> int:

@@ -19,9 +19,10 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "address_source": advisory.intruder.source.value,
         "callsign": callsign,
         "level": advisory.level.name,
-        # the alerter's level number and name (advisory/alerting.py; tcas2: 0 NONE, 1 TA, 2 RA)
-        "alert_level": int(advisory.level),
-        "alert_name": advisory.level.name,
+        # the alerter's level number and name (advisory/alerting.py; tcas2: 0 NONE, 1 TA, 2 RA; a DO-365
+        # alerter: 0 NONE, 1 PREVENTIVE, 2 CORRECTIVE, 3 WARNING)
+        "alert_level": advisory.alert()[0],
+        "alert_name": advisory.alert()[1],
         "reason": advisory.reason,
         "time_s": advisory.time_s,
         "sensitivity_level": advisory.sensitivity_level,
@@ -112,3 +113,23 @@ def ownship_payload(vehicle: str, now_s: float, ownship: dict | None) -> dict:
     ve, vn, vu = ownship["velocity_enu_mps"]
     return {**out, **ownship, "ground_speed_mps": math.hypot(ve, vn),
             "track_deg": math.degrees(math.atan2(ve, vn)) % 360.0, "vertical_rate_mps": vu}
+
+
+BAND_KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
+
+
+def bands_payload(vehicle: str, alerter: str, bands) -> dict:
+    """Topic bands: a DO-365 alerter's guidance bands (advisory/bands.py Bands, its intruders as (intruder, alert
+    level, level name); docs/zenoh.md, Bands). alerter: the profile's name. altitude_m is geometric (GNSS, MSL) like the ownship
+    topic's."""
+    ve, vn, vu = bands.ownship_vel
+    return {
+        "schema": SCHEMA_VERSION, "vehicle": vehicle, "time_s": bands.time_s, "alerter": alerter,
+        "ownship": {"track_deg": math.degrees(math.atan2(ve, vn)) % 360.0, "ground_speed_mps": math.hypot(ve, vn),
+                    "vertical_rate_mps": vu, "altitude_m": bands.ownship_pos[2]},
+        **{kind: [{"lower": b.lower, "upper": b.upper, "region": b.region} for b in getattr(bands, kind)]
+           for kind in BAND_KINDS},
+        "recovery": {kind: bool(bands.recovery.get(kind, False)) for kind in BAND_KINDS},
+        "intruders": [{"intruder": key, "alert_level": level, "alert_name": name}
+                      for key, level, name in bands.intruders],
+    }

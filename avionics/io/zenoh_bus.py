@@ -5,6 +5,7 @@ Key expressions (vehicle = config vehicle.id, intruder = "<source>-<ICAO hex>", 
   <prefix>/<vehicle>/tracks/<intruder>       at zenoh.tracks_hz
   <prefix>/<vehicle>/ownship                 at zenoh.status_hz
   <prefix>/<vehicle>/status                  at zenoh.status_hz, with the rejection counters
+  <prefix>/<vehicle>/bands                   once a second with a DO-365 alerter: the guidance bands
   <prefix>/<vehicle>/snapshot                queryable: the current picture and the recent advisory changes
   <prefix>/<vehicle>/alive                   liveliness token, held while the process runs
 
@@ -45,7 +46,7 @@ SLICE_S = 0.0005
 PROBE_S = 0.0002
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed")
-VITAL_KINDS = ("status", "ownship")  # their own queue, ahead of the tracks
+VITAL_KINDS = ("status", "ownship", "bands")  # their own queue, ahead of the tracks
 VITAL_QUEUE = 32  # samples (16 status periods of status + ownship)
 UPDATES_PER_BATCH = 64  # the publisher thread comes back for advisories after this many track updates
 
@@ -128,6 +129,7 @@ class ZenohBus:
         # The current picture, for the snapshot queryable (payload dicts are never mutated once published).
         self._ownship: dict | None = None
         self._status: dict | None = None
+        self._bands: dict | None = None  # a DO-365 alerter's latest guidance bands
         self._tracks: dict[str, dict] = {}
         self._active: dict[str, dict] = {}  # intruder -> latest advisory, while TA or RA
         self._state: dict[str, tuple] = {}  # intruder -> advisory_state of its latest advisory
@@ -162,6 +164,8 @@ class ZenohBus:
                 self._vital.append((suffix, payload))
                 if kind == "ownship":
                     self._ownship = payload
+                elif kind == "bands":
+                    self._bands = payload
                 else:
                     self._status = payload
                     self._prune(payload.get("time_s"))
@@ -299,6 +303,7 @@ class ZenohBus:
                 "time_s": self._last_time_s,
                 "ownship": self._ownship,
                 "status": self._status,
+                "bands": self._bands,
                 "tracks": list(self._tracks.values()),
                 "advisories": list(self._active.values()),
                 "advisory_changes": list(self._changes),

@@ -1,6 +1,7 @@
 """The monitor's zenoh side: one session, one subscriber for every vehicle's samples, a liveliness subscriber,
 and a worker that asks a vehicle's snapshot whenever it appears (start-up, late join, reconnection).
 
+Topics: `<prefix>/<vehicle>/{ownship,status,bands}` and `<prefix>/<vehicle>/{tracks,advisories}/<intruder>`.
 Every sample and snapshot passes the schema check (schema.py) before it is applied: a bad one is counted in
 `FleetState.stats` (`rejected`, `rejected.<kind>`, `rejected.<kind>.<reason>`; `/api/stats`) and dropped."""
 
@@ -21,7 +22,7 @@ from avionics.monitor.schema import (MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejec
 from avionics.monitor.state import FleetState
 
 log = logging.getLogger("avionics.monitor")
-KINDS = ("ownship", "status", "tracks", "advisories")
+KINDS = ("ownship", "status", "tracks", "advisories", "bands")  # bands: DO-365 guidance (per vehicle)
 INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pushed back on)
 
 

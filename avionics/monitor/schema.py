@@ -15,6 +15,11 @@ and infinite values). Enumerations (`level`, `advisory`, `ra_sense`, ...) are ch
 against their current values: a future level is shown as text rather than losing the sample, and the page and
 the terminal view render every payload string as text, never as markup. Fields the monitor does not display
 (e.g. `spoof_suspected`, `daa_available`) are not in the tables, so a change to their form never costs a sample.
+
+Bands (`<prefix>/<vehicle>/bands`, DO-365 alerters): each kind's intervals must be objects with `lower` <=
+`upper` within the kind's range (track 0-360 deg, ...), in increasing order, each with a `region` (a bounded
+string: DAIDALUS's NONE/FAR/MID/NEAR/RECOVERY, or a newer one, which the page draws as UNKNOWN); only those
+three fields of an interval are kept. An empty list (no bands computed) is accepted.
 """
 
 from __future__ import annotations
@@ -273,12 +278,72 @@ STATUS = {
     "tracks": _int(0, 10**9), "advisories": _map(_int(0, 10**9), 16), "warnings": _list(TEXT, 64),
     "counters": _map(_num(-1e18, 1e18), MAX_MAP, 128),
 }
+MAX_BAND_INTERVALS = 256  # per kind: DAIDALUS gives a handful; a split at north adds one
+BAND_EPS = 1e-6  # order tolerance between consecutive intervals (their bounds are the same numbers)
+
+
+def _intervals(lo: float, hi: float):
+    """A kind's bands: [{lower, upper, region}] in increasing order within [lo, hi]; [] = no bands computed.
+    An interval with a bad field is Rejected naming it (`<kind>.region`); out of order or range raises _Bad."""
+    fields = _compile({"lower": _num(lo, hi), "upper": _num(lo, hi), "region": ID})
+
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is not list or len(x) > MAX_BAND_INTERVALS:
+            raise _Bad
+        out = []
+        previous = lo
+        for item in x:
+            if type(item) is not dict:
+                raise _Bad
+            band = _clean(fields, item)
+            lower, upper, region = band.get("lower"), band.get("upper"), band.get("region")
+            if lower is None or upper is None or region is None or lower > upper or lower < previous - BAND_EPS:
+                raise _Bad  # an interval must say where it is and what it is, in increasing order
+            previous = upper
+            out.append({"lower": lower, "upper": upper, "region": region})  # nothing else is kept
+        return out
+
+    return check
+
+
+def _objects(fields: dict, max_items: int):
+    """A list of objects, each cleaned by fields (a bad one rejects the sample, naming its field)."""
+    fields = _compile(fields)
+
+    def check(x):
+        if x is None:
+            return None
+        if type(x) is not list or len(x) > max_items:
+            raise _Bad
+        out = []
+        for item in x:
+            if type(item) is not dict:
+                raise _Bad
+            out.append(_clean(fields, item))
+        return out
+
+    return check
+
+
+# Topic <prefix>/<vehicle>/bands: DAIDALUS guidance bands of a DO-365 alerter, SI units like every payload.
+BAND_KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
+BANDS = {
+    **COMMON, "alerter": ID,
+    "ownship": _object({"track_deg": ANGLE, "ground_speed_mps": SPEED, "vertical_rate_mps": RATE, "altitude_m": ALT}),
+    "track_deg": _intervals(0.0, 360.0), "ground_speed_mps": _intervals(0.0, 10_000.0),
+    "vertical_rate_mps": _intervals(-10_000.0, 10_000.0), "altitude_m": _intervals(-2_000.0, 100_000.0),
+    "recovery": _map(_bool, 16),
+    "intruders": _objects({"intruder": ID, "alert_level": _int(0, 9), "alert_name": ID}, 2_000),
+}
 KIND_FIELDS = {kind: _compile(fields) for kind, fields in
-               (("tracks", TRACK), ("advisories", ADVISORY), ("ownship", OWNSHIP), ("status", STATUS))}
+               (("tracks", TRACK), ("advisories", ADVISORY), ("ownship", OWNSHIP), ("status", STATUS),
+                ("bands", BANDS))}
 
 
 def clean_sample(kind: str, payload, name: str | None = None) -> dict:
-    """The checked payload of one sample of `kind` (tracks | advisories | ownship | status), or Rejected.
+    """The checked payload of one sample of `kind` (tracks | advisories | ownship | status | bands), or Rejected.
     name: the intruder id from the key expression; the payload's `intruder` must match it (or is set to it)."""
     if type(payload) is not dict:
         raise Rejected("type")
@@ -306,6 +371,14 @@ def clean_snapshot(snap, rejected: dict | None = None) -> dict:
     for key, kind in (("ownship", "ownship"), ("status", "status")):
         value = snap.get(key)
         out[key] = None if value is None else clean_sample(kind, value)
+    bands = snap.get("bands")  # not in the snapshot contract (yet): taken when present, left out when bad
+    if bands is not None:
+        try:
+            out["bands"] = clean_sample("bands", bands)
+        except Rejected as exc:
+            if rejected is not None:
+                reason = f"bands.{exc.reason}"
+                rejected[reason] = rejected.get(reason, 0) + 1
     for key, kind in (("tracks", "tracks"), ("advisories", "advisories"), ("advisory_changes", "advisories")):
         items = snap.get(key)
         if items is None:

@@ -14,6 +14,10 @@ goes when it has not been heard for `forget_s` (monitor clock; its track leaves 
 and a vehicle keeps at most `max_intruders` (the least recently heard goes first); at most `max_vehicles`
 vehicles (an offline one not heard for `vehicle_forget_s` goes, and makes room for a new one). Samples are
 checked before they get here (schema.py, in feed.py).
+
+Bands (DO-365 alerters, topic `bands`): the latest sample per vehicle is kept as it came; it is *stale* when no
+newer one arrived for `bands_stale_s` (monitor clock): readers are told (`stale`, `age_s`) and keep showing it,
+greyed, so that a lost link is visible rather than hidden. An onboard restart drops it.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from collections import Counter, OrderedDict, deque
 from dataclasses import dataclass, field
 
 from avionics.io.zenoh_bus import advisory_state
+from avionics.monitor.schema import BAND_KINDS
 
 FT = 0.3048
 NM = 1852.0
@@ -106,13 +111,25 @@ def ownship_altitude(own: dict, datum: str | None) -> float | None:
 
 
 def derive_track(track: dict, own: dict | None, advisory: dict | None) -> dict:
-    """What a display needs of one track, relative to ownship extrapolated to the track's time."""
+    """What a display needs of one track, relative to ownship extrapolated to the track's time.
+
+    tau and Pc of an alerting intruder come from its advisory (the track's when the advisory lacks them); of an
+    intruder at NONE only from the track's own latest assessment, when that is not older than the advisory. A
+    cleared (NONE) advisory is published once and never refreshed: its Pc (often 1.0, at the closest approach)
+    is history, not the intruder's probability now."""
     level = track.get("advisory") or "NONE"
     source = track
-    if advisory is not None and (advisory.get("time_s") or 0.0) >= (track.get("time_s") or 0.0) - 1e-9:
+    newer = advisory is not None and (advisory.get("time_s") or 0.0) >= (track.get("time_s") or 0.0) - 1e-9
+    if newer:
         level, source = advisory.get("level") or level, advisory
     elif advisory is not None and advisory.get("level") == level:
         source = advisory
+    alert = advisory if advisory is not None and advisory.get("level") == level else None
+    if level == "NONE":
+        source = None if newer and (advisory.get("time_s") or 0.0) > (track.get("time_s") or 0.0) + 1e-9 else track
+    pc = pc_of(source)
+    if pc is None and level != "NONE":
+        pc = pc_of(track)
     east = north = rel_alt = None
     range_m = pick(track, "range_m")
     bearing = None
@@ -142,9 +159,11 @@ def derive_track(track: dict, own: dict | None, advisory: dict | None) -> dict:
         "vrate_mps": vrate,
         "track_deg": track.get("track_deg"),
         "gs_mps": track.get("ground_speed_mps"),
+        "alert_level": pick(alert, "alert_level"),
+        "alert_name": pick(alert, "alert_name"),  # DO-365: PREVENTIVE, CORRECTIVE, WARNING (tcas2: TA, RA)
         "tau_s": pick(source, "mod_tau_s"),
         "range_tau_s": pick(source, "range_tau_s"),
-        "pc": pc_of(source) if pc_of(source) is not None else pc_of(track),
+        "pc": pc,
         "pc_ra": pick(source, "pc_ra"),
         "imm": imm_mode(track),
         "time_s": track.get("time_s"),
@@ -157,16 +176,21 @@ def derive_track(track: dict, own: dict | None, advisory: dict | None) -> dict:
 
 
 def log_entry(vehicle: str, payload: dict, source: str, epoch: int) -> dict:
+    """An advisory change as logged. A clear (NONE) carries no Pc: the one it was published with is the last
+    alerting assessment's, not a probability of the cleared encounter."""
+    level = payload.get("level")
     return {
         "vehicle": vehicle,
         "intruder": payload.get("intruder"),
         "callsign": payload.get("callsign"),
-        "level": payload.get("level"),
+        "level": level,
+        "alert_level": payload.get("alert_level"),
+        "alert_name": payload.get("alert_name"),
         "reason": payload.get("reason"),
         "time_s": payload.get("time_s"),
         "range_m": payload.get("range_m"),
         "tau_s": payload.get("mod_tau_s"),
-        "pc": pc_of(payload),
+        "pc": None if level == "NONE" else pc_of(payload),
         "ra_sense": payload.get("ra_sense"),
         "ra_words": payload.get("ra_words"),
         "ra_strength": payload.get("ra_strength"),
@@ -212,15 +236,20 @@ class VehicleState:
     last_sample_wall_s: float | None = None  # monitor clock of the last sample
     heard_s: float | None = None  # monitor clock of the last sample, liveliness change or snapshot
     heard: OrderedDict = field(default_factory=OrderedDict)  # intruder -> monitor clock, least recent first
+    bands: dict | None = None  # the latest bands payload (DO-365 alerters)
+    bands_ver: int = 0
+    bands_seen: float | None = None  # monitor clock of its receipt
+    bands_stale: bool = False  # set by expire() after bands_stale_s without a newer one
 
 
 class FleetState:
     def __init__(self, stale_s: float = 5.0, log_size: int = 1000, history_points: int = 600, clock=time.monotonic,
                  forget_s: float = 120.0, max_intruders: int = 2000, max_vehicles: int = 256,
-                 vehicle_forget_s: float = 3600.0):
+                 vehicle_forget_s: float = 3600.0, bands_stale_s: float = 3.0):
         """stale_s: a track not updated for this long leaves the picture; forget_s: an intruder not heard (track
         or advisory) for this long is forgotten (history, advisory, baseline); max_intruders per vehicle, least
-        recently heard evicted first; max_vehicles, offline ones not heard for vehicle_forget_s dropped."""
+        recently heard evicted first; max_vehicles, offline ones not heard for vehicle_forget_s dropped;
+        bands_stale_s: a vehicle's bands without a newer sample for this long are shown as stale."""
         self.cond = threading.Condition()
         self.vehicles: dict[str, VehicleState] = {}
         self.version = 0
@@ -235,6 +264,7 @@ class FleetState:
         self.max_intruders = max(1, max_intruders)
         self.max_vehicles = max(1, max_vehicles)
         self.vehicle_forget_s = vehicle_forget_s
+        self.bands_stale_s = bands_stale_s
         self.stats: Counter = Counter()
         self.on_new_vehicle = None  # callback(vehicle_id) when a vehicle is first seen through data
 
@@ -312,6 +342,9 @@ class FleetState:
             v.advisories.clear()
             v.history.clear()
             v.heard.clear()
+            if v.bands is not None:
+                v.bands = None
+                v.bands_ver = self._bump()
             for name in list(v.tracks):
                 del v.tracks[name]
                 v.removed.append((self._bump(), name))
@@ -320,7 +353,8 @@ class FleetState:
             v.last_time_s = t if v.last_time_s is None else max(t, v.last_time_s)
 
     def apply(self, vid: str, kind: str, name: str, payload: dict) -> None:
-        """One live sample: kind is ownship | status | tracks | advisories; name the intruder for the last two."""
+        """One live sample: kind is ownship | status | tracks | advisories | bands; name the intruder for tracks and
+        advisories."""
         new = False
         with self.cond:
             v, new = self._vehicle(vid)
@@ -348,6 +382,8 @@ class FleetState:
                 v.status = payload
                 v.status_ver = self._bump()
                 self.fleet_version += 1
+            elif kind == "bands":
+                self._set_bands(v, payload)
             else:
                 return
             self.cond.notify_all()
@@ -362,6 +398,17 @@ class FleetState:
         view = derive_track(payload, v.ownship, v.advisories.get(name))
         v.tracks[name] = {"raw": payload, "view": view, "ver": self._bump(), "seen": self.clock()}
         self._history(v, name, view, payload.get("time_s"))
+
+    def _set_bands(self, v: VehicleState, payload: dict) -> None:
+        current = v.bands
+        if current is not None:
+            t, t0 = payload.get("time_s"), current.get("time_s")
+            if isinstance(t, (int, float)) and isinstance(t0, (int, float)) and t0 - 5.0 <= t < t0 - 1e-9:
+                return  # older than what we have (more than 5 s older: a restarted onboard clock, taken)
+        v.bands = payload
+        v.bands_seen = self.clock()
+        v.bands_stale = False
+        v.bands_ver = self._bump()
 
     def _set_advisory(self, v: VehicleState, name: str, payload: dict) -> None:
         self._hear(v, name)
@@ -461,6 +508,8 @@ class FleetState:
                 if status is not None and (v.status is None or (status.get("time_s") or 0) >= (v.status.get("time_s") or 0)):
                     v.status = status
                     v.status_ver = self._bump()
+                if snap.get("bands") is not None:  # not in the snapshot contract: used when a vehicle sends it
+                    self._set_bands(v, snap["bands"])
                 for adv in snap.get("advisories") or []:
                     self._set_advisory(v, adv.get("intruder"), adv)
                 for track in snap.get("tracks") or []:
@@ -509,6 +558,10 @@ class FleetState:
                         break
                     self._forget(v, name)
                     forgotten += 1
+                if v.bands is not None and not v.bands_stale and now - v.bands_seen > self.bands_stale_s:
+                    v.bands_stale = True  # readers are told (a delta), the bands stay, greyed
+                    v.bands_ver = self._bump()
+                    self.cond.notify_all()
                 if v.online is not True and v.heard_s is not None and now - v.heard_s > self.vehicle_forget_s:
                     self._drop_vehicle(v.id)
                     self.stats["expired.vehicles"] += 1
@@ -523,7 +576,8 @@ class FleetState:
         with self.cond:
             return {vid: {"heard": len(v.heard), "tracks": len(v.tracks), "advisories": len(v.advisories),
                           "baseline": len(v.baseline), "history": len(v.history), "log": len(v.log),
-                          "buffer": len(v.buffer)} for vid, v in self.vehicles.items()}
+                          "buffer": len(v.buffer), "bands": int(v.bands is not None)}
+                    for vid, v in self.vehicles.items()}
 
     # -- readers -----------------------------------------------------------------------------------------------
     def wait(self, cursor: Cursor, timeout_s: float) -> bool:
@@ -564,6 +618,21 @@ class FleetState:
         return {k: s.get(k) for k in ("time_s", "version", "ownship_valid", "pressure_altitude_available",
                                        "sensitivity_level", "tracks", "advisories", "warnings", "schema")}
 
+    def _bands_view(self, v: VehicleState) -> dict | None:
+        b = v.bands
+        if b is None:
+            return None
+        age = self.clock() - v.bands_seen
+        out = {k: b.get(k) for k in ("time_s", "alerter", "ownship", *BAND_KINDS, "recovery", "intruders", "schema")}
+        out.update(stale=v.bands_stale or age > self.bands_stale_s, age_s=age, stale_s=self.bands_stale_s)
+        return out
+
+    def bands(self, vid: str) -> dict | None:
+        """The vehicle's latest bands with `stale` and `age_s` (seconds since receipt), or None."""
+        with self.cond:
+            v = self.vehicles.get(vid)
+            return self._bands_view(v) if v else None
+
     def view(self, vid: str | None, cursor: Cursor | None = None) -> tuple[dict, Cursor]:
         """The selected vehicle's picture: everything (cursor None or another vehicle), or what changed since."""
         with self.cond:
@@ -590,6 +659,8 @@ class FleetState:
                     out["ownship"] = self._own_view(v)
                 if full or v.status_ver > since:
                     out["status"] = self._status_view(v)
+                if full or v.bands_ver > since:
+                    out["bands"] = self._bands_view(v)
                 log = [e for e in v.log if e["seq"] > log_since] if not full else v.log[-200:]
                 if log or full:
                     out["log"] = log

@@ -2,6 +2,11 @@
 
 Keys (when stdin is a terminal): n / p next / previous vehicle, + / - range, t north-up / track-up, q quit.
 
+With a DO-365 alerter the vehicle's guidance bands are shown as text under the display (a GUIDANCE BANDS panel):
+per kind (track, ground speed, vertical speed, altitude, in deg, kt, fpm, ft) each region with its interval, in
+the page's colours (daa-displays'), `STALE` when no bands came for `bands_stale_s`; advisories show the alerter's
+level name (PREVENTIVE, CORRECTIVE, WARNING) where it differs from TCAS's.
+
 Every string that comes from a payload or a key expression (vehicle and intruder ids, callsigns, levels, RA words,
 reasons, warnings) goes to rich as a `Text`, which rich never parses for markup or emoji codes: a callsign `[/]`
 is shown as `[/]` (as a plain `str` cell it would be markup, and a stray closing tag raises MarkupError).
@@ -25,6 +30,46 @@ from rich.table import Table
 from rich.text import Text
 
 from avionics.monitor.state import FT, FPM, NM, FleetState
+
+KT = 0.514444
+# Band regions in the page's colours (NASA daa-displays, src/daa-displays/daa-utils.ts bandColors: FAR dashed
+# yellow, MID yellow, NEAR red, RECOVERY dashed green; NONE is not drawn there, dim here)
+BAND_STYLE = {"NONE": "dim", "FAR": "yellow underline", "MID": "bold yellow", "NEAR": "bold red",
+              "RECOVERY": "bold green underline"}
+BAND_KINDS = (("track_deg", "TRK °", 1.0), ("ground_speed_mps", "GS kt", KT), ("vertical_rate_mps", "V/S fpm", FPM),
+              ("altitude_m", "ALT ft", FT))
+
+
+def level_name(level, name) -> str:
+    """The alerter's own name of the level where it differs from TCAS's (DO-365: PREVENTIVE, CORRECTIVE, WARNING)."""
+    return str(name) if name and name != level else str(level)
+
+
+def bands_text(bands: dict | None) -> Text:
+    """The bands as text: one line per kind, each region with its interval in display units."""
+    text = Text()
+    if not bands:
+        return text
+    for kind, label, unit in BAND_KINDS:
+        text.append(f"{label:8} ", style="grey70")
+        intervals = bands.get(kind)
+        if (bands.get("recovery") or {}).get(kind) is True:
+            text.append("RECOVERY ", style=BAND_STYLE["RECOVERY"])
+        if intervals is None:
+            text.append("—")
+        elif not intervals:
+            text.append("no bands computed (ownship outside the range)", style="dim")
+        for iv in intervals or ():
+            region = str(iv["region"])
+            text.append(f"{region} {round(iv['lower'] / unit)}–{round(iv['upper'] / unit)}",
+                        style=BAND_STYLE.get(region, "grey50"))
+            text.append("  ")
+        text.append("\n")
+    alerts = " · ".join(f"{i.get('intruder')} {i.get('alert_name') or i.get('alert_level')}"
+                        for i in bands.get("intruders") or ())
+    text.append(f"{'ALERTS':8} ", style="grey70")
+    text.append(alerts or "—")
+    return text
 
 RANGES_NM = (0.5, 1, 2, 3, 6, 12, 20, 40, 80)
 GLYPH = {"OTHER": "◇", "PROX": "◆", "TA": "●", "RA": "■"}
@@ -78,9 +123,13 @@ class TuiView:
         tracks = sorted(view.get("tracks", []), key=_threat)
         layout = Layout()
         log_h = min(12, max(6, height // 4))
-        body_h = max(12, height - 3 - log_h)
-        layout.split_column(Layout(self._header(view), size=3), Layout(name="body", size=body_h),
-                            Layout(self._log(view), size=log_h))
+        bands = view.get("bands")
+        bands_h = 7 if bands else 0  # four kinds and the alerts, in a frame
+        body_h = max(12, height - 3 - log_h - bands_h)
+        parts = [Layout(self._header(view), size=3), Layout(name="body", size=body_h)]
+        if bands:
+            parts.append(Layout(self._bands(bands), size=bands_h))
+        layout.split_column(*parts, Layout(self._log(view), size=log_h))
         radar_w = min(60, max(30, int(width * 0.36)))
         layout["body"].split_row(Layout(self._radar(view, tracks, radar_w, body_h - 2), size=radar_w + 4),
                                  Layout(self._table(tracks, body_h - 5)))
@@ -163,14 +212,26 @@ class TuiView:
         ra = next((t for t in tracks if t["level"] == "RA"), None)
         subtitle = None
         if ra:
-            words = ra["ra_words"] or (ra["ra_sense"] or "").upper() or "RA"
+            name = level_name("RA", ra.get("alert_name"))
+            words = ra["ra_words"] or (ra["ra_sense"] or "").upper() or ("RA" if name == "RA" else "")
             target = ra["target_vertical_rate_mps"]
-            subtitle = Text(f" RA {words}" + (f" {target / FPM:+.0f} fpm " if target is not None else " "),
-                            style="bold white on red")
+            subtitle = Text(f" {name}" + (f" {words}" if words and words != name else "")
+                            + (f" {target / FPM:+.0f} fpm " if target is not None else " "), style="bold white on red")
         elif any(t["level"] == "TA" for t in tracks):
-            subtitle = Text(" TRAFFIC ", style="bold black on yellow")
+            ta = max((t for t in tracks if t["level"] == "TA"), key=lambda t: t.get("alert_level") or 0)
+            name = level_name("TA", ta.get("alert_name"))
+            subtitle = Text(" TRAFFIC " + (f"{name} " if name != "TA" else ""), style="bold black on yellow")
         return Panel(text, title=title, subtitle=subtitle, box=box.ROUNDED,
                      border_style="yellow" if view.get("online") is False else "grey50", padding=(0, 1))
+
+    def _bands(self, bands: dict) -> Panel:
+        title = Text("GUIDANCE BANDS ")
+        title.append_text(_plain(bands.get("alerter")))
+        title.append(f"  t {_f(bands.get('time_s'), 1)} s")
+        if bands.get("stale"):
+            title.append(f"  STALE {round(bands.get('age_s') or 0)} s", style="bold yellow")
+        return Panel(bands_text(bands), title=title, box=box.ROUNDED, padding=(0, 1),
+                     border_style="yellow" if bands.get("stale") else "grey50")
 
     def _table(self, tracks, rows: int) -> Panel:
         table = Table(box=box.SIMPLE_HEAD, expand=False, pad_edge=False, header_style="bold grey70", padding=(0, 0))
@@ -180,7 +241,8 @@ class TuiView:
                                      ("IMM", "left", 7), ("ADVISORY", "left", 12)):
             table.add_column(name, justify=justify, no_wrap=True, min_width=width)
         for t in tracks[:rows]:
-            adv = t["level"] + (f" {t['ra_words'] or t['ra_sense'] or ''}" if t["level"] == "RA" else "")
+            adv = level_name(t["level"], t.get("alert_name")) + (
+                f" {t['ra_words'] or t['ra_sense'] or ''}" if t["level"] == "RA" else "")
             table.add_row(_plain(t["id"]), _plain(t["callsign"]), Text(GLYPH[t["sym"]], style=STYLE[t["sym"]]),
                           _f(t["range_m"], 2, NM), _f(t["bearing_deg"]),
                           "—" if t["rel_alt_m"] is None else f"{round(t['rel_alt_m'] / FT):+d}",
@@ -198,7 +260,8 @@ class TuiView:
         for e in reversed(view.get("log", [])[-8:]):
             table.add_row(time.strftime("%H:%M:%S", time.localtime(e["received_wall_s"])), _f(e["time_s"], 1),
                           _plain(e["intruder"]), _plain(e["callsign"]),
-                          _plain(e["level"], style={"RA": "bold red", "TA": "bold yellow"}.get(e["level"], "")),
+                          _plain(level_name(e["level"], e.get("alert_name")),
+                                 style={"RA": "bold red", "TA": "bold yellow"}.get(e["level"], "")),
                           _plain(e["ra_words"] or e["ra_sense"]),
                           "—" if e["target_vertical_rate_mps"] is None else f"{e['target_vertical_rate_mps'] / FPM:+.0f}",
                           _f(e["range_m"], 2, NM), _f(e["tau_s"], 1), _f(e["pc"], 3), _plain(e["reason"]),

@@ -2,7 +2,8 @@
 
   GET /                                the traffic display (static/index.html)
   GET /events?vehicle=ID               text/event-stream: one `full` event, then `delta` events (<= 10 Hz;
-                                       at once when an advisory or a vehicle's liveliness changes)
+                                       at once when an advisory or a vehicle's liveliness changes); both carry
+                                       `bands` (DO-365 guidance, with `stale`) when they changed
   GET /api/fleet                       vehicles: online, synced, track and alert counts
   GET /api/vehicle/ID                  the full picture of one vehicle (as the `full` event)
   GET /api/history?vehicle=ID&intruder=ID    [time_s, tau_s, pc, pc_ra, level] points of one intruder

@@ -1,4 +1,5 @@
-"""Ownship state: a CV Kalman filter on GLOBAL_POSITION_INT fixes, plus the pressure-altitude offset.
+"""Ownship state: the latest GLOBAL_POSITION_INT fix propagated at constant velocity (with its uncertainty, a CV
+Kalman prediction from the fix), plus the pressure-altitude offset.
 
 Ownship pressure altitude at any instant = filtered geometric altitude + a smoothed (pressure - geometric)
 offset learned from SCALED_PRESSURE, so both datums are available whenever a recent pressure exists. Each
@@ -49,13 +50,12 @@ class OwnshipFilter:
             np.array([east, north, fix.alt_msl_m, ve, vn, -vd]),
             np.array([GNSS_POSITION_SIGMA_M] * 2 + [GNSS_ALTITUDE_SIGMA_M] + [GNSS_VELOCITY_SIGMA_MPS] * 3),
         )
-        if self.kf is None or fix.time_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
-            self.kf = CvKalman(fix.time_s, z.value, np.diag(z.sigma**2), OWNSHIP_ACCEL_SIGMA_MPS2,
-                               OWNSHIP_ACCEL_SIGMA_MPS2)
-        elif fix.time_s < self.kf.t_s:
+        if self.kf is not None and fix.time_s < self.kf.t_s:
             return False  # out of order: counted by the caller (two fixes read together share a time: both used)
-        else:
-            self.kf.update(fix.time_s, z)
+        # The fix is the autopilot's navigation solution (ArduPilot EKF3, PX4 EKF2), already filtered: it is taken
+        # as it is, with the GNSS-class uncertainty above, and propagated at constant velocity to each assessment.
+        # Filtering it again lagged it by metres in turns whenever its position and velocity disagreed.
+        self.kf = CvKalman(fix.time_s, z.value, np.diag(z.sigma**2), OWNSHIP_ACCEL_SIGMA_MPS2, OWNSHIP_ACCEL_SIGMA_MPS2)
         self.last_fix = fix
         return True
 

@@ -20,6 +20,7 @@ CONFORMANCE = HERE.parents[2] / "shared" / "conformance" / "daidalus"
 # conformance files as the DAIDALUS regression flies them (no noise, the DAIDALUS TCAS3D profile)
 BUILTIN_ARGS = ["--noise", "default", "--seed", "0"]
 DAIDALUS_ARGS = ["--noise", "none", "--set", "advisory.profile=daidalus-tcas3d"]
+DO365_ARGS = ["--noise", "none", "--set", "advisory.profile=daidalus-do365b-no-sum"]  # DO_365B_no_SUM.conf
 
 
 def cases() -> list[tuple[str, str, list[str]]]:

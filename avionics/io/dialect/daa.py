@@ -434,6 +434,48 @@ enums["DAA_INTEGRITY"][5] = EnumEntry("DAA_INTEGRITY_INCONSISTENT", """Position 
 DAA_INTEGRITY_ENUM_END = 6
 enums["DAA_INTEGRITY"][6] = EnumEntry("DAA_INTEGRITY_ENUM_END", """""")
 
+# DAA_BANDS_KIND
+enums["DAA_BANDS_KIND"] = Enum()
+enums["DAA_BANDS_KIND"].bitmask = False
+DAA_BANDS_KIND_TRACK = 0
+enums["DAA_BANDS_KIND"][0] = EnumEntry("DAA_BANDS_KIND_TRACK", """Ground track, degrees true, clockwise from north.""")
+DAA_BANDS_KIND_GROUND_SPEED = 1
+enums["DAA_BANDS_KIND"][1] = EnumEntry("DAA_BANDS_KIND_GROUND_SPEED", """Ground speed, m/s.""")
+DAA_BANDS_KIND_VERTICAL_SPEED = 2
+enums["DAA_BANDS_KIND"][2] = EnumEntry("DAA_BANDS_KIND_VERTICAL_SPEED", """Vertical speed, m/s, positive up.""")
+DAA_BANDS_KIND_ALTITUDE = 3
+enums["DAA_BANDS_KIND"][3] = EnumEntry("DAA_BANDS_KIND_ALTITUDE", """Altitude, m, geometric (MSL).""")
+DAA_BANDS_KIND_ENUM_END = 4
+enums["DAA_BANDS_KIND"][4] = EnumEntry("DAA_BANDS_KIND_ENUM_END", """""")
+
+# DAA_BANDS_REGION
+enums["DAA_BANDS_REGION"] = Enum()
+enums["DAA_BANDS_REGION"].bitmask = False
+DAA_BANDS_REGION_NONE = 0
+enums["DAA_BANDS_REGION"][0] = EnumEntry("DAA_BANDS_REGION_NONE", """Conflict-free.""")
+DAA_BANDS_REGION_FAR = 1
+enums["DAA_BANDS_REGION"][1] = EnumEntry("DAA_BANDS_REGION_FAR", """Conflict of the preventive level.""")
+DAA_BANDS_REGION_MID = 2
+enums["DAA_BANDS_REGION"][2] = EnumEntry("DAA_BANDS_REGION_MID", """Conflict of the corrective level.""")
+DAA_BANDS_REGION_NEAR = 3
+enums["DAA_BANDS_REGION"][3] = EnumEntry("DAA_BANDS_REGION_NEAR", """Conflict of the warning level.""")
+DAA_BANDS_REGION_RECOVERY = 4
+enums["DAA_BANDS_REGION"][4] = EnumEntry("DAA_BANDS_REGION_RECOVERY", """Recovery: no conflict-free value; these recover soonest.""")
+DAA_BANDS_REGION_UNKNOWN = 255
+enums["DAA_BANDS_REGION"][255] = EnumEntry("DAA_BANDS_REGION_UNKNOWN", """Not computed.""")
+DAA_BANDS_REGION_ENUM_END = 256
+enums["DAA_BANDS_REGION"][256] = EnumEntry("DAA_BANDS_REGION_ENUM_END", """""")
+
+# DAA_BANDS_FLAGS
+enums["DAA_BANDS_FLAGS"] = Enum()
+enums["DAA_BANDS_FLAGS"].bitmask = True
+DAA_BANDS_FLAGS_RECOVERY = 1
+enums["DAA_BANDS_FLAGS"][1] = EnumEntry("DAA_BANDS_FLAGS_RECOVERY", """The kind's bands are recovery bands.""")
+DAA_BANDS_FLAGS_NOT_COMPUTED = 2
+enums["DAA_BANDS_FLAGS"][2] = EnumEntry("DAA_BANDS_FLAGS_NOT_COMPUTED", """No bands for this kind (ownship outside its range).""")
+DAA_BANDS_FLAGS_ENUM_END = 3
+enums["DAA_BANDS_FLAGS"][3] = EnumEntry("DAA_BANDS_FLAGS_ENUM_END", """""")
+
 # HL_FAILURE_FLAG
 enums["HL_FAILURE_FLAG"] = Enum()
 enums["HL_FAILURE_FLAG"].bitmask = True
@@ -6393,6 +6435,7 @@ enums["MAV_COMPONENT"][251] = EnumEntry("MAV_COMPONENT_ENUM_END", """""")
 MAVLINK_MSG_ID_BAD_DATA = -1
 MAVLINK_MSG_ID_UNKNOWN = -2
 MAVLINK_MSG_ID_DAA_ADVISORY = 42700
+MAVLINK_MSG_ID_DAA_BANDS = 42701
 MAVLINK_MSG_ID_SYS_STATUS = 1
 MAVLINK_MSG_ID_SYSTEM_TIME = 2
 MAVLINK_MSG_ID_PING = 4
@@ -6614,22 +6657,22 @@ class MAVLink_daa_advisory_message(MAVLink_message):
 
     id = MAVLINK_MSG_ID_DAA_ADVISORY
     msgname = "DAA_ADVISORY"
-    fieldnames = ["id", "level", "sense", "strength", "flags", "sensitivity_level", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "callsign", "integrity"]
-    ordered_fieldnames = ["id", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "level", "sense", "strength", "flags", "sensitivity_level", "callsign", "integrity"]
-    fieldtypes = ["uint32_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "float", "float", "float", "float", "float", "float", "float", "float", "char", "uint8_t"]
+    fieldnames = ["id", "level", "sense", "strength", "flags", "sensitivity_level", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "callsign", "integrity", "alert_level"]
+    ordered_fieldnames = ["id", "target_vertical_rate", "range", "time_to_cpa", "horizontal_miss", "vertical_miss", "tau", "mod_tau", "pc", "level", "sense", "strength", "flags", "sensitivity_level", "callsign", "integrity", "alert_level"]
+    fieldtypes = ["uint32_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "float", "float", "float", "float", "float", "float", "float", "float", "char", "uint8_t", "uint8_t"]
     fielddisplays_by_name: Dict[str, str] = {"flags": "bitmask"}
     fieldenums_by_name: Dict[str, str] = {"level": "DAA_ADVISORY_LEVEL", "sense": "DAA_RA_SENSE", "strength": "DAA_RA_STRENGTH", "flags": "DAA_ADVISORY_FLAGS", "integrity": "DAA_INTEGRITY"}
     fieldunits_by_name: Dict[str, str] = {"target_vertical_rate": "m/s", "range": "m", "time_to_cpa": "s", "horizontal_miss": "m", "vertical_miss": "m", "tau": "s", "mod_tau": "s"}
-    native_format = bytearray(b"<IffffffffBBBBBcB")
-    orders = [0, 9, 10, 11, 12, 13, 1, 2, 3, 4, 5, 6, 7, 8, 14, 15]
-    lengths = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
-    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0]
+    native_format = bytearray(b"<IffffffffBBBBBcBB")
+    orders = [0, 9, 10, 11, 12, 13, 1, 2, 3, 4, 5, 6, 7, 8, 14, 15, 16]
+    lengths = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
+    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0, 0]
     crc_extra = 189
-    unpacker = struct.Struct("<IffffffffBBBBB9sB")
+    unpacker = struct.Struct("<IffffffffBBBBB9sBB")
     instance_field = None
     instance_offset = -1
 
-    def __init__(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0):
+    def __init__(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0, alert_level: int = 0):
         MAVLink_message.__init__(self, MAVLink_daa_advisory_message.id, MAVLink_daa_advisory_message.msgname)
         self._fieldnames = MAVLink_daa_advisory_message.fieldnames
         self._instance_field = MAVLink_daa_advisory_message.instance_field
@@ -6651,14 +6694,64 @@ class MAVLink_daa_advisory_message(MAVLink_message):
         self._callsign_raw = callsign
         self.callsign = callsign.split(b"\x00", 1)[0].decode("ascii", errors="replace")
         self.integrity = integrity
+        self.alert_level = alert_level
 
     def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
-        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.id, self.target_vertical_rate, self.range, self.time_to_cpa, self.horizontal_miss, self.vertical_miss, self.tau, self.mod_tau, self.pc, self.level, self.sense, self.strength, self.flags, self.sensitivity_level, self._callsign_raw, self.integrity), force_mavlink1=force_mavlink1)
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.id, self.target_vertical_rate, self.range, self.time_to_cpa, self.horizontal_miss, self.vertical_miss, self.tau, self.mod_tau, self.pc, self.level, self.sense, self.strength, self.flags, self.sensitivity_level, self._callsign_raw, self.integrity, self.alert_level), force_mavlink1=force_mavlink1)
 
 
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_daa_advisory_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_daa_bands_message(MAVLink_message):
+    """
+    Detect-and-avoid guidance bands of one kind (NASA DAIDALUS bands),
+    sent once a second with a DO-365 alerter: intervals in increasing
+    order, adjacent, covering the kind's range. More than 10 intervals
+    take several messages (part of parts).
+    """
+
+    id = MAVLINK_MSG_ID_DAA_BANDS
+    msgname = "DAA_BANDS"
+    fieldnames = ["time_boot_ms", "kind", "flags", "part", "parts", "count", "lower", "upper", "region"]
+    ordered_fieldnames = ["time_boot_ms", "lower", "upper", "kind", "flags", "part", "parts", "count", "region"]
+    fieldtypes = ["uint32_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "uint8_t", "float", "float", "uint8_t"]
+    fielddisplays_by_name: Dict[str, str] = {"flags": "bitmask"}
+    fieldenums_by_name: Dict[str, str] = {"kind": "DAA_BANDS_KIND", "flags": "DAA_BANDS_FLAGS", "region": "DAA_BANDS_REGION"}
+    fieldunits_by_name: Dict[str, str] = {"time_boot_ms": "ms"}
+    native_format = bytearray(b"<IffBBBBBB")
+    orders = [0, 3, 4, 5, 6, 7, 1, 2, 8]
+    lengths = [1, 10, 10, 1, 1, 1, 1, 1, 10]
+    array_lengths = [0, 10, 10, 0, 0, 0, 0, 0, 10]
+    crc_extra = 197
+    unpacker = struct.Struct("<I10f10fBBBBB10B")
+    instance_field = None
+    instance_offset = -1
+
+    def __init__(self, time_boot_ms: int, kind: int, flags: int, part: int, parts: int, count: int, lower: Sequence[float], upper: Sequence[float], region: Sequence[int]):
+        MAVLink_message.__init__(self, MAVLink_daa_bands_message.id, MAVLink_daa_bands_message.msgname)
+        self._fieldnames = MAVLink_daa_bands_message.fieldnames
+        self._instance_field = MAVLink_daa_bands_message.instance_field
+        self._instance_offset = MAVLink_daa_bands_message.instance_offset
+        self.time_boot_ms = time_boot_ms
+        self.kind = kind
+        self.flags = flags
+        self.part = part
+        self.parts = parts
+        self.count = count
+        self.lower = lower
+        self.upper = upper
+        self.region = region
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.time_boot_ms, self.lower[0], self.lower[1], self.lower[2], self.lower[3], self.lower[4], self.lower[5], self.lower[6], self.lower[7], self.lower[8], self.lower[9], self.upper[0], self.upper[1], self.upper[2], self.upper[3], self.upper[4], self.upper[5], self.upper[6], self.upper[7], self.upper[8], self.upper[9], self.kind, self.flags, self.part, self.parts, self.count, self.region[0], self.region[1], self.region[2], self.region[3], self.region[4], self.region[5], self.region[6], self.region[7], self.region[8], self.region[9]), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_daa_bands_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_sys_status_message(MAVLink_message):
@@ -16735,6 +16828,7 @@ setattr(MAVLink_heartbeat_message, "name", mavlink_msg_deprecated_name_property(
 
 mavlink_map: Dict[int, Type[MAVLink_message]] = {
     MAVLINK_MSG_ID_DAA_ADVISORY: MAVLink_daa_advisory_message,
+    MAVLINK_MSG_ID_DAA_BANDS: MAVLink_daa_bands_message,
     MAVLINK_MSG_ID_SYS_STATUS: MAVLink_sys_status_message,
     MAVLINK_MSG_ID_SYSTEM_TIME: MAVLink_system_time_message,
     MAVLINK_MSG_ID_PING: MAVLink_ping_message,
@@ -17341,7 +17435,7 @@ class MAVLink(object):
         m._header = MAVLink_header(msgId, incompat_flags, compat_flags, mlen, seq, srcSystem, srcComponent)
         return m
 
-    def daa_advisory_encode(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0) -> MAVLink_daa_advisory_message:
+    def daa_advisory_encode(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0, alert_level: int = 0) -> MAVLink_daa_advisory_message:
         """
         Detect-and-avoid advisory for one intruder, sent on every change and
         while active. The RA fields are one ownship manoeuvre shared
@@ -17363,11 +17457,12 @@ class MAVLink(object):
         pc                        : Conflict probability; NaN when not computed. (type:float)
         callsign                  : Intruder callsign, NUL-terminated if shorter. (type:char)
         integrity                 : ADS-B integrity of the intruder (0 when the sender predates this field). (type:uint8_t, values:DAA_INTEGRITY)
+        alert_level               : The alerter's own level: with a DO-365 alerter 0 none, 1 preventive, 2 corrective, 3 warning; otherwise equal to level (0 when the sender predates this field). (type:uint8_t)
 
         """
-        return MAVLink_daa_advisory_message(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity)
+        return MAVLink_daa_advisory_message(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity, alert_level)
 
-    def daa_advisory_send(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0, force_mavlink1: bool = False) -> None:
+    def daa_advisory_send(self, id: int, level: int, sense: int, strength: int, flags: int, sensitivity_level: int, target_vertical_rate: float, range: float, time_to_cpa: float, horizontal_miss: float, vertical_miss: float, tau: float, mod_tau: float, pc: float, callsign: bytes, integrity: int = 0, alert_level: int = 0, force_mavlink1: bool = False) -> None:
         """
         Detect-and-avoid advisory for one intruder, sent on every change and
         while active. The RA fields are one ownship manoeuvre shared
@@ -17389,9 +17484,50 @@ class MAVLink(object):
         pc                        : Conflict probability; NaN when not computed. (type:float)
         callsign                  : Intruder callsign, NUL-terminated if shorter. (type:char)
         integrity                 : ADS-B integrity of the intruder (0 when the sender predates this field). (type:uint8_t, values:DAA_INTEGRITY)
+        alert_level               : The alerter's own level: with a DO-365 alerter 0 none, 1 preventive, 2 corrective, 3 warning; otherwise equal to level (0 when the sender predates this field). (type:uint8_t)
 
         """
-        self.send(self.daa_advisory_encode(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity), force_mavlink1=force_mavlink1)
+        self.send(self.daa_advisory_encode(id, level, sense, strength, flags, sensitivity_level, target_vertical_rate, range, time_to_cpa, horizontal_miss, vertical_miss, tau, mod_tau, pc, callsign, integrity, alert_level), force_mavlink1=force_mavlink1)
+
+    def daa_bands_encode(self, time_boot_ms: int, kind: int, flags: int, part: int, parts: int, count: int, lower: Sequence[float], upper: Sequence[float], region: Sequence[int]) -> MAVLink_daa_bands_message:
+        """
+        Detect-and-avoid guidance bands of one kind (NASA DAIDALUS bands),
+        sent once a second with a DO-365 alerter: intervals in
+        increasing order, adjacent, covering the kind's range. More
+        than 10 intervals take several messages (part of parts).
+
+        time_boot_ms              : Time of the bands (onboard process clock). [ms] (type:uint32_t)
+        kind                      : What the values are. (type:uint8_t, values:DAA_BANDS_KIND)
+        flags                     : Flags. (type:uint8_t, values:DAA_BANDS_FLAGS)
+        part                      : This message's index among the kind's messages, from 0. (type:uint8_t)
+        parts                     : Number of messages of this kind at this time. (type:uint8_t)
+        count                     : Intervals used in this message (the rest of the arrays is unused). (type:uint8_t)
+        lower                     : Lower ends (units of kind). (type:float)
+        upper                     : Upper ends (units of kind). (type:float)
+        region                    : Regions. (type:uint8_t, values:DAA_BANDS_REGION)
+
+        """
+        return MAVLink_daa_bands_message(time_boot_ms, kind, flags, part, parts, count, lower, upper, region)
+
+    def daa_bands_send(self, time_boot_ms: int, kind: int, flags: int, part: int, parts: int, count: int, lower: Sequence[float], upper: Sequence[float], region: Sequence[int], force_mavlink1: bool = False) -> None:
+        """
+        Detect-and-avoid guidance bands of one kind (NASA DAIDALUS bands),
+        sent once a second with a DO-365 alerter: intervals in
+        increasing order, adjacent, covering the kind's range. More
+        than 10 intervals take several messages (part of parts).
+
+        time_boot_ms              : Time of the bands (onboard process clock). [ms] (type:uint32_t)
+        kind                      : What the values are. (type:uint8_t, values:DAA_BANDS_KIND)
+        flags                     : Flags. (type:uint8_t, values:DAA_BANDS_FLAGS)
+        part                      : This message's index among the kind's messages, from 0. (type:uint8_t)
+        parts                     : Number of messages of this kind at this time. (type:uint8_t)
+        count                     : Intervals used in this message (the rest of the arrays is unused). (type:uint8_t)
+        lower                     : Lower ends (units of kind). (type:float)
+        upper                     : Upper ends (units of kind). (type:float)
+        region                    : Regions. (type:uint8_t, values:DAA_BANDS_REGION)
+
+        """
+        self.send(self.daa_bands_encode(time_boot_ms, kind, flags, part, parts, count, lower, upper, region), force_mavlink1=force_mavlink1)
 
     def sys_status_encode(self, onboard_control_sensors_present: int, onboard_control_sensors_enabled: int, onboard_control_sensors_health: int, load: int, voltage_battery: int, current_battery: int, battery_remaining: int, drop_rate_comm: int, errors_comm: int, errors_count1: int, errors_count2: int, errors_count3: int, errors_count4: int, onboard_control_sensors_present_extended: int = 0, onboard_control_sensors_enabled_extended: int = 0, onboard_control_sensors_health_extended: int = 0) -> MAVLink_sys_status_message:
         """
