@@ -128,7 +128,8 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     from sitl.live import fly
 
     scenario = load_scenario(scenario_name)
-    start = DEMO_START_S.get(scenario_name, 0.0)
+    do365 = profile_has_bands(profile)
+    start = 0.0 if do365 else DEMO_START_S.get(scenario_name, 0.0)  # DO-365 alerts come a minute earlier
     duration = scenario.duration_s - start
     endpoint = f"tcp/127.0.0.1:{zenoh_port}"
     check_ports_free(port, zenoh_port)
@@ -169,10 +170,11 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
 
         def on_bands(sample) -> None:
             text = bands_text(json.loads(sample.payload.to_bytes()))
+            shape = [word for word in text.split() if word in ("FAR", "MID", "NEAR", "RECOVERY", "clear", "--")]
             with lock:
-                if not bands_seen or bands_seen[-1] != text:
+                if not bands_seen or bands_seen[-1][0] != shape:
                     print(f"  zenoh      bands {text}", flush=True)
-                bands_seen.append(text)
+                bands_seen.append((shape, text))
 
         subscriber = session.declare_subscriber("daa/*/advisories/**", on_advisory)
         bands_subscriber = session.declare_subscriber("daa/*/bands", on_bands)
@@ -216,12 +218,18 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
           f"rejections: {rejected or 'none'}")
     levels = [THREAT[r.msg.threat_level].strip() for r in collisions]
     ok = "TA" in levels and "RA" in levels and levels[-1] == "NONE"
-    conflict_bands = any("clear" not in text.split("; ")[0] for text in bands_seen)
-    if profile_has_bands(profile):
-        print(f"guidance bands received: {len(bands_seen)} ({'with' if conflict_bands else 'without'} conflict bands)")
-        ok = ok and conflict_bands
-    print("result:", "TA, RA and clear received" + (", and guidance bands" if profile_has_bands(profile) else "")
-          if ok else f"unexpected advisory sequence {levels}")
+    if not do365:
+        print("result:", "TA, RA and clear received" if ok else f"unexpected advisory sequence {levels}")
+        return 0 if ok else 1
+    names = [p.get("alert_name") for p in zenoh_advisories]
+    sequence = [n for i, n in enumerate(names) if i == 0 or n != names[i - 1]]  # the DO-365 levels in turn
+    conflict_bands = any(word in ("MID", "NEAR") for shape, _ in bands_seen for word in shape)
+    print(f"guidance bands received: {len(bands_seen)} ({'with' if conflict_bands else 'without'} conflict bands)")
+    # the alert escalates to the warning (the levels are nested: a head-on 11 km out is preventive and corrective
+    # at once, as in DAIDALUS) and ends
+    ok = ok and conflict_bands and len(sequence) >= 3 and sequence[-2:] == ["WARNING", "NONE"]
+    print("result:", f"DO-365 levels {' -> '.join(sequence)} received, and guidance bands" if ok
+          else f"unexpected sequence: COLLISION {levels}, DO-365 levels {sequence}")
     return 0 if ok else 1
 
 

@@ -49,6 +49,9 @@ class Outcome:
     first_ra: object = None  # (time, Resolution, threats, inhibits) of the first RA
     words: list[str] = field(default_factory=list)
     threats: set[int] = field(default_factory=set)  # intruders that were RA threats at some time
+    # the TCAS II v7.1 HMD filter ended an RA while the range still closed: (its threats' HMD, the filter's HMD),
+    # [B71] "the HMD filter can terminate an RA prior to ALIM being obtained"
+    hmd_filter_ended: tuple | None = None
 
 
 def true_cpa_time(intr: Intruder) -> float:
@@ -139,6 +142,9 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             ra_now = [j for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
             threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j])) for j in ra_now]
             ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z)
+            ended = [j for j in np.flatnonzero(was_ra) if j not in ra_now and g.s_dot_v[j] < 0.0]
+            if ended and level.ra_hmd_m is not None and all(g.hmd_m[j] > level.ra_hmd_m for j in ended):
+                out.hmd_filter_ended = (min(float(g.hmd_m[j]) for j in ended), level.ra_hmd_m)
             was_ra = (candidate == int(AdvisoryLevel.RA)) & (ra is not None)  # a blocked RA stays a TA
             if ra is not None:
                 out.threats.update(ra_now)

@@ -23,8 +23,8 @@ import pytest
 from tests.golden.first_alerts import golden, problems, require
 from tests.golden.generate import CONFORMANCE, DO365_ARGS, replayed_csv
 
-# one xdist worker runs the replays (tests/golden/generate.py caches them per process)
-pytestmark = pytest.mark.xdist_group("replays")
+# one xdist worker runs these replays, the other the TCAS3D and golden ones (group "replays"): both long poles
+pytestmark = pytest.mark.xdist_group("replays-do365")
 LEVELS = {1: "PREVENTIVE", 2: "CORRECTIVE", 3: "WARNING"}
 GOLDEN = golden("DO_365B_no_SUM")
 

@@ -456,6 +456,19 @@ class _Candidates:
         return seg
 
 
+def _lines_and_samples(det, s, v, s_t, v_t, lookahead):
+    """For a detector (a WcvThresholds or the recovery Cylinder): (t_in, t_out) of the loss over [0, lookahead]
+    on the straight lines (s, v) after the manoeuvres (inf, -inf where none), and the loss now at the manoeuvres'
+    samples (s_t, v_t)."""
+    if isinstance(det, Cylinder):
+        tin, tout = cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, lookahead)
+        return tin, tout, cylinder_violation(s_t[..., :2], s_t[..., 2], det)
+    tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, lookahead)
+    ok = conflict(tin, tout)
+    los = wcv_violation(s_t[..., :2], v_t[..., :2], s_t[..., 2], v_t[..., 2], det)
+    return np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf), los
+
+
 class _Kinematic(_Candidates):
     """DaidalusIntegerBands kinematic bands: candidate j (-maxl..maxr) is the manoeuvre of |j| time steps to
     the left/down (j < 0) or right/up (j > 0), then straight on.
@@ -495,14 +508,7 @@ class _Kinematic(_Candidates):
             L = self.lookahead
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
             s, v, s_t = self.s[:, sel], self.v[:, sel], self.s_t[:, sel]
-            if isinstance(det, Cylinder):
-                tin, tout = cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, L)
-                los = cylinder_violation(s_t[..., :2], s_t[..., 2], det)
-            else:
-                tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, L)
-                ok = conflict(tin, tout)
-                tin, tout = np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf)
-                los = wcv_violation(s_t[..., :2], v[..., :2], s_t[..., 2], v[..., 2], det)
+            tin, tout, los = _lines_and_samples(det, s, v, s_t, v, L)
             # LOS_at(k): a loss at the sample, or on the line through it before the next sample (a loss between
             # two samples is not skipped: NASA's golden bands need this, see _Kinematic's docstring)
             t = self.t[:, None]
@@ -590,14 +596,7 @@ class _Altitude(_Candidates):
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
             s, v = self.s[:, q:, sel], self.v[:, q:, sel]
             s_t, v_t = self.s_t[:, :q, sel], self.v[:, :q, sel]
-            if isinstance(det, Cylinder):
-                tin, tout = cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, L)
-                los = cylinder_violation(s_t[..., :2], s_t[..., 2], det)
-            else:
-                tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, L)
-                ok = conflict(tin, tout)
-                tin, tout = np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf)
-                los = wcv_violation(s_t[..., :2], v_t[..., :2], s_t[..., 2], v_t[..., 2], det)
+            tin, tout, los = _lines_and_samples(det, s, v, s_t, v_t, L)
             los &= (self.los_mask & (self.los_t < L))[..., None]
             self._cache[key] = (tin, tout, los)
         return self._cache[key]
