@@ -58,7 +58,7 @@ def _horizontal_wcv(s_xy, v_xy, thr: WcvThresholds):
     """WCV_tvar.horizontal_WCV with WCV_TAUMOD.horizontal_tvar."""
     sqs, sdotv, a = _dot(s_xy, s_xy), _dot(s_xy, v_xy), _dot(v_xy, v_xy)
     d2 = thr.dthr_m**2
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # tiny s.v: taumod is +-inf, not a fault
         tcpa = np.where(a > 0.0, -sdotv / np.where(a > 0.0, a, 1.0), 0.0)  # Horizontal.tcpa
         taumod = np.where(sdotv < 0.0, (d2 - sqs) / np.where(sdotv < 0.0, sdotv, -1.0), -1.0)
     cpa = s_xy + tcpa[..., None] * v_xy
