@@ -41,6 +41,7 @@ from avionics.advisory.bands_kinematics import (
     Cylinder, almost_equals, almost_less, cylinder_interval, cylinder_violation, gs_accel, level_out_state,
     level_out_times, turn, vs_accel,
 )
+from avionics.advisory.persistence import MofN
 from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval, wcv_violation
 from avionics.core.units import FPM, FT, G0, KT, NM
 
@@ -254,42 +255,10 @@ def _region_of(lcv: list[_CV], val: float) -> int:
     return UNKNOWN
 
 
-class _MofN:
-    """MofN: the highest region order that at least m of the last n values reached."""
-
-    __slots__ = ("m", "n", "max", "queue")
-
-    def __init__(self, m: int, n: int, val: int):
-        self.m, self.n, self.max = m, n, val
-        self.queue = [val if i < m else -1 for i in range(n)]
-
-    def copy(self) -> "_MofN":
-        c = _MofN.__new__(_MofN)
-        c.m, c.n, c.max, c.queue = self.m, self.n, self.max, list(self.queue)
-        return c
-
-    def apply(self, value: int) -> int:
-        if not (self.queue and 0 < self.m <= self.n):
-            return value
-        if value > self.max:
-            self.max = value
-        self.queue.pop(0)
-        self.queue.append(value)
-        if self.max < 0:
-            return self.max
-        for i in range(self.max, -1, -1):
-            if sum(1 for q in self.queue if q >= i) >= self.m:
-                return i
-        return -1
-
-    def same_as(self, other: "_MofN") -> bool:
-        return self.queue == other.queue
-
-
 class _BandsMofN:
     __slots__ = ("val", "left", "right")
 
-    def __init__(self, val: float, left: _MofN, right: _MofN):
+    def __init__(self, val: float, left: MofN, right: MofN):
         self.val, self.left, self.right = val, left, right
 
 
@@ -362,7 +331,7 @@ class _Hysteresis:
         if not (self.p.hysteresis_time_s > 0 and 0 < m <= n):
             return
         if not self.mofn:
-            self.mofn = [_BandsMofN(cv.val, _MofN(m, n, cv.left), _MofN(m, n, cv.right)) for cv in lcv]
+            self.mofn = [_BandsMofN(cv.val, MofN(m, n, cv.left), MofN(m, n, cv.right)) for cv in lcv]
         i = j = 0
         while i < len(self.mofn) and j < len(lcv):
             bm, cv = self.mofn[i], lcv[j]

@@ -117,27 +117,52 @@ class BinomialPersistence(_WindowPersistence):
 # --- the alerting hysteresis of a DO-365 alerter (DAIDALUS) ---------------------------------------------------
 
 
-class _HysteresisData:
-    """One intruder's DAIDALUS HysteresisData with its MofN (gov.nasa.larcfm.ACCoRD, v2.0.4): the M-of-N filter
-    over the last n raw alert levels (a level counts for every level below it; MofN.m_of_n), persistence (an
-    alert does not drop within persistence_time_s of its last rise), and a reset when an evaluation comes more
-    than hysteresis_time_s after the previous one (or not after it). After a reset the queue holds m copies of
-    the current level (MofN.reset(val)), so the first evaluation alerts at once."""
+class MofN:
+    """DAIDALUS MofN (gov.nasa.larcfm.ACCoRD, v2.0.4): the highest value at least m of the last n values reached (a
+    value counts for every value below it); -1 when none did. A new filter holds m copies of its first value
+    (MofN.reset(val)), so that value passes at once. Used by the alerting hysteresis here and the bands' (bands.py)."""
 
-    __slots__ = ("queue", "max", "init_s", "last_s", "last")
+    __slots__ = ("m", "n", "max", "queue")
+
+    def __init__(self, m: int, n: int, val: int):
+        self.m, self.n, self.max = m, n, val
+        self.queue = [val if i < m else -1 for i in range(n)]
+
+    def copy(self) -> "MofN":
+        c = MofN.__new__(MofN)
+        c.m, c.n, c.max, c.queue = self.m, self.n, self.max, list(self.queue)
+        return c
+
+    def apply(self, value: int) -> int:
+        """MofN.m_of_n: take value in, return the filtered value."""
+        if not (self.queue and 0 < self.m <= self.n):
+            return value
+        self.max = max(self.max, value)
+        self.queue.pop(0)
+        self.queue.append(value)
+        return next((lvl for lvl in range(self.max, -1, -1) if sum(q >= lvl for q in self.queue) >= self.m), -1)
+
+    def same_as(self, other: "MofN") -> bool:
+        """MofN.sameAs, as the bands' hysteresis uses it: the same values in the window."""
+        return self.queue == other.queue
+
+
+class _HysteresisData:
+    """One intruder's DAIDALUS HysteresisData (v2.0.4): its MofN over the last n raw alert levels, persistence (an
+    alert does not drop within persistence_time_s of its last rise), and a reset when an evaluation comes more
+    than hysteresis_time_s after the previous one (or not after it)."""
+
+    __slots__ = ("mofn", "init_s", "last_s", "last")
 
     def __init__(self):
-        self.queue: deque = deque()
-        self.max, self.init_s, self.last_s, self.last = -1, math.nan, math.nan, -1
+        self.mofn: MofN | None = None
+        self.init_s, self.last_s, self.last = math.nan, math.nan, -1
 
     def apply(self, raw: int, now_s: float, hysteresis_s: float, persistence_s: float, m: int, n: int) -> int:
         if math.isnan(self.last_s) or now_s <= self.last_s or now_s - self.last_s > hysteresis_s:
-            self.queue = deque([raw] * m + [-1] * (n - m))  # HysteresisData.reset -> MofN.reset(raw)
-            self.max, self.init_s, self.last_s, self.last = raw, math.nan, math.nan, -1
-        self.max = max(self.max, raw)  # MofN.m_of_n
-        self.queue.popleft()
-        self.queue.append(raw)
-        mofn = next((lvl for lvl in range(self.max, -1, -1) if sum(v >= lvl for v in self.queue) >= m), -1)
+            self.mofn = MofN(m, n, raw)  # HysteresisData.reset -> MofN.reset(raw)
+            self.init_s, self.last_s, self.last = math.nan, math.nan, -1
+        mofn = self.mofn.apply(raw)
         if not math.isnan(self.init_s) and self.last > 0 and mofn < self.last and \
                 self.init_s <= now_s < self.init_s + persistence_s:
             pass  # persistence: the previous alert stays

@@ -285,25 +285,19 @@ BAND_EPS = 1e-6  # order tolerance between consecutive intervals (their bounds a
 def _intervals(lo: float, hi: float):
     """A kind's bands: [{lower, upper, region}] in increasing order within [lo, hi]; [] = no bands computed.
     An interval with a bad field is Rejected naming it (`<kind>.region`); out of order or range raises _Bad."""
-    fields = _compile({"lower": _num(lo, hi), "upper": _num(lo, hi), "region": ID})
+    items = _objects({"lower": _num(lo, hi), "upper": _num(lo, hi), "region": ID}, MAX_BAND_INTERVALS)
 
     def check(x):
-        if x is None:
+        bands = items(x)
+        if bands is None:
             return None
-        if type(x) is not list or len(x) > MAX_BAND_INTERVALS:
-            raise _Bad
-        out = []
         previous = lo
-        for item in x:
-            if type(item) is not dict:
-                raise _Bad
-            band = _clean(fields, item)
+        for band in bands:
             lower, upper, region = band.get("lower"), band.get("upper"), band.get("region")
             if lower is None or upper is None or region is None or lower > upper or lower < previous - BAND_EPS:
                 raise _Bad  # an interval must say where it is and what it is, in increasing order
             previous = upper
-            out.append({"lower": lower, "upper": upper, "region": region})  # nothing else is kept
-        return out
+        return [{"lower": b["lower"], "upper": b["upper"], "region": b["region"]} for b in bands]  # nothing else
 
     return check
 
