@@ -1,8 +1,9 @@
 import math
+import re
 
 import pytest
 
-from avionics.advisory.tables import LevelSelector, ProfileError, load_profile
+from avionics.advisory.tables import LevelSelector, ProfileError, load_profile, profile_text
 from avionics.config import ConfigError, load_config
 from avionics.core.units import FPM, FT, G0, NM
 
@@ -60,7 +61,7 @@ def test_any_value_can_be_overridden_in_any_unit():
     ("sl4.ra_tau_s=fast", "key=number"),
 ])
 def test_bad_overrides_are_clear_errors(override, message):
-    with pytest.raises(ProfileError, match=message):
+    with pytest.raises(ProfileError, match=re.escape(message)):
         load_profile("tcas2", [override])
 
 
@@ -112,3 +113,28 @@ def test_daidalus_tcas3d_is_tcas3d_conf():
         [0.40, 0.57, 0.74, 0.82, 0.98, 0.98])
     assert tcas.inhibit_hysteresis_m == pytest.approx(100 * FT)
     assert tcas.max_threat_vertical_rate_mps == pytest.approx(10000 * FPM)
+
+
+@pytest.mark.parametrize("text, message", [
+    ('[alerter]\nkind = "wcv"\n', "no [[alerter.levels]]"),
+    ('[alerter]\nkind = "tcas"\n', "expected \"wcv\""),
+    ('[alerter]\nkind = "wcv"\n[[alerter.levels]]\nname = "X"\nadvisory = "ALERT"\n', "advisory: expected"),
+    ('[alerter]\nkind = "wcv"\n[[alerter.levels]]\nname = "X"\nadvisory = "TA"\nregion = "ORANGE"\n', "region"),
+    ('[alerter]\nkind = "wcv"\n[[alerter.levels]]\nname = "X"\nadvisory = "TA"\ndthr_ft = 4000\nzthr_ft = 450\n',
+     "missing key 'tthr_s'"),
+    ('[bands]\nturn_rate_deg_s = 3.0\n', "needs a DO-365 [alerter]"),
+])
+def test_a_bad_alerter_or_bands_table_names_what_is_wrong(tmp_path, text, message):
+    base = profile_text("tcas2")[1]
+    path = tmp_path / "mine.toml"
+    path.write_text(base + "\n" + text)
+    with pytest.raises(ProfileError, match=re.escape(message)):
+        load_profile(str(path))
+
+
+def test_bands_overrides_are_checked_against_the_bands_parameters():
+    assert load_profile("do365", ["bands.turn_rate_deg_s=1.5"]).bands.turn_rate_deg_s == 1.5
+    with pytest.raises(ProfileError, match="unknown key"):
+        load_profile("do365", ["bands.turn_rate=1.5"])
+    with pytest.raises(ProfileError, match="no DO-365 alerter"):
+        load_profile("tcas2", ["bands.turn_rate_deg_s=1.5"])
