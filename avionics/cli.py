@@ -21,7 +21,7 @@ from avionics.config import ConfigError, as_dict, load_config
 # Exit codes (README): 0 success, 1 a link, zenoh session or listening socket could not be opened, 2 configuration,
 # scenario or file error. Every error these cover is one line on stderr, `PROG: message`. Named by module so that
 # a command that never imported pymavlink or zenoh does not import them to classify its error (an exception of a
-# class can only exist once its module is loaded). The shells above (sitl.cli, avionics_eval.cli) extend the
+# class can only exist once its module is loaded). The shells above (avionics_sitl.cli, avionics_eval.cli) extend the
 # table with their own errors (a bad scenario, a demo's onboard process) and pass it to `call`.
 ERRORS = (  # (module, class, exit code, prefix of the line)
     ("avionics.core.params", "ConfigError", 2, "configuration error: "),

@@ -14,7 +14,7 @@ import sys
 from avionics import cli as flight
 
 ERRORS = flight.ERRORS + (  # the table of avionics.cli plus the errors of demo (exit codes in README)
-    ("sitl.encounters", "ScenarioError", 2, ""),
+    ("avionics_sitl.encounters", "ScenarioError", 2, ""),
     ("avionics_eval.demo", "OnboardError", 1, ""),
 )
 

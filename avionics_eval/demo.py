@@ -23,7 +23,7 @@ import time
 
 from avionics.config import ZenohConfig
 from avionics.core.units import FT
-from sitl.encounters import ScenarioError, load_scenario  # noqa: F401  (ScenarioError: exit 2, avionics_eval.cli)
+from avionics_sitl.encounters import ScenarioError, load_scenario  # noqa: F401  (ScenarioError: exit 2, avionics_eval.cli)
 
 DEMO_START_S = {"head-on": 40.0}  # skip the quiet minute of the head-on: TA ~15 s into the demo
 THREAT = {0: "NONE", 1: "TA  ", 2: "RA  "}
@@ -124,8 +124,8 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     """profile: the onboard alerting profile (advisory.profile; default tcas2). A DO-365 one (do365, f3442, ...)
     prints its alert levels and guidance bands as they arrive over zenoh."""
     from avionics.io.zenoh_bus import open_session
-    from sitl.impairments import PRESETS
-    from sitl.live import fly
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.live import fly
 
     scenario = load_scenario(scenario_name)
     do365 = profile_has_bands(profile)

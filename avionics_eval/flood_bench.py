@@ -13,7 +13,7 @@ With --reference, a second FrameScanner implementation (e.g. the previous framin
 `git show REV:avionics/io/framing.py > /tmp/framing_before.py`) is measured on the same bytes ("before").
 
 `flood`: `avionics run` as a child process on udpin:127.0.0.1 (zenoh on a loopback port), the SITL head-on
-encounter flown at 1x over UDP by this process (sitl.live.fly, no ADS-B impairments), once without and then
+encounter flown at 1x over UDP by this process (avionics_sitl.live.fly, no ADS-B impairments), once without and then
 with a second process sending garbage datagrams to the same port at --rate bytes/s. Reported: the TA and RA
 onsets in scenario time as received on the SITL side (COLLISION), their shift under the flood, the zenoh
 status samples received during the run, and every datagram accounted for: sent = received by the process +
@@ -224,9 +224,9 @@ def _run_encounter(scenario_name: str, start_s: float, duration_s: float, flood:
                    node_root: str | None = None) -> dict:
     from avionics.io.zenoh_bus import open_session
     from avionics.config import ZenohConfig
-    from sitl.impairments import PRESETS
-    from sitl.live import fly
-    from sitl.encounters import load_encounter
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.live import fly
+    from avionics_sitl.encounters import load_encounter
 
     scenario = load_encounter(scenario_name)
     port, zport = _free_port(socket.SOCK_DGRAM), _free_port()

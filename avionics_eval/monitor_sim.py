@@ -24,9 +24,9 @@ from avionics.io.zenoh_bus import ZenohBus
 from avionics.daa import Daa
 from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.ports import ZenohOut
-from sitl.autopilot import Packer, schedule
-from sitl.impairments import PRESETS
-from sitl.encounters import load_encounter
+from avionics_sitl.autopilot import Packer, schedule
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.encounters import load_encounter
 
 
 def _percentiles(values: list[float]) -> dict:

@@ -211,8 +211,8 @@ def to_scenario(enc: Encounter, name: str = "generated"):
     """The same encounter as a SITL scenario (ground at 0 ft MSL, ownship northbound at 60 m/s), for
     `sitl replay --fly-ras`."""
     from avionics.core.geodesy import LocalTangentPlane
-    from sitl.aircraft import AircraftSpec
-    from sitl.scenario import Scenario
+    from avionics_sitl.aircraft import AircraftSpec
+    from avionics_sitl.scenario import Scenario
 
     origin = (47.4, 8.5)
     plane = LocalTangentPlane(*origin)

@@ -8,7 +8,7 @@ from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
 from avionics.pipeline import DaaCore
-from sitl.trajectory import plane_velocity_to_true
+from avionics_sitl.trajectory import plane_velocity_to_true
 
 PLANE = LocalTangentPlane(47.0, 8.0)
 

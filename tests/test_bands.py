@@ -30,7 +30,7 @@ from avionics.advisory.bands import (
 )
 from avionics.advisory.wcv import DO365_PHASE_I
 from avionics.core.units import FPM, FT, KT, NM
-from sitl.daa_file import EUCLIDEAN_ORIGIN, _parse_rows, _rows_by_aircraft, _text_of
+from avionics_sitl.daa_file import EUCLIDEAN_ORIGIN, _parse_rows, _rows_by_aircraft, _text_of
 from avionics.core.geodesy import LocalTangentPlane
 
 CONFORMANCE = Path(__file__).resolve().parents[2] / "shared" / "conformance" / "daidalus"
@@ -96,7 +96,7 @@ def _course_velocity(la, lo, la2, lo2, speed):
 def daa_states(path: Path):
     """(sim time, names, positions (M, 3), velocities (M, 3)) per 1 s grid step, ownship first, by the README's
     state rule: each aircraft's latest sample at or before t, projected linearly to t (back-projected before its
-    first). Rows come from sitl.daa_file's parser; Euclidean files stay on their plane."""
+    first). Rows come from avionics_sitl.daa_file's parser; Euclidean files stay on their plane."""
     text, _ = _text_of(path)
     plane = LocalTangentPlane(*EUCLIDEAN_ORIGIN)
     rows, _, euclidean = _parse_rows(text, plane)

@@ -122,16 +122,16 @@ def test_usage_error_is_one_line():
 
 
 def test_sitl_unknown_encounter_and_unwritable_output(tmp_path):
-    assert_one_line_error(cli("live", "no-such", module="sitl.cli"), 2, "sitl:", "'no-such'")
+    assert_one_line_error(cli("live", "no-such", module="avionics_sitl.cli"), 2, "sitl:", "'no-such'")
     out = tmp_path / "missing" / "advisories.csv"
-    assert_one_line_error(cli("replay", "head-on", "--out", str(out), module="sitl.cli"), 2, "--out",
+    assert_one_line_error(cli("replay", "head-on", "--out", str(out), module="avionics_sitl.cli"), 2, "--out",
                           "no such directory")
 
 
 # --- links, sessions and listening sockets that cannot be opened: exit 1 ------------------------------------------
 
 def test_sitl_live_bad_connection_string():
-    proc = cli("live", "head-on", "--connection", "bogus:foo", "--duration", "30", module="sitl.cli")
+    proc = cli("live", "head-on", "--connection", "bogus:foo", "--duration", "30", module="avionics_sitl.cli")
     assert_one_line_error(proc, 1, "sitl:", "cannot open MAVLink connection", "'bogus:foo'")
 
 
@@ -231,7 +231,7 @@ def test_expected_errors_map_to_the_documented_codes(capsys):
     from avionics.monitor.app import HttpServerError
     from avionics_eval.cli import call  # the flight table plus the demo's errors
     from avionics_eval.demo import OnboardError
-    from sitl.encounters import ScenarioError
+    from avionics_sitl.encounters import ScenarioError
 
     for exc, code in ((ConfigError("x"), 2), (ScenarioError("x"), 2), (LinkError("x"), 1), (ZenohBusError("x"), 1),
                       (HttpServerError("x"), 1), (OnboardError("x"), 1)):

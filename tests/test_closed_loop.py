@@ -6,9 +6,9 @@ import pytest
 from avionics.advisory.tables import load_profile
 from avionics.config import load_config
 from avionics.core.types import AdvisoryLevel
-from sitl.impairments import PRESETS
-from sitl.replay import replay
-from sitl.encounters import load_encounter
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.replay import replay
+from avionics_sitl.encounters import load_encounter
 
 ENCOUNTERS = ["head-on", "crossing-90", "overtaking", "climbing-intruder"]
 

@@ -4,7 +4,7 @@ A setting must never validate and then fail at run time (issue 12). The keys are
 (avionics/*/params.py) and checked to be documented in docs/configuration.md, so that a new key cannot be missed:
 each key gets every value of its enumerated set (cross-checked against the values the documentation names) or a
 valid non-default value, is loaded as an override with `zenoh.enabled=false` (as `sitl replay` does) and drives a
-7 s head-on encounter through `sitl.replay.replay`: MAVLink framing, decoder, tracker, conflict, advisories and
+7 s head-on encounter through `avionics_sitl.replay.replay`: MAVLink framing, decoder, tracker, conflict, advisories and
 the MAVLink output decoded on the autopilot's side. The replay must raise no `fault.*` counter and alert.
 
 Keys that cannot run in a replay (a link, key or certificate file, zenoh endpoints) are listed in VALIDATION_ONLY
@@ -102,7 +102,7 @@ ENUMS: dict[str, tuple[str, ...]] = {
 # Mode-set keys: each mode alone and all of them together.
 MODE_SETS = {"tracking.imm_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
 
-ADSB_COMPONENT = 156  # MAV_COMP_ID_ADSB: the simulated receiver's component (sitl.autopilot.AutopilotConfig)
+ADSB_COMPONENT = 156  # MAV_COMP_ID_ADSB: the simulated receiver's component (avionics_sitl.autopilot.AutopilotConfig)
 
 # Values given by hand (TOML text as typed after --set): where default * 1.5 is not valid, not meaningful or slow.
 EXPLICIT: dict[str, list[str]] = {
@@ -205,7 +205,7 @@ DURATION_S = 7.0
 
 def short_head_on():
     """Head-on at 3000 ft MSL, 125 kt each, on one meridian, CPA (0 m) 26 s in, flown for 7 s."""
-    from sitl.scenario import AircraftSpec, Scenario
+    from avionics_sitl.scenario import AircraftSpec, Scenario
 
     speed, alt = 125 * KT, 3000 * FT
     north_m = 2 * speed * T_CPA_S
@@ -220,7 +220,7 @@ def encounter():
 
 
 def _autopilot(key: str, value: str):
-    from sitl.autopilot import AutopilotConfig
+    from avionics_sitl.autopilot import AutopilotConfig
 
     if key == "mavlink.source_system":
         return AutopilotConfig(system_id=int(value))
@@ -289,8 +289,8 @@ def test_every_key_is_replayed_or_listed_as_validation_only():
 
 @pytest.mark.parametrize("key, value", CASES, ids=[f"{k}={v}" for k, v in CASES])
 def test_documented_value_runs_a_short_replay(key, value, encounter):
-    from sitl.impairments import PRESETS
-    from sitl.replay import replay
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.replay import replay
 
     config = load_config(overrides=[*CONTEXT.get(key, ()), f"{key}={value}", "zenoh.enabled=false"])
     section, name = key.split(".")

@@ -12,10 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avionics.core.geodesy import LocalTangentPlane
-from sitl.builtin import BUILTIN
-from sitl.daa_file import EUCLIDEAN_ORIGIN, format_daa, read_daa
-from sitl.aircraft import Leg
-from sitl.trajectory import LegKinematics, SampledTrajectory
+from avionics_sitl.builtin import BUILTIN
+from avionics_sitl.daa_file import EUCLIDEAN_ORIGIN, format_daa, read_daa
+from avionics_sitl.aircraft import Leg
+from avionics_sitl.trajectory import LegKinematics, SampledTrajectory
 
 DATA = Path(__file__).resolve().parent / "data"
 # NASA's public DAIDALUS / daa-displays files, read where they are (never copied into the project).

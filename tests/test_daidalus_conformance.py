@@ -32,7 +32,7 @@ def test_the_golden_data_is_there_under_ci():
 
 
 def _first_alerts(path: Path) -> dict[tuple[str, int], float]:
-    """(intruder name, level) -> first time that intruder's advisory reached the level, from sitl replay."""
+    """(intruder name, level) -> first time that intruder's advisory reached the level, from avionics_sitl replay."""
     first: dict[tuple[str, int], float] = {}
     for row in csv.DictReader(io.StringIO(replayed_csv(str(path), tuple(DAIDALUS_ARGS)))):
         rank = {"NONE": 0, "TA": 1, "RA": 2}[row["advisory"]]

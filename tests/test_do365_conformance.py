@@ -35,7 +35,7 @@ def test_the_golden_data_is_there_under_ci():
 
 
 def _first_alerts(path: Path) -> dict[tuple[str, int], float]:
-    """(intruder name, level) -> first time that intruder's alert level reached the level, from sitl replay."""
+    """(intruder name, level) -> first time that intruder's alert level reached the level, from avionics_sitl replay."""
     first: dict[tuple[str, int], float] = {}
     for row in csv.DictReader(io.StringIO(replayed_csv(str(path), tuple(DO365_ARGS)))):
         level = int(row["alert_level"])

@@ -22,9 +22,9 @@ from avionics.io.payloads import bands_payload
 from avionics.io.zenoh_bus import ZenohBus, open_session
 from avionics.monitor.feed import wait_for
 from avionics.ports import NOTHING
-from sitl.encounters import load_scenario
-from sitl.impairments import PRESETS
-from sitl.replay import replay
+from avionics_sitl.encounters import load_scenario
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.replay import replay
 from tests.conftest import DEADLINE_S
 
 

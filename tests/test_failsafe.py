@@ -29,9 +29,9 @@ from avionics.io.dialect import daa as m2
 from avionics.io.link import MavlinkLink
 from avionics.io.zenoh_bus import open_session
 from harness import Harness
-from sitl.autopilot import AutopilotConfig, Packer, schedule
-from sitl.impairments import PRESETS
-from sitl.encounters import load_encounter
+from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S, free_port, wait_for
 
 HEAD_ON = 0xA10001  # the head-on intruder (callsign HEADON): TA ~55 s, RA ~65.3 s, CPA 86.4 s

@@ -279,9 +279,9 @@ def test_live_an_injected_fault_in_one_intruder_is_announced_and_the_other_gets_
 def test_a_tlog_with_corrupted_timestamps_runs_through_the_cli(tmp_path):
     """Non-finite-like (2^64 - 1 us), zero, far-backwards and far-ahead stamps in a recorded head-on: `avionics
     run --connection FILE.tlog` exits 0, counts them as bad input and still gives the TA and the RA."""
-    from sitl.autopilot import Packer, schedule
-    from sitl.impairments import PRESETS
-    from sitl.encounters import load_encounter
+    from avionics_sitl.autopilot import Packer, schedule
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.encounters import load_encounter
 
     path = tmp_path / "corrupted.tlog"
     base_us = 1_700_000_000 * 10**6  # a plausible UNIX time

@@ -14,9 +14,9 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from avionics.config import ZenohConfig
 from avionics.io.zenoh_bus import open_session
-from sitl.impairments import PRESETS
-from sitl.live import fly
-from sitl.encounters import load_encounter
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.live import fly
+from avionics_sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S, wait_for
 
 pytestmark = pytest.mark.live  # a child process, UDP and zenoh on loopback

@@ -1,8 +1,8 @@
-"""Layers that import downward only (issue 12): the import graph of `avionics`, `avionics_eval` and `sitl` has no
+"""Layers that import downward only (issue 12): the import graph of `avionics`, `avionics_eval` and `avionics_sitl` has no
 cycle, and no module imports a layer above its own.
 
 Lowest first: `avionics.core` <- the stages (`avionics.tracking`, `avionics.conflict`, `avionics.advisory`) <-
-configuration, composition and facade <- the flight shells and I/O <- `sitl` (may import `avionics`) <-
+configuration, composition and facade <- the flight shells and I/O <- `avionics_sitl` (may import `avionics`) <-
 `avionics_eval` (demo, benches, reports: the only code that composes flight code and the simulator). Flight
 code never imports the simulator.
 
@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("avionics", "avionics_eval", "sitl")
+PACKAGES = ("avionics", "avionics_eval", "avionics_sitl")
 
 STAGES = ("avionics.tracking", "avionics.conflict", "avionics.advisory")
 ABOVE_THE_STAGES = (  # the facade and what composes it, the shells, the I/O around the core
@@ -32,7 +32,7 @@ ABOVE_THE_STAGES = (  # the facade and what composes it, the shells, the I/O aro
     "avionics.io", "avionics.monitor",
 )
 SHELLS = ("avionics.runner", "avionics.cli", "avionics.monitor")
-SIMULATOR = ("sitl", "avionics_eval")
+SIMULATOR = ("avionics_sitl", "avionics_eval")
 
 # The layer rules, as data: (name, importers, kind, modules). An importer is every module named by, or inside, one
 # of `importers`. kind "only": it may import nothing of the project outside `modules`; kind "not": it imports
@@ -57,7 +57,7 @@ RULES = [
      ("avionics.ports", "avionics.loop") + SHELLS),
     ("ports and the loop never import the shells", ("avionics.ports", "avionics.loop"), "not", SHELLS),
     ("flight code never imports the simulator", ("avionics",), "not", SIMULATOR),
-    ("sitl never imports avionics_eval", ("sitl",), "not", ("avionics_eval",)),
+    ("avionics_sitl never imports avionics_eval", ("avionics_sitl",), "not", ("avionics_eval",)),
 ]
 
 # What importing the flight entry points (`avionics run`, `avionics config/monitor/router`, the monitor) may load.
@@ -192,10 +192,10 @@ def find_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def test_the_graph_is_read_from_every_package():
     assert {"avionics.cli", "avionics.core.units", "avionics_eval.cli", "avionics_eval.reports.tracking",
-            "sitl.encounters", "sitl.trajectory"} <= GRAPH.keys()
+            "avionics_sitl.encounters", "avionics_sitl.trajectory"} <= GRAPH.keys()
     assert "avionics.cli" in GRAPH["avionics_eval.cli"]
-    assert "sitl.builtin" in GRAPH["sitl.encounters"]  # a module named by `from sitl.builtin import BUILTIN`
-    assert "avionics.io" in GRAPH["sitl.autopilot"]  # `import avionics.io`
+    assert "avionics_sitl.builtin" in GRAPH["avionics_sitl.encounters"]  # a module named by `from avionics_sitl.builtin import BUILTIN`
+    assert "avionics.io" in GRAPH["avionics_sitl.autopilot"]  # `import avionics.io`
 
 
 def test_cycle_finder_reports_a_cycle():
@@ -238,7 +238,7 @@ def test_layer_rule(importers, kind, modules):
 def test_flight_entry_points_load_no_simulator_module():
     code = ("import sys\n"
             f"import {', '.join(FLIGHT_ENTRY_POINTS)}\n"
-            "print('\\n'.join(sorted(m for m in sys.modules if m.split('.')[0] in ('sitl', 'avionics_eval'))))\n")
+            "print('\\n'.join(sorted(m for m in sys.modules if m.split('.')[0] in ('avionics_sitl', 'avionics_eval'))))\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == [], f"importing {', '.join(FLIGHT_ENTRY_POINTS)} loaded:\n{proc.stdout}"

@@ -114,9 +114,9 @@ def page_sym_times(browser, intruder: str) -> dict:
 @pytest.mark.browser
 def test_browser_head_on_from_the_real_onboard_process(udp_port, tcp_port, capsys):
     """`avionics run` + SITL head-on over UDP; the monitor is a zenoh client of the onboard peer."""
-    from sitl.impairments import PRESETS
-    from sitl.live import fly
-    from sitl.encounters import load_encounter
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.live import fly
+    from avionics_sitl.encounters import load_encounter
 
     start_s, end_s = 49.0, 70.0  # head-on: TA 54.9 s, RA (DESCEND) 65.2 s
     endpoint = f"tcp/127.0.0.1:{tcp_port}"

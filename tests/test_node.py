@@ -8,9 +8,9 @@ from pymavlink.dialects.v20 import common as mavlink2
 from avionics.config import load_config
 from avionics.io.zenoh_bus import to_json
 from harness import Harness
-from sitl.autopilot import ownship_messages, schedule
-from sitl.impairments import PRESETS
-from sitl.encounters import load_encounter
+from avionics_sitl.autopilot import ownship_messages, schedule
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.encounters import load_encounter
 
 
 def fly(node, scenario, until_s, drop_pressure=False):

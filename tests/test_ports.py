@@ -23,10 +23,10 @@ from avionics.io.framing import FrameScanner
 from avionics.io.link import MavlinkLink
 from avionics.ports import NOTHING, MavlinkOut
 from avionics.runner import Runner
-from sitl.autopilot import Packer, schedule
-from sitl.encounters import load_encounter
-from sitl.impairments import PRESETS
-from sitl.replay import replay
+from avionics_sitl.autopilot import Packer, schedule
+from avionics_sitl.encounters import load_encounter
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.replay import replay
 
 
 class JsonLinesOut:

@@ -10,9 +10,9 @@ import pytest
 
 from avionics.config import load_config
 from avionics.core.units import KT, NM
-from sitl.impairments import PRESETS
-from sitl.replay import replay
-from sitl.encounters import load_encounter
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.replay import replay
+from avionics_sitl.encounters import load_encounter
 
 DATA = Path(__file__).parent / "data"
 CLOSING = 250 * KT
@@ -28,7 +28,7 @@ def modified_tau_crossing(tau_s: float, dmod_m: float) -> float:
 @pytest.mark.live  # the `sitl replay` command in a process of its own
 def test_daa_head_on_at_3000_ft_alerts_at_the_hand_computed_times(tmp_path):
     out = tmp_path / "advisories.csv"
-    subprocess.run([sys.executable, "-m", "sitl.cli", "replay", str(DATA / "head_on_3000ft.daa"),
+    subprocess.run([sys.executable, "-m", "avionics_sitl.cli", "replay", str(DATA / "head_on_3000ft.daa"),
                     "--noise", "none", "--out", str(out)], check=True)
     with open(out, newline="") as fh:
         reader = csv.DictReader(fh)

@@ -6,7 +6,7 @@ import csv
 import pytest
 
 from avionics.advisory.tables import load_profile
-from sitl.cli import main
+from avionics_sitl.cli import main
 
 MISS_HEADER = ["intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m"]
 # The built-in head-on is co-altitude at 3000 ft MSL over 0 ft ground: TCAS II SL4 (ceiling 5000 ft), ALIM 300 ft.

@@ -11,9 +11,9 @@ from pymavlink.dialects.v20 import ardupilotmega
 from avionics.config import ConfigError, load_config
 from avionics.io.framing import FrameScanner
 from avionics.io.link import LinkError, MavlinkLink
-from sitl.autopilot import Packer, schedule
-from sitl.impairments import PRESETS
-from sitl.encounters import load_encounter
+from avionics_sitl.autopilot import Packer, schedule
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.encounters import load_encounter
 from tests.conftest import DEADLINE_S
 
 

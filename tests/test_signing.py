@@ -315,9 +315,9 @@ def test_a_real_gap_in_a_tlog_is_kept_once_the_next_frame_confirms_it(tmp_path):
 
 
 def _head_on_tlog(path, corrupt: dict[int, int]) -> None:
-    from sitl.autopilot import Packer, schedule
-    from sitl.impairments import PRESETS
-    from sitl.encounters import load_encounter
+    from avionics_sitl.autopilot import Packer, schedule
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.encounters import load_encounter
 
     packer = Packer()
     with open(path, "wb") as fh:

@@ -15,12 +15,12 @@ from scipy.integrate import quad, solve_ivp
 from avionics.core.geodesy import WGS84_A, WGS84_E2, LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.core.units import FPM, FT, KT, NM
-from sitl.aircraft import AircraftSpec, Leg
-from sitl.builtin import BUILTIN, REFERENCE
-from sitl.encounters import load_encounter
-from sitl.impairments import DEFAULT, NONE, AdsbImpairments
-from sitl.scenario import Scenario, load_scenario_file, parse_scenario_toml
-from sitl.trajectory import (
+from avionics_sitl.aircraft import AircraftSpec, Leg
+from avionics_sitl.builtin import BUILTIN, REFERENCE
+from avionics_sitl.encounters import load_encounter
+from avionics_sitl.impairments import DEFAULT, NONE, AdsbImpairments
+from avionics_sitl.scenario import Scenario, load_scenario_file, parse_scenario_toml
+from avionics_sitl.trajectory import (
     KinematicState,
     _arc_integrals,
     LegKinematics,

@@ -19,10 +19,10 @@ from avionics.io.decode import MessageDecoder
 from avionics.io.framing import FrameScanner
 from avionics.io.zenoh_bus import to_json
 from harness import Harness
-from sitl.autopilot import Packer, adsb_vehicle, schedule
-from sitl.impairments import PRESETS
-from sitl.encounters import load_encounter
-from sitl.trajectory import KinematicState
+from avionics_sitl.autopilot import Packer, adsb_vehicle, schedule
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.encounters import load_encounter
+from avionics_sitl.trajectory import KinematicState
 
 SCENARIO = load_encounter("head-on")
 INTRUDER = SCENARIO.intruders[0]
@@ -42,7 +42,7 @@ def spoof_report(t: float):
 
 def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10.0, spoof_hz: float = 5.0,
         real_intruder: bool = True, intruder_sender: tuple[int, int] | None = None):
-    """Fly the head-on on a 0.1 s grid through FrameScanner and Harness, as sitl.replay does. spoofer: the
+    """Fly the head-on on a 0.1 s grid through FrameScanner and Harness, as avionics_sitl.replay does. spoofer: the
     (system, component) of a second sender of the intruder's address; intruder_sender: who sends the real
     intruder's reports (default: the autopilot's ADS-B receiver, system 1 component 156)."""
     node = Harness(config)

@@ -17,9 +17,9 @@ ENCOUNTERS = ("head-on", "crossing-90", "overtaking", "climbing-intruder", "baek
 
 
 def closed_loop(noise: str = "default", seed: int = 1, profile: str = "tcas2") -> dict:
-    from sitl.impairments import PRESETS
-    from sitl.replay import replay
-    from sitl.encounters import load_encounter
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.replay import replay
+    from avionics_sitl.encounters import load_encounter
 
     config = load_config(overrides=["zenoh.enabled=false", f'advisory.profile="{profile}"'])
     levels = {}

@@ -1,6 +1,6 @@
 """Nuisance-alert study: `python -m avionics_eval.reports.nuisance [--encounters 500] [--seed 1]` prints JSON.
 
-Random encounters at 3000 ft (TCAS SL 4) with ADS-B noise (sitl.impairments.DEFAULT): ownship northbound at
+Random encounters at 3000 ft (TCAS SL 4) with ADS-B noise (avionics_sitl.impairments.DEFAULT): ownship northbound at
 150 kt; an intruder from a random direction at 100-250 kt whose true closest approach at t = 60 s misses by a
 horizontal distance uniform in [0, 2 x RA HMD] and a vertical one uniform in [-900, 900] ft, half of them level
 and half climbing or descending through the CPA altitude. The same noisy reports feed the onboard core once
@@ -76,8 +76,8 @@ def _truth_enters_ra_volume(e, level) -> bool:
 
 def _reports(e, rng):
     """Noisy inputs per 0.1 s step: ownship exact at 5 Hz, intruder through DEFAULT ADS-B impairments."""
-    from sitl.impairments import DEFAULT
-    from sitl.trajectory import KinematicState
+    from avionics_sitl.impairments import DEFAULT
+    from avionics_sitl.trajectory import KinematicState
 
     impair = DEFAULT.with_seed(int(rng.integers(2**31)))
     n_steps = int(DURATION_S * 10) + 1

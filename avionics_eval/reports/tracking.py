@@ -52,7 +52,7 @@ RMIMM_FLOOR = 1.0
 def builtin_truth(name: str, t_end: float, dt: float = 1.0, intruder: int = 0):
     """Intruder `intruder` of a built-in encounter sampled every dt: times (K,), states (K, 4) [e, n, ve, vn]
     on the encounter's plane, and the heading rate over each preceding interval (K,), deg/s clockwise."""
-    from sitl.builtin import BUILTIN
+    from avionics_sitl.builtin import BUILTIN
 
     traj = BUILTIN[name]().trajectories()[1][intruder]
     times = np.arange(0.0, t_end + 1e-9, dt)
@@ -172,7 +172,7 @@ def _plot_hwang(times, rate, res, path: Path) -> None:
 
 
 def baek_bang_1(runs: int = 100, seed: int = 0, plot: bool = True) -> dict:
-    from sitl.impairments import DEFAULT
+    from avionics_sitl.impairments import DEFAULT
 
     times, truth, rate = builtin_truth("baek-bang-1", 130.0)
     turning = np.abs(rate) > 1e-6
@@ -394,9 +394,9 @@ def equivalence(steps: int = 300, seed: int = 1) -> dict:
 
 def replay_onsets(filters=("cv", "imm", "rmimm", "vb-imm"), seeds=(7, 1, 2, 3, 4),
                   names=("head-on", "crossing-90", "overtaking", "climbing-intruder")) -> dict:
-    from sitl.impairments import PRESETS
-    from sitl.replay import replay
-    from sitl.encounters import load_encounter
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.replay import replay
+    from avionics_sitl.encounters import load_encounter
 
     def onset(result, level):
         return next((c.time_s for c in result.changes if c.level.name == level), None)
@@ -438,7 +438,7 @@ OSC_PERIOD_S = (10.0, 60.0)
 
 def _random_legs(rng, duration_s: float):
     """A leg program of straight segments and standard-rate-or-less turns, some with climbs (sitl Leg)."""
-    from sitl.aircraft import Leg
+    from avionics_sitl.aircraft import Leg
 
     legs, t = [], 0.0
     while t < duration_s:
@@ -456,8 +456,8 @@ def _encounter_reports(rng, key, duration_s: float, fault: str | None, onset_s: 
     Returns [(received_s, report, east, north)] and the fault's description (its reference time: when the
     reported position error first exceeds Rc(NIC 7); onset for loss and frozen)."""
     from avionics.core.units import FT, KT
-    from sitl.impairments import DEFAULT
-    from sitl.trajectory import LegKinematics
+    from avionics_sitl.impairments import DEFAULT
+    from avionics_sitl.trajectory import LegKinematics
 
     speed = float(rng.uniform(40.0, 250.0))
     kin = LegKinematics(float(rng.uniform(-2e4, 2e4)), float(rng.uniform(-2e4, 2e4)), float(rng.uniform(1e3, 9e3)),

@@ -25,7 +25,7 @@ DO365_ARGS = ["--noise", "none", "--set", "advisory.profile=daidalus-do365b-no-s
 
 def cases() -> list[tuple[str, str, list[str]]]:
     """(golden file name, encounter, replay arguments) for every case there is data for."""
-    from sitl.builtin import BUILTIN
+    from avionics_sitl.builtin import BUILTIN
 
     out = [(f"builtin-{name}.csv", name, BUILTIN_ARGS) for name in sorted(BUILTIN)]
     if CONFORMANCE.is_dir():
@@ -37,7 +37,7 @@ def cases() -> list[tuple[str, str, list[str]]]:
 def replayed_csv(encounter: str, args: tuple[str, ...]) -> str:
     """The advisory CSV `sitl replay ENCOUNTER ARGS --out FILE` writes (once per process: the DAIDALUS regression
     and the golden comparison read the same replay)."""
-    from sitl.cli import main
+    from avionics_sitl.cli import main
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "advisories.csv"

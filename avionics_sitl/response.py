@@ -14,7 +14,7 @@ from dataclasses import replace
 
 from avionics.advisory.tables import ResponseModel
 from avionics.io.dialect import daa as mavlink2
-from sitl.trajectory import KinematicState
+from avionics_sitl.trajectory import KinematicState
 
 
 class RaResponder:

@@ -2,7 +2,7 @@
 
 Ownship GLOBAL_POSITION_INT and SCALED_PRESSURE at ownship_hz (system 1, autopilot component), one
 ADSB_VEHICLE per intruder at adsb_hz (staggered phases, receiver component), each report impaired
-(noise, quantisation, latency, dropouts) by sitl.impairments. A standard day: pressure altitude equals
+(noise, quantisation, latency, dropouts) by avionics_sitl.impairments. A standard day: pressure altitude equals
 geometric altitude, so both datums describe the same aircraft height.
 """
 
@@ -17,9 +17,9 @@ from pymavlink.dialects.v20 import common as mavlink2
 from avionics.core.atmosphere import pressure_hpa_at
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.io import decode as flags
-from sitl.impairments import AdsbImpairments
-from sitl.scenario import Scenario
-from sitl.trajectory import KinematicState
+from avionics_sitl.impairments import AdsbImpairments
+from avionics_sitl.scenario import Scenario
+from avionics_sitl.trajectory import KinematicState
 
 ISA_LAPSE_K_PER_M = 0.0065
 

@@ -32,9 +32,9 @@ import numpy as np
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
 from avionics.core.units import FPM, FT, KT, NM
-from sitl.aircraft import AircraftSpec
-from sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
-from sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
+from avionics_sitl.aircraft import AircraftSpec
+from avionics_sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
+from avionics_sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
 
 # DAIDALUS reads geodetic positions on a sphere of this radius (gov.nasa.larcfm.Util GreatCircle
 # .spherical_earth_radius: 1 nmi per minute of arc) and projects them onto the plane at the ownship
@@ -377,7 +377,7 @@ def format_daa(scenario: Scenario, times_s) -> str:
     first = own.state_at(float(np.asarray(times_s, dtype=float).reshape(-1)[0]))
     plane = LocalTangentPlane(first.lat_deg, first.lon_deg)
     lines = [
-        f"# {scenario.name}: written by sitl.daa_file.format_daa",
+        f"# {scenario.name}: written by avionics_sitl.daa_file.format_daa",
         f"# ground_ft = {scenario.ground_elevation_m / FT:.6f}",
         _WRITE_HEADER,
         _WRITE_UNITS,

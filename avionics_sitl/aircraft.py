@@ -1,6 +1,6 @@
 """One aircraft of an encounter: its initial state and leg program (Leg, AircraftSpec), and plausibility bounds.
 
-SI (m, s, m/s) and true-north headings. sitl.trajectory integrates these; sitl.scenario groups them into an
+SI (m, s, m/s) and true-north headings. avionics_sitl.trajectory integrates these; avionics_sitl.scenario groups them into an
 encounter and reads them from TOML files.
 """
 

@@ -7,19 +7,19 @@ import json
 import sys
 
 from avionics.cli import ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file
-from sitl.impairments import PRESETS
+from avionics_sitl.impairments import PRESETS
 
-ERRORS = FLIGHT_ERRORS + (("sitl.encounters", "ScenarioError", 2, ""),)  # a bad encounter name or file: exit 2
+ERRORS = FLIGHT_ERRORS + (("avionics_sitl.encounters", "ScenarioError", 2, ""),)  # a bad encounter name or file: exit 2
 
 
 def _scenario(spec: str):
-    from sitl.encounters import load_scenario  # ScenarioError (exit 2) for a bad name or file
+    from avionics_sitl.encounters import load_scenario  # ScenarioError (exit 2) for a bad name or file
 
     return load_scenario(spec)
 
 
 def cmd_list(args) -> int:
-    from sitl.builtin import BUILTIN
+    from avionics_sitl.builtin import BUILTIN
 
     for name, build in sorted(BUILTIN.items()):
         scenario = build()
@@ -30,7 +30,7 @@ def cmd_list(args) -> int:
 
 def cmd_replay(args) -> int:
     from avionics.config import load_config
-    from sitl.replay import replay
+    from avionics_sitl.replay import replay
 
     config = load_config(args.config, list(args.set) + ["zenoh.enabled=false"])
     for path, option in ((args.misses, "--misses"), (args.out, "--out")):
@@ -53,7 +53,7 @@ def cmd_replay(args) -> int:
 
 
 def cmd_live(args) -> int:
-    from sitl.live import fly
+    from avionics_sitl.live import fly
 
     def show(received):
         msg = received.msg

@@ -14,9 +14,9 @@ from typing import Callable
 
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.units import FPM, FT, G0, KT, NM
-from sitl.aircraft import AircraftSpec, Leg
-from sitl.scenario import Scenario
-from sitl.trajectory import LegKinematics, plane_velocity_to_true
+from avionics_sitl.aircraft import AircraftSpec, Leg
+from avionics_sitl.scenario import Scenario
+from avionics_sitl.trajectory import LegKinematics, plane_velocity_to_true
 
 REFERENCE = (47.4, 8.5)  # lat, lon of the plane every built-in encounter is authored in
 _PLANE = LocalTangentPlane(*REFERENCE)

@@ -1,5 +1,5 @@
-"""Where an encounter comes from: a built-in name (sitl.builtin), a TOML scenario file (sitl.scenario) or a
-DAIDALUS .daa file (sitl.daa_file). Above the three, so that none of them imports another lazily.
+"""Where an encounter comes from: a built-in name (avionics_sitl.builtin), a TOML scenario file (avionics_sitl.scenario) or a
+DAIDALUS .daa file (avionics_sitl.daa_file). Above the three, so that none of them imports another lazily.
 
 `load_encounter` raises ValueError for every bad name, file or field; `load_scenario` is the same for command
 lines, with the error as a ScenarioError (exit 2, one line).
@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sitl.builtin import BUILTIN
-from sitl.daa_file import read_daa
-from sitl.scenario import Scenario, load_scenario_file
+from avionics_sitl.builtin import BUILTIN
+from avionics_sitl.daa_file import read_daa
+from avionics_sitl.scenario import Scenario, load_scenario_file
 
 
 class ScenarioError(ValueError):
@@ -19,7 +19,7 @@ class ScenarioError(ValueError):
 
 
 def load_encounter(spec: str) -> Scenario:
-    """A built-in encounter name (sitl.builtin.BUILTIN), a .toml scenario file or a DAIDALUS .daa file."""
+    """A built-in encounter name (avionics_sitl.builtin.BUILTIN), a .toml scenario file or a DAIDALUS .daa file."""
     if spec in BUILTIN:
         return BUILTIN[spec]()
     suffix = Path(spec).suffix.lower()

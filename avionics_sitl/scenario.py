@@ -1,8 +1,8 @@
-"""What an encounter is: aircraft (sitl.aircraft: initial states and leg programs) and how long to fly them.
+"""What an encounter is: aircraft (avionics_sitl.aircraft: initial states and leg programs) and how long to fly them.
 
 Everything here is SI (m, s, m/s) and true-north headings; feet, knots and fpm exist only in the TOML file
 reader below (docs/scenarios.md describes the file format). `Scenario.trajectories()` turns the description
-into truth trajectories (sitl.trajectory).
+into truth trajectories (avionics_sitl.trajectory).
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from typing import Any, Iterator
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.core.units import FPM, FT, KT, NM
-from sitl.aircraft import (
+from avionics_sitl.aircraft import (
     GROUND_RANGE_M, MAX_ABS_LAT_DEG, MAX_DURATION_S, MAX_PLANE_OFFSET_M, AircraftSpec, Leg, check_finite, check_range,
 )
-from sitl.trajectory import LegTrajectory, Trajectory
+from avionics_sitl.trajectory import LegTrajectory, Trajectory
 
 
 @dataclass(frozen=True)

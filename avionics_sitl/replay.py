@@ -22,10 +22,10 @@ from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.ports import CSV_COLUMNS, NOTHING, MavlinkOut, csv_row
-from sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
-from sitl.impairments import AdsbImpairments
-from sitl.response import RaResponder
-from sitl.scenario import Scenario
+from avionics_sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
+from avionics_sitl.impairments import AdsbImpairments
+from avionics_sitl.response import RaResponder
+from avionics_sitl.scenario import Scenario
 
 # One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop).
 MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m")
@@ -138,7 +138,7 @@ class _ScheduleSource:
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=()) -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
-    it receives (sitl.response) and the result records the vertical miss with and without the response.
+    it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut."""
     counters: Counter = Counter()
     daa = Daa(config, counters)

@@ -7,9 +7,9 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 from avionics.io.link import MavlinkLink
-from sitl.autopilot import AutopilotConfig, Packer, schedule
-from sitl.impairments import AdsbImpairments
-from sitl.scenario import Scenario
+from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
+from avionics_sitl.impairments import AdsbImpairments
+from avionics_sitl.scenario import Scenario
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,7 +16,7 @@ import numpy as np
 
 from avionics.core.geodesy import WGS84_A, WGS84_E2
 from avionics.core.units import FPM, FT, KT
-from sitl.trajectory import KinematicState
+from avionics_sitl.trajectory import KinematicState
 
 # A circular 2-D Gaussian with per-axis sigma holds 95 % of its mass within RAYLEIGH_95 * sigma: this is
 # how a 95 % accuracy bound (NACp, NACv in RTCA DO-260B) becomes a per-axis sigma.

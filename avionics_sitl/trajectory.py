@@ -28,7 +28,7 @@ from typing import Protocol, Sequence
 import numpy as np
 
 from avionics.core.geodesy import LocalTangentPlane
-from sitl.aircraft import AircraftSpec, Leg
+from avionics_sitl.aircraft import AircraftSpec, Leg
 
 
 @dataclass(frozen=True, slots=True)
