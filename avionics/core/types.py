@@ -55,6 +55,11 @@ class IntruderReport:
     squawk: int | None = None
     emitter_type: int = 0
     simulated: bool = False
+    # The source's own accuracy where it says it (a receiver's NACp/NIC, NACv): 1-sigma per horizontal axis.
+    # None: the tracker's configured default for the address source (ADSB_VEHICLE carries no NACp).
+    position_sigma_m: float | None = None
+    velocity_sigma_mps: float | None = None
+    path: str = "mavlink"  # the traffic source that delivered it: "mavlink", "sbs:HOST:PORT", "beast:...", ...
 
 
 @dataclass(frozen=True, slots=True)

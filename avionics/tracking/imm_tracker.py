@@ -119,8 +119,10 @@ class ImmTracker(TrackLifecycle):
         z_v = np.zeros((b, V_MEAS))
         m_v = np.zeros((b, V_MEAS), bool)
         pos_sigma = np.empty(b)
+        vel_sigma = np.empty(b)
         for i, rep in enumerate(reports):  # field extraction from the report objects
             pos_sigma[i] = self.position_sigma_m(rep)
+            vel_sigma[i] = self.velocity_sigma_mps(rep)
             if rep.velocity_en_mps is not None:
                 z_h[i, 2:4] = rep.velocity_en_mps
                 m_h[i, 2:4] = True
@@ -132,7 +134,7 @@ class ImmTracker(TrackLifecycle):
                 m_v[i, 1] = True
         r_h = np.empty((b, H_MEAS))
         r_h[:, :2] = (pos_sigma**2)[:, None]
-        r_h[:, 2:] = cfg.velocity_sigma_mps**2
+        r_h[:, 2:] = (vel_sigma**2)[:, None]
         r_v = np.empty((b, V_MEAS))
         r_v[:, 0] = cfg.altitude_sigma_m**2
         r_v[:, 1] = cfg.vertical_rate_sigma_mps**2

@@ -62,8 +62,15 @@ class TrackLifecycle:
 
     # -- shared parts ------------------------------------------------------------------------------------
     def position_sigma_m(self, report: IntruderReport) -> float:
+        """The report's own horizontal accuracy (a receiver's NACp) or the address source's configured default."""
+        if report.position_sigma_m is not None:
+            return report.position_sigma_m
         cfg = self.config
         return cfg.position_sigma_uat_m if report.key.source is AddressSource.UAT else cfg.position_sigma_1090es_m
+
+    def velocity_sigma_mps(self, report: IntruderReport) -> float:
+        """The report's own velocity accuracy (a receiver's NACv) or the configured default."""
+        return self.config.velocity_sigma_mps if report.velocity_sigma_mps is None else report.velocity_sigma_mps
 
     def ingest(self, report: IntruderReport, east: float, north: float) -> bool:
         """Apply one report; True when it updated or started a track, False when it was counted and dropped."""

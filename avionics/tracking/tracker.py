@@ -41,7 +41,7 @@ class IntruderTracker(TrackLifecycle):
         if report.velocity_en_mps is not None:
             index += [3, 4]
             value += list(report.velocity_en_mps)
-            sigma += [cfg.velocity_sigma_mps] * 2
+            sigma += [self.velocity_sigma_mps(report)] * 2
         if report.vertical_rate_mps is not None:
             index.append(5), value.append(report.vertical_rate_mps), sigma.append(cfg.vertical_rate_sigma_mps)
         return Measurement(tuple(index), np.array(value, float), np.array(sigma, float))
