@@ -8,6 +8,7 @@ Each section is declared, with its units and its checks (`validate()`), next to 
     [input] [tracking] [altitude]  avionics/tracking/params.py
     [advisory]                     avionics/advisory/params.py
     [conflict]                     avionics/conflict/params.py
+    [traffic]                      avionics/io/feeds/params.py (receiver feeds: avionics run --traffic)
 
 The generic TOML -> dataclass coercion and ConfigError are avionics/core/params.py. This module is the shells'
 layer (the composition root and the command lines): no component imports it. It re-exports the section classes
@@ -24,12 +25,13 @@ from pathlib import Path
 from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
 from avionics.core.params import ConfigError, _build
+from avionics.io.feeds.params import TrafficConfig
 from avionics.io.params import MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
 from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig, TrackingConfig
 
 __all__ = [
     "AdvisoryConfig", "AltitudeConfig", "Config", "ConfigError", "ConflictConfig", "InputConfig", "MavlinkConfig",
-    "TRACK_FILTERS", "TrackingConfig", "VehicleConfig", "ZenohConfig", "as_dict", "load_config",
+    "TRACK_FILTERS", "TrackingConfig", "TrafficConfig", "VehicleConfig", "ZenohConfig", "as_dict", "load_config",
     "traffic_source_ids", "validate",
 ]
 
@@ -44,6 +46,7 @@ class Config:
     altitude: AltitudeConfig = field(default_factory=AltitudeConfig)
     advisory: AdvisoryConfig = field(default_factory=AdvisoryConfig)
     conflict: ConflictConfig = field(default_factory=ConflictConfig)
+    traffic: TrafficConfig = field(default_factory=TrafficConfig)
 
 
 def _merge(base: dict, update: dict) -> dict:

@@ -17,6 +17,10 @@ from __future__ import annotations
 import math
 from collections import Counter
 
+from avionics.io.checks import (
+    address_problem, altitude_problem, callsign_text, position_problem, speed_problem, squawk_valid,
+    vertical_rate_problem,
+)
 from avionics.io.params import DecoderConfig as Config, traffic_source_ids
 from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.core.types import (
@@ -37,7 +41,6 @@ BARO_VALID = 256
 SOURCE_UAT = 32768
 
 ALTITUDE_TYPES = {0: AltitudeDatum.PRESSURE, 1: AltitudeDatum.GEOMETRIC}  # ADSB_ALTITUDE_TYPE
-MAX_ICAO = 0xFFFFFF
 MIN_HEIGHT_ABOVE_HOME_M = -9000.0  # a home on a summit above a valley flight; anything lower is corrupt
 SENDER_MARGIN_S = 1.0  # an intruder stays its first sender's this long after its track can have been deleted
 
@@ -45,12 +48,8 @@ SENDER_MARGIN_S = 1.0  # an intruder stays its first sender's this long after it
 def _lat_lon(prefix: str, lat_e7: int, lon_e7: int, counters: Counter) -> tuple[float, float] | None:
     if lat_e7 == INT32_MAX or lon_e7 == INT32_MAX:
         counters[f"{prefix}.position_sentinel"] += 1
-    elif abs(lat_e7) > 90 * 10**7:
-        counters[f"{prefix}.lat_out_of_range"] += 1
-    elif abs(lon_e7) > 180 * 10**7:
-        counters[f"{prefix}.lon_out_of_range"] += 1
-    elif lat_e7 == 0 and lon_e7 == 0:
-        counters[f"{prefix}.null_position"] += 1  # 0,0 is what an unset fix looks like, not a place we fly
+    elif (problem := position_problem(lat_e7 / 10**7, lon_e7 / 10**7)) is not None:  # checks.py, shared
+        counters[f"{prefix}.{problem}"] += 1
     else:
         return lat_e7 * 1e-7, lon_e7 * 1e-7
     return None
@@ -94,11 +93,10 @@ class MessageDecoder:
         sender = (msg.get_srcSystem(), msg.get_srcComponent())
         if sender[0] not in self._trusted_systems and sender not in self._trusted_senders:
             return self._reject("adsb.untrusted_source")
-        if msg.ICAO_address > MAX_ICAO:
-            return self._reject("adsb.address_out_of_range")
         source = AddressSource.UAT if flags & SOURCE_UAT else AddressSource.ES1090
-        if source is AddressSource.ES1090 and msg.ICAO_address == self.config.vehicle.own_icao != 0:
-            return self._reject("adsb.own_address")
+        problem = address_problem(self.config.vehicle.own_icao, msg.ICAO_address, source is AddressSource.ES1090)
+        if problem is not None:
+            return self._reject(f"adsb.{problem}")
         key = IntruderKey(msg.ICAO_address, source)
         if not self._first_sender(key, sender, now_s):
             return self._reject("adsb.second_sender")
@@ -140,8 +138,8 @@ class MessageDecoder:
                 self._reject("adsb.altitude_sentinel")
             elif msg.altitude_type not in ALTITUDE_TYPES:
                 self._reject("adsb.altitude_type_unknown")
-            elif not cfg.min_altitude_m <= msg.altitude * 1e-3 <= cfg.max_altitude_m:
-                self._reject("adsb.altitude_out_of_range")
+            elif (problem := altitude_problem(cfg, msg.altitude * 1e-3)) is not None:
+                self._reject(f"adsb.{problem}")
             else:
                 altitude_m, datum = msg.altitude * 1e-3, ALTITUDE_TYPES[msg.altitude_type]
 
@@ -151,8 +149,8 @@ class MessageDecoder:
                 self._reject("adsb.velocity_sentinel")
             elif msg.heading >= 36000:
                 self._reject("adsb.heading_out_of_range")
-            elif msg.hor_velocity * 1e-2 > cfg.max_ground_speed_mps:
-                self._reject("adsb.speed_out_of_range")
+            elif (problem := speed_problem(cfg, msg.hor_velocity * 1e-2)) is not None:
+                self._reject(f"adsb.{problem}")
             else:
                 track = math.radians(msg.heading * 1e-2)
                 speed = msg.hor_velocity * 1e-2
@@ -162,8 +160,8 @@ class MessageDecoder:
         if flags & VERTICAL_VELOCITY_VALID:
             if msg.ver_velocity == INT16_MAX:
                 self._reject("adsb.vertical_rate_sentinel")
-            elif abs(msg.ver_velocity * 1e-2) > cfg.max_vertical_rate_mps:
-                self._reject("adsb.vertical_rate_out_of_range")
+            elif (problem := vertical_rate_problem(cfg, msg.ver_velocity * 1e-2)) is not None:
+                self._reject(f"adsb.{problem}")
             else:
                 vertical_rate = msg.ver_velocity * 1e-2  # positive up
 
@@ -173,16 +171,13 @@ class MessageDecoder:
             # latin-1 cannot encode (that raised). Any non-ASCII text becomes non-ASCII bytes: rejected below.
             raw = getattr(msg, "_callsign_raw", msg.callsign)
             raw = raw.encode("utf-8", "surrogatepass") if isinstance(raw, str) else bytes(raw)
-            text = raw.split(b"\0", 1)[0].decode("ascii", errors="replace").strip()
-            if text and text.isprintable() and text.isascii() and "\ufffd" not in text:
-                callsign = text
-            else:
+            callsign = callsign_text(raw)  # checks.py, shared with the receiver feeds
+            if callsign is None:
                 self._reject("adsb.callsign_invalid")
 
         squawk = None
         if flags & VALID_SQUAWK:
-            digits = f"{msg.squawk:04d}"
-            if msg.squawk == UINT16_MAX or len(digits) != 4 or any(d > "7" for d in digits):
+            if msg.squawk == UINT16_MAX or not squawk_valid(msg.squawk):
                 self._reject("adsb.squawk_invalid")  # Mode A codes are four octal digits
             else:
                 squawk = msg.squawk
