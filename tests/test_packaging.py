@@ -42,6 +42,7 @@ def test_the_wheel_carries_the_licence_and_its_commands_run_from_it(tmp_path):
     assert any(n.endswith(".dist-info/licenses/LICENSE") or n.endswith(".dist-info/LICENSE") for n in names)
     assert {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")} == \
         {"avionics", "avionics_eval", "avionics_sitl"}
+    assert {"avionics/io/dialect/daa.xml", "avionics/io/dialect/ardupilotmega.xml"} <= set(names)  # docs/mavlink.md
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), str(wheel)],
                    check=True, timeout=600)
