@@ -111,13 +111,17 @@ def _load(args) -> "Config":  # noqa: F821
 
 
 def cmd_run(args) -> int:
+    from avionics.io.feeds.source import parse_spec
     from avionics.runner import run
 
     config = _load(args)
     for path, option in ((args.tlog_out, "--tlog-out"), (args.csv, "--csv")):
         if path:
             check_output_file(path, option)
-    counters = run(config, duration_s=args.duration, tlog_out=args.tlog_out, csv_out=args.csv)
+    for spec in args.traffic:
+        parse_spec(spec)  # a malformed --traffic is a usage error before anything opens
+    counters = run(config, duration_s=args.duration, tlog_out=args.tlog_out, csv_out=args.csv,
+                   traffic=tuple(args.traffic))
     if args.counters:
         print(json.dumps(dict(sorted(counters.items())), indent=1))
     return 0
@@ -179,6 +183,10 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
     p.add_argument("--tlog-out", metavar="FILE", help="record every frame received and sent as a .tlog")
     p.add_argument("--csv", metavar="FILE.csv", help="write every advisory change as a CSV row (as sitl replay --out)")
     p.add_argument("--counters", action="store_true", help="print the input/rejection counters at exit")
+    p.add_argument("--traffic", action="append", default=[], metavar="SPEC",
+                   help="an ADS-B receiver feed beside MAVLink (repeatable): sbs:HOST:PORT (BaseStation, e.g. port "
+                        "30003), readsb-json:PATH_OR_HTTP_URL (aircraft.json), beast:HOST:PORT "
+                        "(docs/traffic-inputs.md)")
     p.set_defaults(func=cmd_run)
     if add_commands is not None:
         add_commands(sub)

@@ -68,13 +68,16 @@ class LinkSource:
     assessment tick); a log, a batch per record on the log's own timestamps, ending with the log."""
 
     def __init__(self, link, mavlink: MavlinkInput, tick_s: float, duration_s: float | None = None,
-                 stop: threading.Event | None = None, clock=time.monotonic):
+                 stop: threading.Event | None = None, clock=time.monotonic, start_s: float | None = None):
+        """start_s: the clock's reading that is time 0 (default: when the iteration starts); the receiver feeds
+        (avionics/io/feeds/) stamp their reports on the same origin."""
         self.link, self.mavlink, self.tick_s, self._clock = link, mavlink, tick_s, clock
+        self.start_s = start_s
         self.end_s = math.inf if duration_s is None else duration_s
         self.stop = stop if stop is not None else threading.Event()
 
     def __iter__(self) -> Iterator[Batch]:
-        start = self._clock()
+        start = self._clock() if self.start_s is None else self.start_s
         log_t0 = None
         now = 0.0
         while not self.stop.is_set() and now < self.end_s:

@@ -11,11 +11,14 @@ from __future__ import annotations
 import logging
 import signal
 import threading
+import time
 from collections import Counter
 
 from avionics import __version__
 from avionics.config import Config
+from avionics.core.params import ConfigError
 from avionics.daa import Daa
+from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.io.link import MavlinkLink
 from avionics.loop import LinkSource, Loop, MavlinkInput
 from avionics.ports import CsvOut, LogOut, MavlinkOut, ZenohOut
@@ -28,10 +31,13 @@ class Runner:
     """The live loop's parts: the link (source and MAVLink port), the zenoh session (port), the log (port)."""
 
     def __init__(self, config: Config, tlog_out: str | None = None, bus=None, stop: threading.Event | None = None,
-                 duration_s: float | None = None, csv_out: str | None = None):
+                 duration_s: float | None = None, csv_out: str | None = None, traffic: tuple[str, ...] = ()):
+        """traffic: --traffic SPECs, receiver feeds beside the link (avionics/io/feeds/, docs/traffic-inputs.md)."""
         self.config = config
         self.stop = stop if stop is not None else threading.Event()
         self.counters: Counter = Counter()
+        start_s = time.monotonic()  # the loop's time 0: the link's batches and the feeds' reports share it
+        self.feeds = FeedSet.open(traffic, config, lambda: time.monotonic() - start_s, self.counters)
         cfg = config.mavlink
         self.link = MavlinkLink(cfg.connection, self.counters, cfg.source_system, cfg.source_component,
                                 baud=cfg.baud, tlog_out=tlog_out, signing_key_file=cfg.signing_key_file,
@@ -41,14 +47,19 @@ class Runner:
             from avionics.io.zenoh_bus import ZenohBus
 
             self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters)  # queued, never blocks
-        ports = [MavlinkOut(self.link.send, config), LogOut(log)]
+        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as), LogOut(log)]
         if self.bus is not None:
             ports.append(ZenohOut(self.bus.publish, config))
         self._csv = open(csv_out, "w", newline="") if csv_out else None
         if self._csv is not None:
             ports.append(CsvOut(self._csv))
+        if self.feeds.feeds and self.link.is_log:
+            self.link.close()
+            raise ConfigError("--traffic needs a live MAVLink link: a log replays its own traffic on its own time")
         source = LinkSource(self.link, MavlinkInput(config, self.counters), 1.0 / config.advisory.assessment_hz,
-                            duration_s, self.stop)
+                            duration_s, self.stop, start_s=start_s)
+        if self.feeds.feeds:
+            source = TrafficSource(source, self.feeds)  # started by the loop's iteration, joined at its end
         self.loop = Loop(Daa(config, self.counters), source, ports)
 
     @property
@@ -64,6 +75,7 @@ class Runner:
 
     def close(self) -> None:
         try:
+            self.feeds.close()  # the reader threads are joined (no-op when the loop's end did it)
             self.link.close()
             if self._csv is not None:
                 self._csv.close()
@@ -73,7 +85,7 @@ class Runner:
 
 
 def run(config: Config, duration_s: float | None = None, tlog_out: str | None = None,
-        csv_out: str | None = None) -> Counter:
+        csv_out: str | None = None, traffic: tuple[str, ...] = ()) -> Counter:
     """Run until SIGTERM/SIGINT, duration_s or the end of a log; then shut down cleanly (module docstring)."""
     stop = threading.Event()
     signals: list[int] = []
@@ -90,7 +102,8 @@ def run(config: Config, duration_s: float | None = None, tlog_out: str | None = 
         for signum in (signal.SIGTERM, signal.SIGINT):
             previous[signum] = signal.signal(signum, on_signal)
     try:
-        runner = Runner(config, tlog_out=tlog_out, stop=stop, duration_s=duration_s, csv_out=csv_out)
+        runner = Runner(config, tlog_out=tlog_out, stop=stop, duration_s=duration_s, csv_out=csv_out,
+                        traffic=tuple(traffic))
         # after the link and the zenoh session opened: a start-up error is the only line printed
         log.info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__, config.mavlink.connection,
                  list(config.zenoh.listen) if config.zenoh.enabled else "off", config.vehicle.id)
