@@ -93,8 +93,11 @@ def schedule(scenario: Scenario, impairments: AdsbImpairments, seed: int = 0,
     for i, (spec, traj) in enumerate(zip(scenario.intruders, intruder_trajs)):
         rng_impair = impairments.with_seed((seed, spec.icao_address))
         phase = (0.137 + 0.379 * i) % period  # staggered, deterministic, never on the ownship grid
+        heard = getattr(traj, "heard_at", None)  # a recorded track (avionics_sitl.tables): silent in its gaps
         for k in range(int(math.floor((duration - phase) * config.adsb_hz)) + 1):
             t = phase + k * period
+            if heard is not None and not heard(t):
+                continue
             report = rng_impair.impair(traj.state_at(t))
             if report is None:
                 continue

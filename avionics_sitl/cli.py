@@ -12,10 +12,11 @@ from avionics_sitl.impairments import PRESETS
 ERRORS = FLIGHT_ERRORS + (("avionics_sitl.encounters", "ScenarioError", 2, ""),)  # a bad encounter name or file: exit 2
 
 
-def _scenario(spec: str):
+def _scenario(args):
     from avionics_sitl.encounters import load_scenario  # ScenarioError (exit 2) for a bad name or file
 
-    return load_scenario(spec)
+    return load_scenario(args.encounter, ownship=args.ownship, ownship_file=args.ownship_file, units=args.units,
+                         gap_s=args.gap, progress=True if args.progress else None)
 
 
 def cmd_list(args) -> int:
@@ -36,7 +37,7 @@ def cmd_replay(args) -> int:
     for path, option in ((args.misses, "--misses"), (args.out, "--out")):
         if path:
             check_output_file(path, option)  # before the run, not after it
-    result = replay(_scenario(args.encounter), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras)
+    result = replay(_scenario(args), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras)
     if args.misses:
         result.write_misses_csv(args.misses)
     if args.out:
@@ -69,7 +70,7 @@ def cmd_live(args) -> int:
             return
         print(json.dumps(line), flush=True)
 
-    recording = fly(_scenario(args.encounter), args.connection, PRESETS[args.noise], seed=args.seed,
+    recording = fly(_scenario(args), args.connection, PRESETS[args.noise], seed=args.seed,
                     start_s=args.start, duration_s=args.duration, on_receive=show)
     print(json.dumps({"sent": recording.sent, "received": len(recording.received),
                       "collisions": len(recording.of_type("COLLISION"))}), file=sys.stderr)
@@ -82,9 +83,24 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("list", help="list the built-in encounters").set_defaults(func=cmd_list)
 
     def common(p):
-        p.add_argument("encounter", help="built-in name (sitl list), scenario .toml or DAIDALUS .daa file")
+        p.add_argument("encounter", help="built-in name (sitl list), scenario .toml, DAIDALUS .daa file, or an "
+                                         "OpenSky/traffic trajectory table .csv or .parquet")
         p.add_argument("--noise", choices=sorted(PRESETS), default="default", help="ADS-B impairments")
         p.add_argument("--seed", type=int, default=0, help="random seed of the impairments")
+        from avionics_sitl.tables import DEFAULT_GAP_S, UNITS
+
+        t = p.add_argument_group("trajectory tables (docs/scenarios.md)")
+        t.add_argument("--ownship", metavar="ICAO24", help="the table's aircraft that is ownship (or the one of "
+                                                           "--ownship-file, if that holds several)")
+        t.add_argument("--ownship-file", metavar="FILE", help="ownship from another table (one row: a fixed "
+                                                              "point, hovering at speed 0)")
+        t.add_argument("--units", choices=sorted(UNITS), help="unit convention when the column names are "
+                                                             "ambiguous: opensky (m, m/s) or traffic (ft, kt, ft/min)")
+        t.add_argument("--gap", type=float, default=DEFAULT_GAP_S, metavar="S",
+                       help=f"a silence longer than S seconds is a gap in an intruder's reports (default "
+                            f"{DEFAULT_GAP_S:g})")
+        t.add_argument("--progress", action="store_true",
+                       help="progress bar on stderr while reading (default: only when stderr is a terminal)")
 
     p = sub.add_parser("replay", help="fly an encounter in fast time through the onboard core; CSV of advisories")
     common(p)
