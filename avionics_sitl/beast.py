@@ -251,15 +251,17 @@ def beast_schedule(scenario: Scenario, impairments: AdsbImpairments, seed: int =
 class BeastServer:
     """A TCP server on one address sending `events` to every client as scenario time passes.
 
-    Real time: scenario time is `speed` x wall time since start() (speed 1: live). Every client receives the frames
+    Real time: scenario time is `start_s` + `speed` x wall time since start() (speed 1: live), or since the first
+    client connected (start_on_connect: a receiver switched on before the process that reads it). Every client
+    receives the frames
     due from its connection on (a receiver does not replay the past). Fast time is the caller's: `send_until(t)`
     sends every frame due by scenario time t, and nothing else moves time. `stop()` closes the listener and every
     client (a receiver that goes away); a new server on the same port is a receiver that came back."""
 
     def __init__(self, events: list[BeastEvent], host: str = "127.0.0.1", port: int = 30005,
-                 real_time: bool = True, speed: float = 1.0, start_s: float = 0.0):
+                 real_time: bool = True, speed: float = 1.0, start_s: float = 0.0, start_on_connect: bool = False):
         self.events, self.real_time, self.speed = list(events), real_time, speed
-        self.start_s = start_s
+        self.start_s, self.start_on_connect = start_s, start_on_connect
         self._listener = socket.create_server((host, port), reuse_port=False)
         self._listener.settimeout(0.05)
         self.port = self._listener.getsockname()[1]
@@ -272,7 +274,8 @@ class BeastServer:
         self.sent_frames = 0
 
     def start(self) -> "BeastServer":
-        self._t0 = time.monotonic()
+        if not self.start_on_connect:
+            self._t0 = time.monotonic()
         self._skip_to(self.start_s)
         self._threads.append(threading.Thread(target=self._accept, name="beast-accept", daemon=True))
         if self.real_time:
@@ -282,7 +285,12 @@ class BeastServer:
         return self
 
     def scenario_time(self) -> float:
-        return self.start_s + (time.monotonic() - (self._t0 or time.monotonic())) * self.speed
+        """Scenario time now (start_s until the clock starts)."""
+        t0 = self._t0
+        return self.start_s if t0 is None else self.start_s + (time.monotonic() - t0) * self.speed
+
+    def started(self) -> bool:
+        return self._t0 is not None
 
     def clients(self) -> int:
         with self._lock:
@@ -303,10 +311,13 @@ class BeastServer:
             client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._lock:
                 self._clients.append(client)
+                if self._t0 is None:
+                    self._t0 = time.monotonic()
 
     def _pace(self) -> None:
         while not self._stop.is_set():
-            self.send_until(self.scenario_time())
+            if self._t0 is not None:
+                self.send_until(self.scenario_time())
             self._stop.wait(0.02)
 
     def send_until(self, t: float) -> int:
