@@ -61,6 +61,7 @@ class DaaResult:
     counters: Mapping[str, int] | None = None  # when asked for (with the status): a snapshot
     final: bool = False  # the last result: the process stops
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance bands, once a second
+    starting: bool = False  # no ownship fix yet since start-up (unavailable, reason no_ownship, not announced)
 
     @property
     def available(self) -> bool:
@@ -131,7 +132,8 @@ class Daa:
             availability_changed=changed, fault_detail=self._fault_detail,
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
-            counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands)
+            counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
+            starting=self._unavailable == STARTUP)
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:

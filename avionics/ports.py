@@ -77,25 +77,66 @@ class AdvisoryRefresh:
         self._due.clear()
 
 
+CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
+REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's display; ~2 kB at 1 Hz)
+
+
 class MavlinkOut:
     """MAVLink to the autopilot and the ground station (docs/mavlink.md): per advisory change COLLISION,
     DAA_ADVISORY and STATUSTEXT; active ones refreshed; a DO-365 alerter's bands as DAA_BANDS once a second;
     availability changes as STATUSTEXT; HEARTBEAT with
-    system_status ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). send: a link's send(msg)."""
+    system_status STANDBY (no ownship fix yet) / ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). An
+    intruder is named by its callsign whenever one was ever known, also after its track is gone. send: a link's
+    send(msg)."""
 
-    def __init__(self, send, config: Config):
+    def __init__(self, send, config: Config, send_as=None):
         self._send = send
         self._statustext = config.mavlink.statustext
+        self._request_action = config.mavlink.collision_action_request
+        # the fused traffic for ground stations: ADSB_VEHICLE from our re-broadcast component (send_as(msg, comp):
+        # the link's; without it, send), at most traffic_rebroadcast_hz and REBROADCAST_MAX tracks per cycle
+        m = config.mavlink
+        self._rebroadcast = Every(1.0 / m.traffic_rebroadcast_hz) if m.traffic_rebroadcast else None
+        self._rebroadcast_component = m.traffic_rebroadcast_component
+        self._send_as = send_as if send_as is not None else (lambda msg, _component: send(msg))
+        self._rebroadcast_now = False
+        self._callsigns: dict = {}  # intruder -> (the last callsign known, when it was last an intruder of a result)
+        self._next_prune_s = 0.0
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
 
     def wants(self, now_s: float) -> Demand:
-        return NOTHING
+        self._rebroadcast_now = self._rebroadcast is not None and self._rebroadcast.due(now_s)
+        return Demand(tracks=True) if self._rebroadcast_now else NOTHING
+
+    def _remember_callsigns(self, result: DaaResult) -> None:
+        """Callsigns outlive the track that had them (a restarted or failed track's new record has none until a
+        report brings it; receivers send it only now and then): kept CALLSIGN_MEMORY_S after the intruder was
+        last in a result."""
+        now = result.time_s
+        for key, callsign in result.callsigns.items():
+            if callsign:
+                self._callsigns[key] = (callsign, now)
+            elif key in self._callsigns:
+                self._callsigns[key] = (self._callsigns[key][0], now)
+        for track in result.tracks or ():
+            if track.callsign:
+                self._callsigns[track.key] = (track.callsign, now)
+        if now >= self._next_prune_s:
+            self._next_prune_s = now + CALLSIGN_MEMORY_S
+            for key in [k for k, (_, seen) in self._callsigns.items() if now - seen > CALLSIGN_MEMORY_S]:
+                del self._callsigns[key]
+
+    def _callsign(self, result: DaaResult, intruder) -> str | None:
+        """The intruder's callsign now, else the last one known, else None (the text then says its zenoh id)."""
+        known = self._callsigns.get(intruder)
+        return result.callsigns.get(intruder) or (known[0] if known else None)
 
     def publish(self, result: DaaResult) -> None:
         now = result.time_s
+        self._remember_callsigns(result)
         for advisory in result.changes:
-            callsign = result.callsigns.get(advisory.intruder)
+            callsign = self._callsign(result, advisory.intruder)
             self._advisory(advisory, callsign)
             if self._statustext:
                 self._send(encode.statustext(encode.advisory_text(advisory, callsign),
@@ -104,7 +145,7 @@ class MavlinkOut:
         if result.final:
             self._refresh.clear()
         for advisory in self._refresh.due(result):
-            self._advisory(advisory, result.callsigns.get(advisory.intruder))
+            self._advisory(advisory, self._callsign(result, advisory.intruder))
         for message in encode.daa_bands(result.bands) if result.bands is not None else ():
             self._send(message)
         if result.availability_changed and self._statustext:
@@ -113,12 +154,17 @@ class MavlinkOut:
                 encode.availability_text(reason, result.fault_detail),
                 encode.mavlink2.MAV_SEVERITY_NOTICE if reason is None else encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:
-            status = (encode.mavlink2.MAV_STATE_POWEROFF if result.final else
-                      encode.mavlink2.MAV_STATE_ACTIVE if result.available else encode.mavlink2.MAV_STATE_CRITICAL)
-            self._send(encode.heartbeat(status))
+            self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
+        if self._rebroadcast_now and result.tracks is not None and not result.final:
+            self._rebroadcast_now = False
+            # alerting intruders first, then the most recently heard
+            tracks = sorted(result.tracks, key=lambda t: (-(int(t.advisory.level) if t.advisory else 0),
+                                                          -t.last_report_s))
+            for track in tracks[:REBROADCAST_MAX]:
+                self._send_as(encode.adsb_vehicle(track, now), self._rebroadcast_component)
 
     def _advisory(self, advisory: Advisory, callsign: str | None) -> None:
-        self._send(encode.collision(advisory))
+        self._send(encode.collision(advisory, self._request_action))
         self._send(encode.daa_advisory(advisory, callsign))
 
     def close(self) -> None:

@@ -47,7 +47,7 @@ class Runner:
             from avionics.io.zenoh_bus import ZenohBus
 
             self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters)  # queued, never blocks
-        ports = [MavlinkOut(self.link.send, config), LogOut(log)]
+        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as), LogOut(log)]
         if self.bus is not None:
             ports.append(ZenohOut(self.bus.publish, config))
         self._csv = open(csv_out, "w", newline="") if csv_out else None

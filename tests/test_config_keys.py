@@ -111,6 +111,7 @@ EXPLICIT: dict[str, list[str]] = {
     "mavlink.baud": ["921600"],
     "mavlink.source_system": ["2"],  # the simulated autopilot then uses system 2 (AUTOPILOT below)
     "mavlink.source_component": ["195"],
+    "mavlink.traffic_rebroadcast_component": ["193"],
     "mavlink.traffic_sources": ['["1"]', f'["1:{ADSB_COMPONENT}"]', "[1]"],
     "zenoh.key_prefix": ["fleet"],
     "tracking.gate_probability": ["0.999"],

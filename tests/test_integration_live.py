@@ -89,7 +89,8 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
                       mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW, mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE], err
     ta = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW)
     ra = next(m for m in collisions if m.threat_level == mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH)
-    assert ta.action == mavlink2.MAV_COLLISION_ACTION_REPORT and ra.action == mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND
+    # action: REPORT for a TA and an RA unless mavlink.collision_action_request (docs/mavlink.md, COLLISION)
+    assert ta.action == mavlink2.MAV_COLLISION_ACTION_REPORT and ra.action == mavlink2.MAV_COLLISION_ACTION_REPORT
     assert ta.id == ra.id == 0xA10001 and ta.src == mavlink2.MAV_COLLISION_SRC_ADSB
     assert 25 < ta.time_to_minimum_delta < 38 and ta.horizontal_minimum_delta < 150
     assert {m.id for m in collisions} == {0xA10001}  # nothing from the invalid report

@@ -39,6 +39,7 @@ SIMULATED = 64
 VERTICAL_VELOCITY_VALID = 128
 BARO_VALID = 256
 SOURCE_UAT = 32768
+DAA_REBROADCAST = 16384  # our dialect's ADSB_FLAGS_DAA_REBROADCAST: a DAA process's fused track, not a report
 
 ALTITUDE_TYPES = {0: AltitudeDatum.PRESSURE, 1: AltitudeDatum.GEOMETRIC}  # ADSB_ALTITUDE_TYPE
 MIN_HEIGHT_ABOVE_HOME_M = -9000.0  # a home on a summit above a valley flight; anything lower is corrupt
@@ -64,6 +65,8 @@ class MessageDecoder:
         sources = traffic_source_ids(config.mavlink)
         self._trusted_systems = {s for s, c in sources if c is None}
         self._trusted_senders = {(s, c) for s, c in sources if c is not None}
+        m = config.mavlink  # our own ADSB_VEHICLE re-broadcast comes from here (ports.py MavlinkOut)
+        self._own_rebroadcaster = (m.source_system, m.traffic_rebroadcast_component) if m.traffic_rebroadcast else None
         # intruder -> (its first sender, when that sender last reported it); kept while its track can live.
         self._senders: dict[IntruderKey, tuple[tuple[int, int], float]] = {}
         self._sender_expiry_s = config.tracking.delete_after_s + SENDER_MARGIN_S
@@ -91,6 +94,8 @@ class MessageDecoder:
     def _adsb_vehicle(self, msg, now_s: float) -> IntruderReport | None:
         flags = msg.flags
         sender = (msg.get_srcSystem(), msg.get_srcComponent())
+        if flags & DAA_REBROADCAST or sender == self._own_rebroadcaster:  # never our own output as input
+            return self._reject("adsb.own_rebroadcast")
         if sender[0] not in self._trusted_systems and sender not in self._trusted_senders:
             return self._reject("adsb.untrusted_source")
         source = AddressSource.UAT if flags & SOURCE_UAT else AddressSource.ES1090

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import avionics.io  # noqa: F401
-from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
+from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DAA_ADVISORY, DAA_BANDS
 
-from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
+from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel, AltitudeDatum, AddressSource
 from avionics.core.units import FPM, FT
 
 THREAT_LEVEL = {
@@ -15,11 +15,16 @@ THREAT_LEVEL = {
     AdvisoryLevel.TA: mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW,
     AdvisoryLevel.RA: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,
 }
+# COLLISION `action` is "Action that is being taken to avoid this collision" (common.xml), and ArduPilot's
+# AP_Avoidance takes it as what to do (docs/mavlink.md, COLLISION). By default we take no action and say so:
+# REPORT for a TA or an RA (the manoeuvre is in DAA_ADVISORY). ACTION_REQUEST (mavlink.collision_action_request)
+# asks the autopilot to climb or descend on an RA.
 ACTION = {
     AdvisoryLevel.NONE: mavlink2.MAV_COLLISION_ACTION_NONE,
     AdvisoryLevel.TA: mavlink2.MAV_COLLISION_ACTION_REPORT,
-    AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND,
+    AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_REPORT,
 }
+ACTION_REQUEST = {**ACTION, AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND}
 SEVERITY = {
     AdvisoryLevel.NONE: mavlink2.MAV_SEVERITY_INFO,
     AdvisoryLevel.TA: mavlink2.MAV_SEVERITY_WARNING,
@@ -31,12 +36,13 @@ UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude"
                      "fault": "fault", "shutdown": "shutdown"}
 
 
-def collision(advisory: Advisory):
-    """COLLISION for one intruder. altitude_minimum_delta is NaN when the intruder's altitude is unknown."""
+def collision(advisory: Advisory, request_action: bool = False):
+    """COLLISION for one intruder. altitude_minimum_delta is NaN when the intruder's altitude is unknown.
+    request_action: an RA says ASCEND_OR_DESCEND (the autopilot may act) instead of REPORT."""
     return mavlink2.MAVLink_collision_message(
         src=mavlink2.MAV_COLLISION_SRC_ADSB,
         id=advisory.intruder.address,
-        action=ACTION[advisory.level],
+        action=(ACTION_REQUEST if request_action else ACTION)[advisory.level],
         threat_level=THREAT_LEVEL[advisory.level],
         time_to_minimum_delta=advisory.t_cpa_s,
         altitude_minimum_delta=advisory.vmd_m if advisory.vmd_m is not None else math.nan,
@@ -147,9 +153,55 @@ def statustext(text: str, severity: int):
     return mavlink2.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:STATUSTEXT_LEN])
 
 
+def system_status(available: bool, starting: bool = False, final: bool = False) -> int:
+    """HEARTBEAT system_status from the DAA's health (docs/mavlink.md, HEARTBEAT): POWEROFF in the last one,
+    STANDBY from start-up until the first ownship fix, ACTIVE while DAA is available, CRITICAL while it is not
+    (no ownship, no pressure altitude, a fault). Not EMERGENCY: MAVLink defines it as the system "in mayday and
+    going down", which an unavailable DAA function does not say."""
+    if final:
+        return mavlink2.MAV_STATE_POWEROFF
+    if starting:
+        return mavlink2.MAV_STATE_STANDBY
+    return mavlink2.MAV_STATE_ACTIVE if available else mavlink2.MAV_STATE_CRITICAL
+
+
 def heartbeat(system_status: int = mavlink2.MAV_STATE_ACTIVE):
-    """Our HEARTBEAT. system_status: MAV_STATE_ACTIVE while DAA works, MAV_STATE_CRITICAL while it is
-    unavailable, MAV_STATE_POWEROFF in the last one before the process exits."""
+    """Our HEARTBEAT (system_status: see system_status())."""
     return mavlink2.MAVLink_heartbeat_message(
         mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, system_status, 3,
     )
+
+
+REBROADCAST_FLAGS = (mavlink2.ADSB_FLAGS_VALID_COORDS | mavlink2.ADSB_FLAGS_VALID_HEADING
+                     | mavlink2.ADSB_FLAGS_VALID_VELOCITY | mavlink2.ADSB_FLAGS_VERTICAL_VELOCITY_VALID
+                     | mavlink2.ADSB_FLAGS_DAA_REBROADCAST)
+
+
+def adsb_vehicle(track, now_s: float):
+    """A fused track (core.types.TrackView, predicted to now_s) as ADSB_VEHICLE for a ground station's traffic
+    display (docs/mavlink.md, "ADSB_VEHICLE re-broadcast"): flagged ADSB_FLAGS_DAA_REBROADCAST so that no DAA
+    process takes it as a report; the altitude (type as received: 0 pressure, 1 geometric) only while the track
+    has one; tslc the age of its last report."""
+    x = track.x
+    east, north, up = float(x[3]), float(x[4]), float(x[5])
+    flags = REBROADCAST_FLAGS
+    altitude_mm, altitude_type = 0, mavlink2.ADSB_ALTITUDE_TYPE_PRESSURE_QNH
+    if track.altitude_valid and track.datum is not None and math.isfinite(float(x[2])):
+        flags |= mavlink2.ADSB_FLAGS_VALID_ALTITUDE
+        altitude_mm = int(round(float(x[2]) * 1000.0))
+        altitude_type = (mavlink2.ADSB_ALTITUDE_TYPE_GEOMETRIC if track.datum is AltitudeDatum.GEOMETRIC
+                         else mavlink2.ADSB_ALTITUDE_TYPE_PRESSURE_QNH)
+    callsign = (track.callsign or "").encode("ascii", "replace")[:8]
+    flags |= mavlink2.ADSB_FLAGS_VALID_CALLSIGN if callsign else 0
+    squawk = track.squawk if track.squawk is not None else 0
+    flags |= mavlink2.ADSB_FLAGS_VALID_SQUAWK if track.squawk is not None else 0
+    flags |= mavlink2.ADSB_FLAGS_SIMULATED if track.simulated else 0
+    flags |= mavlink2.ADSB_FLAGS_SOURCE_UAT if track.key.source is AddressSource.UAT else 0
+    return mavlink2.MAVLink_adsb_vehicle_message(
+        ICAO_address=track.key.address, lat=int(round(track.lat_deg * 1e7)), lon=int(round(track.lon_deg * 1e7)),
+        altitude_type=altitude_type, altitude=max(-2**31 + 1, min(2**31 - 2, altitude_mm)),
+        heading=int(round(math.degrees(math.atan2(east, north)) * 100.0)) % 36000,
+        hor_velocity=min(65534, int(round(math.hypot(east, north) * 100.0))),
+        ver_velocity=max(-32767, min(32766, int(round(up * 100.0)))), callsign=callsign,
+        emitter_type=track.emitter_type if 0 <= track.emitter_type <= 255 else 0,
+        tslc=min(254, max(0, int(now_s - track.last_report_s))), flags=flags, squawk=squawk)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
 from pymavlink import mavutil
-from avionics.io.dialect import daa as mavlink2  # common.xml plus our DAA_ADVISORY
+from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DAA_ADVISORY, DAA_BANDS
 
 from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
@@ -176,6 +176,7 @@ class MavlinkLink:
         self.mav = mavlink2.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
         if self.signing is not None:
             self.signing.attach(self.mav)  # what we send is signed
+        self._encoders: dict = {}  # other components of ours (send_as)
         self._log_clock = LogClock(counters) if self.is_log else None
         self._log_ready: deque = deque()
         self._log_done = False
@@ -367,6 +368,24 @@ class MavlinkLink:
         if self.signing is not None:
             self.signing.before_send(self.mav)
         buf = msg.pack(self.mav)
+        self.conn.write(buf)
+        if self._tlog is not None:
+            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
+
+    def send_as(self, msg, component: int) -> None:
+        """send() from another component id of our system (the ADSB_VEHICLE re-broadcast): its own encoder, so
+        its sequence numbers and signing stream are its own."""
+        mav = self._encoders.get(component)
+        if mav is None:
+            mav = self._encoders[component] = mavlink2.MAVLink(None, srcSystem=self.mav.srcSystem,
+                                                               srcComponent=component)
+            if self.signing is not None:
+                self.signing.attach(mav)
+        if self.is_log:
+            return
+        if self.signing is not None:
+            self.signing.before_send(mav)
+        buf = msg.pack(mav)
         self.conn.write(buf)
         if self._tlog is not None:
             self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))

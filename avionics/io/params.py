@@ -28,13 +28,23 @@ class VehicleConfig:
 
 @dataclass(frozen=True)
 class MavlinkConfig:
-    connection: str = "udpin:127.0.0.1:14550"  # any pymavlink connection string
+    # pymavlink or MAVSDK/MAVROS-style connection string (avionics/io/link.py translate_connection); 14540 is
+    # PX4's onboard port and what the docs/integration.md recipes send to
+    connection: str = "udpin:0.0.0.0:14540"
     baud: int = 57600  # serial links only
     source_system: int = 1  # our HEARTBEAT/COLLISION system id (the vehicle's)
     source_component: int = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
     heartbeat_hz: float = 1.0
     collision_refresh_s: float = 1.0  # re-send an active COLLISION this often
     statustext: bool = True
+    # COLLISION action on an RA: false = MAV_COLLISION_ACTION_REPORT (we act on nothing; the RA is in DAA_ADVISORY),
+    # true = MAV_COLLISION_ACTION_ASCEND_OR_DESCEND, asking an autopilot that acts on COLLISION to manoeuvre.
+    collision_action_request: bool = False
+    # Ground station view (docs/mavlink.md, "ADSB_VEHICLE re-broadcast"): the fused tracks as ADSB_VEHICLE from
+    # component traffic_rebroadcast_component, flagged ADSB_FLAGS_DAA_REBROADCAST, at traffic_rebroadcast_hz.
+    traffic_rebroadcast: bool = False
+    traffic_rebroadcast_hz: float = 1.0
+    traffic_rebroadcast_component: int = 192  # MAV_COMP_ID_ONBOARD_COMPUTER2; never our own source_component
     # MAVLink 2 signing (docs/mavlink.md, "Signing"): a file holding the 32-byte key as 64 hex characters;
     # "" = off. With a key our frames are signed, and wrong-key and replayed frames are rejected.
     signing_key_file: str = ""
@@ -51,7 +61,13 @@ class MavlinkConfig:
                 load_key(self.signing_key_file)
             except SigningKeyError as exc:
                 raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
-        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s"))
+        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz"))
+        if not 1 <= self.traffic_rebroadcast_component <= 255 or \
+                self.traffic_rebroadcast_component == self.source_component:
+            raise ConfigError("mavlink.traffic_rebroadcast_component must be in 1..255 and differ from "
+                              f"mavlink.source_component ({self.source_component})")
+        if self.traffic_rebroadcast_hz > 10.0:
+            raise ConfigError(f"mavlink.traffic_rebroadcast_hz: at most 10 Hz, got {self.traffic_rebroadcast_hz}")
         if not 1 <= self.source_system <= 255 or not 0 <= self.source_component <= 255:
             raise ConfigError("mavlink.source_system must be in 1..255 and mavlink.source_component in 0..255")
 
