@@ -44,6 +44,7 @@ from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.tracking.interface import Tracker
+from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
 
 
@@ -100,6 +101,7 @@ class DaaCore:
         self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
         self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
         self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
+        self.identity = IdentityResolver(config.tracking, self.counters)  # one aircraft, one track (identity.py)
         self.assessments: dict[IntruderKey, _Assessment] = {}
         self.level: SensitivityLevel | None = None
         self._last_full_assessment_s = -math.inf
@@ -146,12 +148,18 @@ class DaaCore:
             return
         items, easts, norths = self._in_plane(reports)
         try:
-            took = self.tracker.ingest_many(list(items), easts, norths)
+            start = 0
+            while start < len(items):  # one round, or more where identity.py must see a track first
+                end = self.identity.round_end(items, start, self.tracker)
+                e, n = easts[start:end], norths[start:end]
+                items[start:end] = resolved = self.identity.resolve(items[start:end], e, n, self.tracker)
+                took = self.tracker.ingest_many(resolved, e, n)
+                self.identity.count(resolved, took)
+                dirty.update(r.key for r, ok in zip(resolved, took) if ok)
+                start = end
         except Exception as exc:  # noqa: BLE001  (stage boundary: isolate the intruder, below)
             self._batch_failed("track", exc)
             self._ingest_alone(now_s, items, easts, norths, dirty, changes)
-            return
-        dirty.update(r.key for r, ok in zip(items, took) if ok)
 
     def _ingest_alone(self, now_s, items, easts, norths, dirty, changes) -> None:
         by_key: dict[IntruderKey, list[int]] = {}
