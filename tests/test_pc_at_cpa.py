@@ -39,3 +39,14 @@ def test_matches_monte_carlo_of_the_straight_line_miss_with_process_noise():
         miss = s[:, 0:3] + t[i] * s[:, 3:6] + noise
         mc = np.mean((np.hypot(miss[:, 0], miss[:, 1]) <= 800.0) & (np.abs(miss[:, 2]) <= 150.0))
         assert got[i] == pytest.approx(mc, abs=4e-3), i
+
+
+def test_a_cpa_ages_away_is_no_conflict_and_stays_finite():
+    """Two hovering aircraft 2 km apart whose relative velocity is a rounding residue (found by hypothesis in
+    tests/test_identity.py): the CPA lies 1e134 s ahead. Its Pc is 0, not a NaN that fails the pair."""
+    x = np.array([[0.0, 2000.0, 300.0, 0.0, -7.5e-132, 0.0]])
+    p = np.diag([100.0, 100.0, 25.0, 1.0, 1.0, 0.25])[None]
+    t = np.array([2000.0 * 7.5e-132 / 7.5e-132**2])
+    pc = pc_at_cpa(x, p, t, [(1000.0, 250.0)], 2.0, 1.0, np.array([True]))
+    assert np.isfinite(t).all() and t[0] > 1e100
+    assert pc.shape == (1, 1) and pc[0, 0] == pytest.approx(0.0, abs=1e-12)

@@ -17,6 +17,11 @@ import numpy as np
 
 from avionics.conflict.probability import conflict_probability, vertical_probability
 
+# A CPA further ahead than this is no conflict any alerter here acts on (TCAS II alerts at most 48 s ahead, DO-365
+# 75 s): the propagation stops there. Without a bound a pair closing at 1e-131 m/s (two hovering aircraft, a
+# rounding residue) puts its CPA 1e134 s ahead, t^4 overflows and the pair failed as "not finite".
+MAX_PROPAGATION_S = 3600.0
+
 
 def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, accel_sigma_h_mps2: float,
               accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
@@ -24,7 +29,7 @@ def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, ac
     height m or None). Returns (V, N) probabilities, every volume's disks in one exact call (the per-call cost
     dominates for the few pairs of a single report). Without altitude (has_altitude False) or without a half
     height the vertical factor is 1."""
-    t = np.asarray(t_s, float)
+    t = np.minimum(np.asarray(t_s, float), MAX_PROPAGATION_S)
     n = t.shape[0]
     mean = rel_x[:, 0:3] + t[:, None] * rel_x[:, 3:6]
     pp, pv, vv = rel_p[:, 0:3, 0:3], rel_p[:, 0:3, 3:6], rel_p[:, 3:6, 3:6]
