@@ -46,6 +46,7 @@ Counters: traffic.beast.<what> (see docs/traffic-inputs.md).
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import Counter
 from dataclasses import dataclass
@@ -59,6 +60,7 @@ from avionics.core.units import FT, FPM, KT
 from avionics.io.feeds.aircraft import FORGET_AFTER_S, MAX_AIRCRAFT, AircraftMerge, Observation
 from avionics.io.feeds.clock import ReceiverClock
 
+log = logging.getLogger("avionics.traffic")
 ESCAPE = 0x1A
 MESSAGE_BYTES = {0x31: 2, 0x32: 7, 0x33: 14}  # type '1' Mode A/C, '2' Mode S short, '3' Mode S long
 CLOCK_HZ = 12_000_000.0  # the Beast timestamp: a 12 MHz counter ...
@@ -420,6 +422,7 @@ class BeastParser:
         self.decoder = BeastDecoder(counters, ReceiverClock(config.traffic.clock_window_s, wrap_s=CLOCK_WRAP_S),
                                     config.input.max_ground_speed_mps)
         self.merge = AircraftMerge(path, config, counters)
+        self._logged = False  # the first decoding fault is logged with its traceback, the others counted
 
     def reset(self) -> None:
         """A new connection: a partial frame of the old one is dropped; aircraft and CPR state are kept."""
@@ -428,7 +431,14 @@ class BeastParser:
     def feed(self, data: bytes, received_s: float) -> list:
         reports = []
         for frame in self.deframer.feed(data):
-            obs = self.decoder.decode(frame, received_s)
+            try:
+                obs = self.decoder.decode(frame, received_s)
+            except Exception:  # noqa: BLE001  (one message's fault: counted and logged; the stream goes on)
+                self.decoder.counters[self.decoder.prefix + "decode_errors"] += 1
+                if not self._logged:
+                    self._logged = True
+                    log.exception("beast: a frame could not be decoded: %s", frame.message.hex())
+                continue
             if obs is not None:
                 report = self.merge.observe(obs)
                 if report is not None:
