@@ -34,10 +34,13 @@ _UNSET = object()
 @dataclass(frozen=True, slots=True)
 class SourceStatus:
     """What the input side knows that the core cannot: intruders a second sender also reports (their reports
-    are dropped: docs/mavlink.md, "Trusted sources"), and our last ownship pressure rejected as implausible."""
+    are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible, and the
+    health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
+    last_report_s, warning, as_dict(); docs/traffic-inputs.md)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
+    feeds: tuple = ()
 
 
 NO_SOURCE_STATUS = SourceStatus()
@@ -236,6 +239,7 @@ class Daa:
             warnings.append(f"fault: {len(core.faults)} intruder(s) failed in a stage: no advisories for them")
         if self._stopped:
             warnings.append("shutdown: no advisories")
+        warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
         ownship = None
         if own is not None:
             lat, lon, (ve, vn) = core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
@@ -258,4 +262,5 @@ class Daa:
             "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | fault | shutdown
             "failed_intruders": {str(k): f.stage for k, f in sorted(core.faults.items())},
             "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # also sent by a second sender
+            "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
         }

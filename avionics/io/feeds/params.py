@@ -27,7 +27,7 @@ class TrafficConfig:
     merge_max_age_s: float = 3.0
     readsb_poll_s: float = 1.0  # readsb writes aircraft.json once a second (its --write-json-every default)
     reconnect_initial_s: float = 0.5  # a lost or refused source is retried after this, doubling ...
-    reconnect_max_s: float = 5.0  # ... up to this
+    reconnect_max_s: float = 2.0  # ... up to this: a restarted receiver is read again within 2 s (issue 14)
     queue_size: int = 4096  # reports waiting for the loop per feed; when full the oldest is dropped (counted)
     # Receiver clock alignment (clock.py): the offset is the least (receipt - receiver time) over this window.
     clock_window_s: float = 60.0

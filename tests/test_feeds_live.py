@@ -1,0 +1,286 @@
+"""Receiver feeds over real sockets on 127.0.0.1, with the real reader threads (avionics/io/feeds/source.py):
+
+- the head-on encounter served by the simulated receiver's SBS output (avionics_sitl/sbs.py) while ownship arrives
+  as MAVLink messages gives the TA and RA onsets of the ADSB_VEHICLE path (within 1 s), run in fast time: the
+  server, the loop and the feed's clock are one scenario clock running SPEED times real time;
+- the same aircraft on both paths (ADSB_VEHICLE and SBS) is one track;
+- a killed and restarted SBS server is reconnected to (reports flow again) and, while down, is a status warning;
+- readsb-json from a file and from an http server carries nac_p/nac_v into the tracks' measurement noise.
+
+Waits poll with generous deadlines (conftest.wait_for); durations are printed, never asserted.
+"""
+
+from __future__ import annotations
+
+import http.server
+import json
+import threading
+import time
+from collections import Counter
+
+import avionics.io  # noqa: F401  (MAVLink 2)
+import numpy as np
+import pytest
+
+from avionics.config import load_config
+from avionics.core.types import AdvisoryLevel, IntruderKey
+from avionics.daa import Daa
+from avionics.io.feeds.sbs import SbsParser
+from avionics.io.framing import FrameScanner
+from avionics.io.feeds.source import FeedSet, TrafficSource
+from avionics.loop import Batch, Loop, MavlinkInput
+from avionics.tracking.integrity import position_sigma_per_axis
+from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
+from avionics_sitl.encounters import load_encounter
+from avionics_sitl.impairments import PRESETS
+from avionics_sitl.sbs import SbsServer, sbs_schedule
+from conftest import wait_for
+from harness import Harness
+
+SCENARIO = load_encounter("head-on")
+INTRUDER = SCENARIO.intruders[0]
+KEY = IntruderKey(INTRUDER.icao_address, INTRUDER.address_source)
+DURATION_S = 72.0  # TA at ~55 s, RA at ~65 s
+SPEED = 6.0  # scenario seconds per real second: 72 s in 12 s
+TICK_S = 0.1
+CONFIG = load_config(None, ["zenoh.enabled=false"])
+
+
+class Framed:
+    """Messages through real MAVLink framing with the autopilot's sender ids (system 1: trusted, our vehicle)."""
+
+    def __init__(self, counters: Counter):
+        self.packer, self.scanner = Packer(), FrameScanner(counters)
+
+    def __call__(self, msgs) -> list:
+        return self.scanner.feed(b"".join(self.packer.pack(m) for m in msgs), end_of_datagram=True) if msgs else []
+
+
+def onsets(changes) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for t, level in changes:
+        out.setdefault(level.name, t)
+    return out
+
+
+def mavlink_reference() -> dict[str, float]:
+    """The ADSB_VEHICLE path in fast time (no sockets): TA and RA onsets."""
+    node = Harness(CONFIG)
+    framed = Framed(node.counters)
+    events = schedule(SCENARIO, PRESETS["default"], duration_s=DURATION_S)
+    changes, i = [], 0
+    for k in range(int(DURATION_S / TICK_S) + 1):
+        t = k * TICK_S
+        msgs = []
+        while i < len(events) and events[i].deliver_s <= t:
+            msgs.append(events[i].msg)
+            i += 1
+        result = node.handle(framed(msgs), t)
+        changes += [(t, a.level) for a in result.changes if a.intruder == KEY]
+    return onsets(changes)
+
+
+class OwnshipOverMavlink:
+    """A loop Source: the autopilot's ownship messages (no ADSB_VEHICLE) decoded at their delivery times, one batch
+    per tick of a scenario clock that runs in real time times SPEED."""
+
+    def __init__(self, mavlink: MavlinkInput, clock, end_s: float):
+        self.events = [e for e in schedule(SCENARIO, PRESETS["default"], duration_s=end_s)
+                       if e.msg.get_type() != "ADSB_VEHICLE"]
+        self.mavlink, self.clock, self.end_s = mavlink, clock, end_s
+        self.framed = Framed(mavlink.decoder.counters)
+
+    def __iter__(self):
+        i, tick = 0, 0.0
+        while tick <= self.end_s:
+            while self.clock() < tick:
+                time.sleep(max(0.0, (tick - self.clock()) / SPEED))  # pacing the clock, not waiting for a result
+            now = self.clock()
+            msgs = []
+            while i < len(self.events) and self.events[i].deliver_s <= now:
+                msgs.append(self.events[i].msg)
+                i += 1
+            yield Batch(now, self.mavlink.decode(self.framed(msgs), now))
+            tick += TICK_S
+
+    def status(self):
+        return self.mavlink.status()
+
+
+def test_sbs_feed_gives_the_onsets_of_the_adsb_vehicle_path(tcp_port):
+    reference = mavlink_reference()
+    assert set(reference) >= {"TA", "RA"}, reference
+    t0 = time.monotonic()
+
+    def clock():
+        return (time.monotonic() - t0) * SPEED
+
+    counters = Counter()
+    with SbsServer(sbs_schedule(SCENARIO, PRESETS["default"], duration_s=DURATION_S), port=tcp_port,
+                   clock=clock) as server:
+        feeds = FeedSet.open([f"sbs:127.0.0.1:{server.port}"], CONFIG, clock, counters)
+        source = TrafficSource(OwnshipOverMavlink(MavlinkInput(CONFIG, counters), clock, DURATION_S), feeds)
+        loop = Loop(Daa(CONFIG, counters), source, [])
+        changes, tracks = [], set()
+        for batch in source:
+            result = loop.step(batch)
+            changes += [(batch.now_s, a.level) for a in result.changes if a.intruder == KEY]
+            tracks |= set(loop.daa._core.tracker.tracks)
+        assert not feeds.feeds[0]._thread.is_alive()  # the iteration's end joined the reader thread
+    got = onsets(changes)
+    print(json.dumps({"reference_onsets_s": reference, "sbs_onsets_s": got, "counters": {
+        k: v for k, v in counters.items() if k.startswith("traffic.")}}))
+    assert tracks == {KEY}
+    assert counters["traffic.sbs.reports"] >= 0.8 * DURATION_S  # 1 Hz less the default 5 % dropouts
+    assert not any(k.startswith("traffic.sbs.rejected") for k in counters), counters
+    assert abs(got["TA"] - reference["TA"]) <= 1.0 and abs(got["RA"] - reference["RA"]) <= 1.0
+
+
+def test_the_same_aircraft_on_both_paths_is_one_track():
+    """ADSB_VEHICLE (1 Hz) from the autopilot's receiver and SBS (2 Hz) from a ground receiver: one track, fed by
+    both (more updates than either path alone), and the MAVLink first-sender rule drops none of the feed's."""
+    node = Harness(CONFIG)
+    sbs = SbsParser("sbs:127.0.0.1:30003", CONFIG, node.counters)
+    framed = Framed(node.counters)
+    events = schedule(SCENARIO, PRESETS["default"], duration_s=40.0)
+    lines = [(e.deliver_s, line) for e in sbs_schedule(SCENARIO, PRESETS["default"], seed=1, duration_s=40.0,
+                                                       config=AutopilotConfig(adsb_hz=2.0))
+             for line in e.data.split(b"\r\n") if line]
+    i = j = 0
+    for k in range(401):
+        t = k * TICK_S
+        msgs, reports = [], []
+        while i < len(events) and events[i].deliver_s <= t:
+            msgs.append(events[i].msg)
+            i += 1
+        while j < len(lines) and lines[j][0] <= t:
+            r = sbs.line(lines[j][1], t)
+            reports += [r] if r is not None else []
+            j += 1
+        node.loop.step(Batch(t, node.input.decode(framed(msgs), t) + reports))
+    c = node.counters
+    tracks = node.core.tracker.tracks
+    assert set(tracks) == {KEY}
+    assert c["rx.adsb_vehicle"] >= 35 and c["traffic.sbs.reports"] >= 70  # 1 Hz and 2 Hz, the default 5 % dropouts
+    print(json.dumps({"n_updates": tracks[KEY].n_updates, "rx.adsb_vehicle": c["rx.adsb_vehicle"], "sbs": c["traffic.sbs.reports"], "dup": c["report.duplicate"], "ooo": c["report.out_of_order"]}))
+    # both paths update it (more than SBS alone; a MAVLink report not newer than an SBS one is out of order)
+    assert tracks[KEY].n_updates > c["traffic.sbs.reports"] + 5
+    assert c["adsb.second_sender"] == 0 and not node.decoder.spoof_suspected
+
+
+def test_a_restarted_sbs_server_is_reconnected_and_a_dead_one_is_a_warning(tcp_port):
+    """Lines served in real time; the server is killed (connections closed, port refused), the feed is down and the
+    status says so while the loop goes on; a new server on the same port gets the reports flowing again."""
+    t0 = time.monotonic()
+
+    def clock():
+        return time.monotonic() - t0
+
+    events = sbs_schedule(SCENARIO, PRESETS["none"], duration_s=SCENARIO.duration_s)
+    counters = Counter()
+    daa = Daa(CONFIG, counters)
+    server = SbsServer(events, port=tcp_port).start()
+    feeds = FeedSet.open([f"sbs:127.0.0.1:{tcp_port}"], CONFIG, clock, counters)
+    feeds.start()
+    try:
+        def reports_flow(before: int):
+            return lambda: feeds.drain(clock()) and counters["traffic.sbs.reports"] > before
+
+        assert wait_for(reports_flow(0))
+        server.stop()
+        assert wait_for(lambda: not feeds.drain(clock()) and not feeds.health[0].connected)
+        status = daa.status(clock(), TrafficSource(MavlinkInput(CONFIG, counters), feeds).status())
+        assert any(w.startswith(f"traffic source sbs:127.0.0.1:{tcp_port} down") for w in status["warnings"])
+        assert status["traffic_feeds"][0]["connected"] is False
+        before = counters["traffic.sbs.reports"]
+        restarted = time.monotonic()
+        server = SbsServer(events, port=tcp_port, start_s=clock()).start()
+        assert wait_for(reports_flow(before))
+        print(json.dumps({"recovered_after_restart_s": round(time.monotonic() - restarted, 3),
+                          "reconnects": counters["traffic.sbs.reconnects"]}))
+        assert feeds.health[0].connected and counters["traffic.sbs.disconnects"] >= 1
+    finally:
+        feeds.close()
+        server.stop()
+    assert not feeds.feeds[0]._thread.is_alive()
+
+
+def readsb_document(now: float, t: float) -> bytes:
+    """Two aircraft flying north side by side, one with NACp 11 / NACv 4, the other NACp 5 / NACv 1."""
+    aircraft = []
+    for hex_, lon, nac_p, nac_v in (("c00001", 8.50, 11, 4), ("c00002", 8.60, 5, 1)):
+        aircraft.append({"hex": hex_, "lat": 47.0 + 60.0 * t / 111_200.0, "lon": lon, "alt_baro": 3000,
+                         "gs": 116.6, "track": 0.0, "baro_rate": 0, "nac_p": nac_p, "nac_v": nac_v, "nic": 8,
+                         "seen_pos": 0.2, "seen": 0.1})
+    return json.dumps({"now": now, "messages": 10, "aircraft": aircraft}).encode()
+
+
+class Aircraft_json_http(http.server.BaseHTTPRequestHandler):
+    body = b""
+
+    def do_GET(self):  # noqa: N802
+        body = type(self).body
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.mark.parametrize("transport", ["file", "http"])
+def test_readsb_json_nac_reaches_the_tracks_measurement_noise(transport, tmp_path):
+    config = load_config(None, ["zenoh.enabled=false", "traffic.readsb_poll_s=0.2"])
+    t0 = time.monotonic()
+
+    def clock():
+        return time.monotonic() - t0
+
+    path = tmp_path / "aircraft.json"
+    httpd = None
+    if transport == "http":
+        httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Aircraft_json_http)
+        threading.Thread(target=httpd.serve_forever, daemon=True).start()
+        target = f"http://127.0.0.1:{httpd.server_address[1]}/data/aircraft.json"
+    else:
+        target = str(path)
+
+    def publish(t: float):
+        body = readsb_document(1.7e9 + t, t)
+        if httpd is not None:
+            Aircraft_json_http.body = body
+        else:
+            tmp = path.with_suffix(".tmp")
+            tmp.write_bytes(body)
+            tmp.replace(path)  # as readsb writes it: a new file renamed over the old
+
+    counters = Counter()
+    daa = Daa(config, counters)
+    publish(0.0)
+    feeds = FeedSet.open([f"readsb-json:{target}"], config, clock, counters)
+    feeds.start()
+    keys = set()
+    try:
+        def updated_enough() -> bool:
+            now = clock()
+            publish(now)
+            daa.step(now, feeds.drain(now))
+            keys.update(daa._core.tracker.tracks)
+            tracks = daa._core.tracker.tracks
+            return len(tracks) == 2 and min(t.n_updates for t in tracks.values()) >= 5
+
+        assert wait_for(updated_enough, period_s=0.1)
+        views = {str(v.key): v for v in daa.tracks(clock())}
+    finally:
+        feeds.close()
+        if httpd is not None:
+            httpd.shutdown()
+            httpd.server_close()
+    precise, coarse = views["1090es-C00001"], views["1090es-C00002"]
+    # the horizontal position variance follows the reported accuracy (NACp 11: 1.2 m; NACp 5: 378 m, 1-sigma)
+    assert np.trace(precise.p[:2, :2]) < np.trace(coarse.p[:2, :2]) / 10
+    assert np.trace(precise.p[3:5, 3:5]) < np.trace(coarse.p[3:5, 3:5])
+    assert counters["traffic.readsb-json.reports"] >= 10 and counters["traffic.readsb-json.documents"] >= 5
+    assert position_sigma_per_axis(3.0) < 1.3  # NACp 11's sigma, the precise track's measurement noise
