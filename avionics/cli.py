@@ -176,7 +176,8 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run the onboard DAA process on a MAVLink link")
     _config_args(p)
-    p.add_argument("--connection", help="pymavlink connection string, e.g. udpin:127.0.0.1:14550, "
+    p.add_argument("--connection", help="connection string (default udpin:0.0.0.0:14540), e.g. udp://:14540, "
+                                        "udpin:127.0.0.1:14540, tcp://127.0.0.1:5760, serial:///dev/ttyUSB0:921600, "
                                         "tcp:127.0.0.1:5760, /dev/ttyUSB0, flight.tlog")
     p.add_argument("--no-zenoh", action="store_true", help="do not publish on zenoh")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (default: run until killed)")

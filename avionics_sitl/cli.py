@@ -116,7 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("live", help="fly an encounter in real time over MAVLink; print what comes back (JSON lines)")
     common(p)
-    p.add_argument("--connection", default="udpout:127.0.0.1:14550", help="pymavlink connection string")
+    p.add_argument("--connection", default="udpout:127.0.0.1:14540",
+                   help="connection string (default: where avionics run listens by default)")
     p.add_argument("--start", type=float, default=0.0, metavar="S", help="start at scenario time S")
     p.add_argument("--duration", type=float, metavar="S", help="fly S seconds (default: to the scenario's end)")
     p.set_defaults(func=cmd_live)

@@ -81,6 +81,47 @@ class LinkError(RuntimeError):
     """The connection string cannot be opened, with pymavlink's reason."""
 
 
+URL_SCHEMES = {"udp": "udpin", "udpin": "udpin", "udpout": "udpout", "tcp": "tcp", "tcpin": "tcpin"}
+
+
+def translate_connection(connection: str, baud: int) -> tuple[str, int]:
+    """A MAVSDK/MAVROS-style URL as pymavlink's connection string and baud rate; anything else unchanged.
+
+    `udp://[HOST]:PORT` listens (MAVSDK: `udp://:14540` is all interfaces; a MAVROS `@` with nothing after it
+    is allowed), `udpin://HOST:PORT`, `udpout://HOST:PORT`, `tcp://HOST:PORT` (client), `tcpin://HOST:PORT`,
+    `serial://DEVICE[:BAUD]` (e.g. `serial:///dev/ttyUSB0:921600`; without BAUD, mavlink.baud). A malformed URL
+    is a ConfigError naming it (exit 2)."""
+    scheme, sep, rest = connection.partition("://")
+    if not sep:
+        return connection, baud
+    def bad(why: str) -> ConfigError:
+        return ConfigError(f"mavlink.connection: {connection!r} {why}")
+    scheme = scheme.lower()
+    if scheme == "serial":
+        device, colon, speed = rest.rpartition(":")
+        if not colon or not speed.isdigit():
+            device, speed = rest, ""
+        if not device.startswith("/") and not device[:3].upper() == "COM":
+            raise bad("is not serial://DEVICE[:BAUD] (e.g. serial:///dev/ttyUSB0:921600)")
+        if speed and not 0 < int(speed) <= 20_000_000:
+            raise bad(f"has baud rate {speed} out of range")
+        return device, int(speed) if speed else baud
+    if scheme not in URL_SCHEMES:
+        raise bad("has an unknown scheme (udp://, udpin://, udpout://, tcp://, tcpin://, serial://)")
+    address, at, remote = rest.partition("@")
+    if at and remote:
+        raise bad("sends to a remote address after '@' (MAVROS bind@remote): use udpin:HOST:PORT and let the "
+                  "sender address us, or udpout:HOST:PORT")
+    host, colon, port = address.rpartition(":")
+    if not colon or not port.isdigit() or not 0 < int(port) < 65536:
+        raise bad("needs HOST:PORT with a port in 1..65535")
+    if not host:
+        if scheme not in ("udp", "udpin", "tcpin"):
+            raise bad("needs a host")
+        host = "0.0.0.0"
+    return f"{URL_SCHEMES[scheme]}:{host}:{int(port)}", baud
+
+
 def _check_udp_port_free(connection: str) -> None:
     """pymavlink binds udpin with SO_REUSEADDR, so a second process on the same port starts silently and the
     two split the datagrams. Bind it once without that option first: a port in use is then a clear error."""
@@ -151,6 +192,7 @@ class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
                  signing_required: bool = True):
+        connection, baud = translate_connection(connection, baud)  # MAVSDK/MAVROS URLs; a bad one: ConfigError
         self.connection = connection
         self.counters = counters
         self.is_log = connection.lower().endswith((".tlog", ".raw", ".mavlink")) and \

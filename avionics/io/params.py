@@ -54,6 +54,9 @@ class MavlinkConfig:
 
     def validate(self) -> None:
         traffic_source_ids(self)
+        from avionics.io.link import translate_connection  # noqa: PLC0415  (link imports pymavlink)
+
+        translate_connection(self.connection, self.baud)  # a malformed URL is a configuration error
         if self.signing_key_file:
             from avionics.io.signing import SigningKeyError, load_key
 
