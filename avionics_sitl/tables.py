@@ -416,16 +416,28 @@ def _rows_to_table(path: Path, layout: Layout, columns: dict[str, list]) -> Tabl
 class TableTrajectory(SampledTrajectory):
     """A `SampledTrajectory` through an aircraft's table samples that also knows when the aircraft was heard:
     inside a stretch of samples no more than gap_s apart. The schedule (avionics_sitl.autopilot) sends no report
-    of it outside those stretches; its truth (state_at, enu_at, used for the misses) still goes through them."""
+    of it outside those stretches. Its truth (state_at, enu_at, used for the misses) still goes through a gap, on
+    the straight line between the samples either side (a cubic over a long gap would swing by velocity x gap)."""
 
     def __init__(self, times, lat, lon, alt, vel_e, vel_n, vel_u, plane, gap_s: float):
         super().__init__(times, lat, lon, alt, vel_e, vel_n, vel_u, plane=plane)
+        self.gap_s = gap_s
         t = self.times
         breaks = np.nonzero(np.diff(t) > gap_s)[0]
         starts = np.concatenate([[0], breaks + 1])
         ends = np.concatenate([breaks, [len(t) - 1]])
         self.heard = [(float(t[a]), float(t[b])) for a, b in zip(starts, ends)]
         self._starts = [a for a, _ in self.heard]
+
+    def _interpolate(self, t_s: float):
+        t = self.times
+        i = int(np.searchsorted(t, t_s, side="right")) - 1
+        if 0 <= i < len(t) - 1 and t[i + 1] - t[i] > self.gap_s:
+            h = t[i + 1] - t[i]
+            u = (t_s - t[i]) / h
+            chord = (self._pos[i + 1] - self._pos[i]) / h
+            return (1.0 - u) * self._pos[i] + u * self._pos[i + 1], chord
+        return super()._interpolate(t_s)
 
     def heard_at(self, t_s: float) -> bool:
         i = int(np.searchsorted(self._starts, t_s, side="right")) - 1
@@ -498,7 +510,7 @@ def read_trajectory_tables(path: str | Path, ownship: str | None = None, ownship
                          f"{own.icao24}'s ({own.samples[0].t:.0f}..{own.samples[-1].t:.0f} s)")
     ref = min(own.samples, key=lambda s: abs(s.t - t0))
     plane = LocalTangentPlane(ref.lat, ref.lon)
-    own_traj = _trajectory(own.samples, t0, plane, math.inf)  # its own navigation: no reception gaps
+    own_traj = _trajectory(own.samples, t0, plane, gap_s)  # its own navigation: reported through its gaps
     duration = t_end - t0
     kept: list[tuple[Aircraft, TableTrajectory]] = []
     for ac in intruders:
@@ -509,8 +521,9 @@ def read_trajectory_tables(path: str | Path, ownship: str | None = None, ownship
         raise ValueError(f"{path}: no intruder is heard while ownship {own.icao24} flies")
     where = str(path)
     own_spec = _spec(own, own_traj.state_at(0.0), own_datum, where)
-    specs = [_spec(ac, traj.state_at(min(max(traj.heard[0][0], 0.0), duration)), table.layout.datum, where)
-             for ac, traj in kept]
+    # an intruder's spec: its state when first heard in the run (not an extrapolation or a gap's chord)
+    specs = [_spec(ac, traj.state_at(next(max(a, 0.0) for a, b in traj.heard if b >= 0.0)), table.layout.datum,
+                   where) for ac, traj in kept]
     dropped = sum(ac.incomplete_rows for ac in table.aircraft.values())
     stamp = datetime.fromtimestamp(t0, timezone.utc).isoformat()
     description = (

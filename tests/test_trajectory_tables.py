@@ -277,13 +277,19 @@ def test_a_missing_field_is_no_sample_not_a_zero(tmp_path):
 def test_an_intruder_is_not_reported_in_its_gaps(tmp_path):
     own = [f"{t},c0ffee,47,8,3000,0,0,0,UAV" for t in (0, 100)]
     # intruder heard 0..30 s, silent 30..70 s (a gap > 20 s), heard 70..100 s; flying east at 100 kt
-    intr = [f"{t},a00002,47.01,{8 + t * 1e-4:.6f},3000,100,90,0,GA" for t in list(range(0, 31, 2)) + list(range(70, 101, 2))]
+    # (level, but reporting 1000 ft/min: a cubic across the gap would climb, the chord stays level)
+    intr = [f"{t},a00002,47.01,{8 + t * 1e-4:.6f},3000,100,90,1000,GA"
+            for t in list(range(0, 31, 2)) + list(range(70, 101, 2))]
     path = tmp_path / "gap.csv"
     path.write_text(TRAFFIC_HEADER + "\n" + "\n".join(own + intr) + "\n")
     scenario = load_encounter(str(path), ownship="c0ffee")
     times = [e.truth_s for e in schedule(scenario, PRESETS["none"]) if e.msg.get_type() == "ADSB_VEHICLE"]
     assert times and all(t <= 30 or t >= 70 for t in times)
     assert any(t < 30 for t in times) and any(t > 70 for t in times)
+    (traj,) = scenario.trajectories()[1]  # the truth crosses the gap on the chord, not on a cubic
+    quarter = [0.75 * a + 0.25 * b for a, b in zip(traj.enu_at(30.0), traj.enu_at(70.0))]
+    assert traj.enu_at(40.0) == pytest.approx(quarter, abs=1e-6)
+    assert traj.enu_at(40.0)[2] == pytest.approx(3000 * FT, abs=1e-6)
     closed = load_encounter(str(path), ownship="c0ffee", gap_s=60.0)  # --gap 60: the same silence is bridged
     times = [e.truth_s for e in schedule(closed, PRESETS["none"]) if e.msg.get_type() == "ADSB_VEHICLE"]
     assert any(30 < t < 70 for t in times)
