@@ -28,6 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from avionics.core.chi2 import chi2_quantile
 from avionics.core.types import AddressSource, IntruderKey, IntruderReport
 
 OTHER_SOURCE = {AddressSource.ES1090: AddressSource.UAT, AddressSource.UAT: AddressSource.ES1090}
@@ -43,12 +44,10 @@ class IdentityResolver:
     per-path outcome of the tracker's gate."""
 
     def __init__(self, tracking_params, counters: Counter):
-        from scipy.stats import chi2  # as the IMM tracker's gate (imm_tracker.py)
-
         self.config = tracking_params
         self.counters = counters
         self.aliases: set[IntruderKey] = set()  # keys whose reports join the other address source's track
-        self._gate = [0.0] + [float(chi2.ppf(tracking_params.gate_probability, k)) for k in range(1, 6)]
+        self._gate = [0.0] + [chi2_quantile(tracking_params.gate_probability, k) for k in range(1, 6)]
 
     def round_end(self, reports: list[IntruderReport], start: int, tracker) -> int:
         """Where the round of reports[start:] that can be resolved now ends: at the first report of a key without a

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.stats import chi2
+from avionics.core.chi2 import chi2_quantile
 
 from avionics.core.types import IntruderKey, IntruderReport
 from avionics.tracking import models
@@ -83,7 +83,7 @@ class ImmTracker(TrackLifecycle):
         self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))
-        self._gate = np.array([0.0] + [chi2.ppf(params.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
+        self._gate = np.array([0.0] + [chi2_quantile(params.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
 
     # -- slots -------------------------------------------------------------------------------------------
     def _take_slots(self, n: int) -> np.ndarray:

@@ -38,11 +38,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
+from avionics.core.chi2 import chi2_quantile
 
 RC_NIC7_M = 370.4  # DO-260B NIC 7 containment radius (0.2 NM): the least integrity 14 CFR 91.227 accepts
 ALPHA = 1e-7  # false-alarm probability per window test per report (8 windows x 3600 reports/h -> ~3e-3 per hour)
-Q_THRESHOLD = float(chi2.ppf(1.0 - ALPHA, 2))  # 32.2: the NIS bound of one window
+Q_THRESHOLD = chi2_quantile(1.0 - ALPHA, 2)  # 32.2: the NIS bound of one window
 WINDOWS = np.array([1, 2, 4, 8, 16, 32, 64, 128])  # reports; 128 s at 1 Hz (the slowest ramp it can see)
 RING = int(WINDOWS[-1]) + 1
 TIME_JITTER_S = 0.1  # 1-sigma receipt-time jitter (tslc is whole seconds: reports are stamped at receipt)
