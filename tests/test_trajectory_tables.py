@@ -7,7 +7,6 @@ computations made here from its own rows, by hand, independently of the reader: 
 
 import csv
 import math
-import random
 from datetime import datetime
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from avionics_sitl.autopilot import schedule
 from avionics_sitl.cli import main
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
-from avionics_sitl.tables import read_table, read_trajectory_tables
+from avionics_sitl.tables import read_table
 
 pytestmark = pytest.mark.xdist_group("trajectory_tables")
 
@@ -268,8 +267,8 @@ def test_a_repeated_timestamp_keeps_the_last_row(tmp_path_factory, rows):
 
 def test_a_missing_field_is_no_sample_not_a_zero(tmp_path):
     t = one_aircraft(tmp_path, "nan.csv", TRAFFIC_HEADER,
-                     ["0,a00001,47,8,3000,100,90,0,", "1,a00001,47,8.001,,100,90,0,", "2,a00001,47,8.002,3000,NaN,90,0,",
-                      "3,a00001,47,8.003,3000,100,90,0,"])
+                     ["0,a00001,47,8,3000,100,90,0,", "1,a00001,47,8.001,,100,90,0,",
+                      "2,a00001,47,8.002,3000,NaN,90,0,", "3,a00001,47,8.003,3000,100,90,0,"])
     ac = t.aircraft["a00001"]
     assert [s.t for s in ac.samples] == [0.0, 3.0] and ac.incomplete_rows == 2
 
