@@ -330,3 +330,13 @@ def test_any_squitter_with_a_valid_parity_decodes_without_raising_into_a_plausib
     for r in reports:
         assert abs(r.lat_deg) <= 90 and abs(r.lon_deg) <= 180
         assert r.velocity_en_mps is None or math.hypot(*r.velocity_en_mps) <= config.input.max_ground_speed_mps
+
+
+def test_emitter_categories_map_as_readsbs_category_letters():
+    """A (type code, category) of TC 1-4 is readsb's category letter and digit (TC 4 = set A ... TC 1 = set D): the
+    Beast and readsb-json paths give an aircraft the same emitter type."""
+    from avionics.io.feeds.aircraft import emitter_type_of_category
+
+    for (tc, category), emitter in EMITTER_TYPE.items():
+        letters = emitter_type_of_category(f"{'DCBA'[tc - 1]}{category}")
+        assert letters in (emitter, None) and (letters is not None or (tc, category) in ((2, 4), (2, 5)))

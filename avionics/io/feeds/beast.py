@@ -72,10 +72,11 @@ POSITION_MARGIN_M = 1000.0  # plausibility: the distance flown at max speed, plu
 # Identification type code and category -> MAVLink ADSB_EMITTER_TYPE (DO-260B §2.2.3.2.5: TC 4 set A, 3 set B,
 # 2 set C; set A 1 light, 2 small, 3 large, 4 high vortex large, 5 heavy, 6 high performance, 7 rotorcraft; set B
 # 1 glider, 2 lighter than air, 3 parachutist, 4 ultralight, 6 UAV, 7 space; set C 1 emergency surface vehicle,
-# 3 service surface vehicle, 4-7 obstacles). Category 0, reserved codes and TC 1 (set D, reserved): 0 NO_INFO.
+# 2 service surface vehicle, 3 point obstacle, 4 cluster and 5 line obstacle, which MAVLink has not: point obstacle).
+# The same as readsb's "category" letters in feeds/aircraft.py. Category 0, reserved codes and TC 1 (set D): 0.
 EMITTER_TYPE = {(4, c): c for c in range(1, 8)} | {
     (3, 1): 9, (3, 2): 10, (3, 3): 11, (3, 4): 12, (3, 6): 14, (3, 7): 15,
-    (2, 1): 17, (2, 3): 18, (2, 4): 19, (2, 5): 19, (2, 6): 19, (2, 7): 19,
+    (2, 1): 17, (2, 2): 18, (2, 3): 19, (2, 4): 19, (2, 5): 19,
 }
 
 
