@@ -340,3 +340,12 @@ def test_emitter_categories_map_as_readsbs_category_letters():
     for (tc, category), emitter in EMITTER_TYPE.items():
         letters = emitter_type_of_category(f"{'DCBA'[tc - 1]}{category}")
         assert letters in (emitter, None) and (letters is not None or (tc, category) in ((2, 4), (2, 5)))
+
+
+@pytest.mark.parametrize("spec", ["beast:localhost", "beast:127.0.0.1:0", "beast:127.0.0.1:x", "beast::30005"])
+def test_a_malformed_beast_spec_is_a_configuration_error_before_anything_connects(spec):
+    from avionics.config import ConfigError, load_config
+    from avionics.io.feeds.source import open_feed
+
+    with pytest.raises(ConfigError, match="HOST:PORT"):
+        open_feed(spec, load_config(), clock=lambda: 0.0)
