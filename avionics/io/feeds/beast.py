@@ -201,7 +201,7 @@ class BeastDeframer:
             if valid:
                 self._count("frames")
                 frames.append(frame)
-                p = self._shadow = end
+                p, self._shadow = end, max(self._shadow, end)
                 continue
             if s >= self._shadow:
                 if valid is False:
