@@ -37,7 +37,9 @@ def cmd_replay(args) -> int:
     for path, option in ((args.misses, "--misses"), (args.out, "--out")):
         if path:
             check_output_file(path, option)  # before the run, not after it
-    result = replay(_scenario(args), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras)
+    progress = True if getattr(args, "progress", False) else None
+    result = replay(_scenario(args), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
+                    progress=progress)
     if args.misses:
         result.write_misses_csv(args.misses)
     if args.out:
@@ -100,7 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"a silence longer than S seconds is a gap in an intruder's reports (default "
                             f"{DEFAULT_GAP_S:g})")
         t.add_argument("--progress", action="store_true",
-                       help="progress bar on stderr while reading (default: only when stderr is a terminal)")
+                       help="progress bars on stderr while reading and replaying (default: only when stderr is "
+                            "a terminal)")
 
     p = sub.add_parser("replay", help="fly an encounter in fast time through the onboard core; CSV of advisories")
     common(p)

@@ -24,10 +24,12 @@ from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.ports import CSV_COLUMNS, NOTHING, MavlinkOut, csv_row
 from avionics_sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
 from avionics_sitl.impairments import AdsbImpairments
+from avionics_sitl.progress import progress_bar
 from avionics_sitl.response import RaResponder
 from avionics_sitl.scenario import Scenario
 
 # One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop).
+PROGRESS_EVERY_TICKS = 50  # the bar moves every 5 s of simulated time at 10 Hz
 MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m")
 
 
@@ -110,6 +112,7 @@ class _ScheduleSource:
         self.own_traj, self.intruder_trajs = scenario.trajectories()
         self.offsets: list[tuple[float, float]] = []  # (t, ownship altitude offset from the response)
         self.now_s = 0.0
+        self.progress = None  # called with the simulated time now and then
 
     def _batch(self, msg, now_s: float) -> Batch:
         self.now_s = now_s
@@ -119,6 +122,8 @@ class _ScheduleSource:
         events, i = self.events, 0
         for k in range(int(math.floor(self.scenario.duration_s / self.tick_s)) + 1):
             t_tick = k * self.tick_s
+            if self.progress is not None and k % PROGRESS_EVERY_TICKS == 0:
+                self.progress(t_tick)
             while i < len(events) and events[i].deliver_s <= t_tick + 1e-9:
                 yield self._batch(events[i].msg, events[i].deliver_s)
                 i += 1
@@ -136,10 +141,12 @@ class _ScheduleSource:
 
 
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
-           autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=()) -> ReplayResult:
+           autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
+           progress: bool | None = False) -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
-    ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut."""
+    ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut. progress: a bar of the
+    simulated time on stderr (None: when stderr is a terminal)."""
     counters: Counter = Counter()
     daa = Daa(config, counters)
     result = ReplayResult([], {a.icao_address: a.name for a in scenario.intruders}, counters=counters)
@@ -147,7 +154,15 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,
                              MavlinkInput(config, counters), counters, responder)
     autopilot_side = _Autopilot(config, result, responder, lambda: source.now_s)
-    Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes), *ports]).run()
+    bar, task = progress_bar(progress, f"replaying {scenario.name}", scenario.duration_s)
+    if bar is not None:
+        source.progress = lambda t: bar.update(task, completed=t)
+    try:
+        Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes), *ports]).run()
+    finally:
+        if bar is not None:
+            bar.update(task, completed=scenario.duration_s)
+            bar.stop()
     result.misses = [_vertical_miss(scenario, source.own_traj, traj, spec.name, source.offsets,
                                     IntruderKey(spec.icao_address, spec.address_source))
                      for spec, traj in zip(scenario.intruders, source.intruder_trajs)]

@@ -36,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
+from avionics_sitl.progress import progress_bar
+
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
 from avionics.core.units import FPM, FT, KT
@@ -87,21 +89,6 @@ def icao_of(text: str) -> int:
 
 # --- reading the raw columns ---------------------------------------------------------------------------------
 
-def _progress_bar(enabled: bool | None, label: str, total: float):
-    """A rich progress bar on stderr (enabled None: only when stderr is a terminal), or None."""
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return None, None
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
-
-    bar = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
-                   console=Console(stderr=True))
-    bar.start()
-    return bar, bar.add_task(label, total=total)
-
-
 class _CountingReader(io.RawIOBase):
     """A binary file that counts what has been read from it (the progress of a CSV read)."""
 
@@ -119,7 +106,7 @@ class _CountingReader(io.RawIOBase):
 
 def _read_csv(path: Path, progress: bool | None) -> tuple[list[str], dict[str, list]]:
     size = path.stat().st_size
-    bar, task = _progress_bar(progress, f"reading {path.name}", size)
+    bar, task = progress_bar(progress, f"reading {path.name}", size)
     try:
         with open(path, "rb") as raw:
             counted = _CountingReader(raw, (lambda n: bar.advance(task, n)) if bar else (lambda n: None))
@@ -163,7 +150,7 @@ def _read_parquet(path: Path, progress: bool | None) -> tuple[list[str], dict[st
     if len(set(names)) != len(names):
         raise ValueError("a column is named twice")
     columns: dict[str, list] = {n: [] for n in names}
-    bar, task = _progress_bar(progress, f"reading {path.name}", parquet.metadata.num_rows)
+    bar, task = progress_bar(progress, f"reading {path.name}", parquet.metadata.num_rows)
     try:
         for batch in parquet.iter_batches():
             for name, array in zip(names, batch.columns):

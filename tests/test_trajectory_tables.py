@@ -363,3 +363,11 @@ def test_sitl_live_flies_a_table(tmp_path):
             _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err
     assert ("ADSB_VEHICLE", 0x3944E7) in seen  # AFR23PJ, from the table
+
+
+def test_progress_bar_follows_the_replay_of_a_long_file(tmp_path, capsys):
+    rows = sample_rows()
+    t0 = min(r["t"] for r in rows)
+    window = write_rows(tmp_path / "short.csv", [r for r in rows if r["t"] <= t0 + 10])
+    code, out, err = run_cli(capsys, "replay", window, "--ownship", "400804", "--noise", "none", "--progress")
+    assert code == 0 and out.startswith("time_s,") and "replaying" in err and err.count("100%") >= 2, err
