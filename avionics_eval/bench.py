@@ -23,6 +23,8 @@ import platform
 import socket
 import time
 from collections import Counter
+from contextlib import contextmanager
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -49,8 +51,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _traffic(n: int, seconds: float, seed: int = 1):
-    """Pre-encoded datagrams (time, bytes, is_report): ownship at 5 Hz, n intruders at 1 Hz, staggered."""
+def _traffic(n: int, seconds: float, seed: int = 1, rate_hz: float = 1.0):
+    """Pre-encoded datagrams (time, bytes, is_report): ownship at 5 Hz, n intruders at rate_hz each (1 Hz, as
+    ADS-B; higher to offer more reports per second with the same tracks), staggered."""
     rng = np.random.default_rng(seed)
     plane = LocalTangentPlane(LAT0, LON0)
     mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
@@ -73,15 +76,15 @@ def _traffic(n: int, seconds: float, seed: int = 1):
         events.append((t, mav.scaled_pressure_encode(int(t * 1000), 1013.25 * (1 - 2.25577e-5 * ALT0) ** 5.25588,
                                                      0.0, 1500).pack(mav), False))
     for i in range(n):
-        for k in range(int(seconds)):
-            t = k + phase[i]
-            e = distance[i] * math.sin(bearing[i]) + speed[i] * math.sin(heading[i]) * t
-            nn = distance[i] * math.cos(bearing[i]) + speed[i] * math.cos(heading[i]) * t
-            lat, lon = plane.to_geodetic(e, nn)
-            msg = mav.adsb_vehicle_encode(0x100000 + i, int(round(float(lat) * 1e7)), int(round(float(lon) * 1e7)),
-                                          0, int(alt[i] * 1000), int(math.degrees(heading[i]) % 360 * 100),
-                                          int(speed[i] * 100), 0, b"BENCH", 1, 0, 0x1FF, 1200)
-            events.append((t, msg.pack(mav), True))
+        t = (np.arange(int(seconds * rate_hz)) + phase[i]) / rate_hz
+        e = distance[i] * math.sin(bearing[i]) + speed[i] * math.sin(heading[i]) * t
+        nn = distance[i] * math.cos(bearing[i]) + speed[i] * math.cos(heading[i]) * t
+        lats, lons = plane.to_geodetic(e, nn)
+        track_cdeg, speed_cms = int(math.degrees(heading[i]) % 360 * 100), int(speed[i] * 100)
+        for tk, lat, lon in zip(t.tolist(), np.round(lats * 1e7).tolist(), np.round(lons * 1e7).tolist()):
+            msg = mav.adsb_vehicle_encode(0x100000 + i, int(lat), int(lon), 0, int(alt[i] * 1000), track_cdeg,
+                                          speed_cms, 0, b"BENCH", 1, 0, 0x1FF, 1200)
+            events.append((tk, msg.pack(mav), True))
     events.sort(key=lambda e: e[0])
     return events
 
@@ -89,7 +92,7 @@ def _traffic(n: int, seconds: float, seed: int = 1):
 class _Sent:
     """Counts what the ports send: MAVLink packed for the wire, zenoh samples queued on the bus."""
 
-    def __init__(self, bus: ZenohBus):
+    def __init__(self, bus: ZenohBus | None):
         self.count, self.bus = 0, bus
         self.mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=191)
 
@@ -102,16 +105,23 @@ class _Sent:
         self.count += 1
 
 
-def _setup(n: int, seconds: float, port: int):
+def _setup(n: int, seconds: float, port: int, zenoh: bool = True, rate_hz: float = 1.0):
     """The live loop's parts (avionics/runner.py) without the socket: MAVLink input, facade, MAVLink and zenoh
-    ports; the bench makes the batches."""
-    config = load_config(overrides=[f'zenoh.listen=["tcp/127.0.0.1:{port}"]'])
+    ports (zenoh=False: MAVLink only, as `avionics run --no-zenoh`); the bench makes the batches."""
+    overrides = [f'zenoh.listen=["tcp/127.0.0.1:{port}"]'] if zenoh else ["zenoh.enabled=false"]
+    config = load_config(overrides=overrides)
     counters: Counter = Counter()
-    bus = ZenohBus(config.zenoh, config.vehicle.id)
+    bus = ZenohBus(config.zenoh, config.vehicle.id) if zenoh else None
     sent = _Sent(bus)
     mavlink = MavlinkInput(config, counters)
-    loop = Loop(Daa(config, counters), mavlink, [MavlinkOut(sent.mavlink, config), ZenohOut(sent.zenoh, config)])
-    return config, counters, loop, mavlink, FrameScanner(counters), bus, sent, _traffic(n, seconds)
+    ports = [MavlinkOut(sent.mavlink, config)] + ([ZenohOut(sent.zenoh, config)] if zenoh else [])
+    loop = Loop(Daa(config, counters), mavlink, ports)
+    return config, counters, loop, mavlink, FrameScanner(counters), bus, sent, _traffic(n, seconds, rate_hz=rate_hz)
+
+
+def _close(bus: ZenohBus | None) -> None:
+    if bus is not None:
+        bus.close()
 
 
 def _summary(loop: Loop, counters: Counter, lat_s: list[float], outputs: int) -> dict:
@@ -127,8 +137,8 @@ def _summary(loop: Loop, counters: Counter, lat_s: list[float], outputs: int) ->
     }
 
 
-def _run_per_report(n: int, seconds: float, port: int) -> dict:
-    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port)
+def _run_per_report(n: int, seconds: float, port: int, zenoh: bool = True) -> dict:
+    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port, zenoh)
     latencies = []
     wall_start = time.perf_counter()
     for t, data, is_report in events:
@@ -137,16 +147,34 @@ def _run_per_report(n: int, seconds: float, port: int) -> dict:
         if is_report:
             latencies.append(time.perf_counter() - t0)
     wall = time.perf_counter() - wall_start
-    bus.close()
+    _close(bus)
     return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
             "reports_per_s": round(len(latencies) / wall, 1), "realtime_factor": round(seconds / wall, 2),
             **_summary(loop, counters, latencies, sent.count)}
 
 
-def _run_real_time(n: int, seconds: float, port: int) -> dict:
-    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port)
-    tick = 1.0 / config.advisory.assessment_hz
-    latencies, busy, steps, biggest = [], 0.0, 0, 0
+@dataclass
+class LiveRun:
+    """What drive_real_time measured: per report its arrival and when its step finished (s since start)."""
+
+    arrived_s: np.ndarray
+    done_s: np.ndarray
+    busy_s: float
+    steps: int
+    largest_batch: int
+    wall_s: float
+    last_event_s: float
+
+    @property
+    def latencies_s(self) -> np.ndarray:
+        return self.done_s - self.arrived_s
+
+
+def drive_real_time(loop: Loop, mavlink: MavlinkInput, scanner: FrameScanner, events, tick: float) -> LiveRun:
+    """The live loop (avionics/runner.py) on the wall clock: the events arrive at their times and each step takes
+    what has arrived since the last one, at most MAX_DATAGRAMS_PER_RECEIVE datagrams, as the link hands over its
+    backlog; a step at least every tick. Ends when the last event's step is done."""
+    arrived, done, busy, steps, biggest = [], [], 0.0, 0, 0
     i = 0
     start = time.perf_counter()
     last_step = 0.0
@@ -158,44 +186,61 @@ def _run_real_time(n: int, seconds: float, port: int) -> dict:
                 time.sleep(wake - now)
             now = time.perf_counter() - start
         t0 = time.perf_counter()
-        msgs, arrived, first = [], [], i
+        msgs, batch, first = [], [], i
         while i < len(events) and events[i][0] <= now and i - first < MAX_DATAGRAMS_PER_RECEIVE:
             t, data, is_report = events[i]
             msgs.extend(scanner.feed(data, end_of_datagram=True))
             if is_report:
-                arrived.append(t)
+                batch.append(t)
             i += 1
         loop.last = loop.step(Batch(now, mavlink.decode(msgs, now)))
         t1 = time.perf_counter()
         busy += t1 - t0
         steps += 1
-        biggest = max(biggest, len(arrived))
-        latencies.extend((t1 - start) - a for a in arrived)
+        biggest = max(biggest, len(batch))
+        arrived.extend(batch)
+        done.extend([t1 - start] * len(batch))
         last_step = now
     wall = time.perf_counter() - start
-    bus.close()
-    return {"intruders": n, "simulated_s": seconds, "reports": len(latencies), "wall_s": round(wall, 3),
-            "cpu_load": round(busy / wall, 3), "lag_at_end_s": round(max(0.0, wall - events[-1][0]), 3),
-            "steps": steps, "largest_batch": biggest, **_summary(loop, counters, latencies, sent.count)}
+    return LiveRun(np.array(arrived), np.array(done), busy, steps, biggest, wall, events[-1][0] if events else 0.0)
 
 
-def bench(intruder_counts: list[int], seconds: float) -> dict:
-    """Pinned to one core, as on a companion computer; the caller's affinity is restored afterwards."""
+def _run_real_time(n: int, seconds: float, port: int, zenoh: bool = True, rate_hz: float = 1.0) -> dict:
+    config, counters, loop, mavlink, scanner, bus, sent, events = _setup(n, seconds, port, zenoh, rate_hz)
+    run = drive_real_time(loop, mavlink, scanner, events, 1.0 / config.advisory.assessment_hz)
+    _close(bus)
+    return {"intruders": n, "simulated_s": seconds, "reports": len(run.arrived_s), "wall_s": round(run.wall_s, 3),
+            "cpu_load": round(run.busy_s / run.wall_s, 3),
+            "lag_at_end_s": round(max(0.0, run.wall_s - run.last_event_s), 3),
+            "steps": run.steps, "largest_batch": run.largest_batch,
+            **_summary(loop, counters, run.latencies_s.tolist(), sent.count)}
+
+
+@contextmanager
+def one_core():
+    """Pinned to one core, as on a companion computer; the caller's affinity is restored afterwards. Yields
+    whether the pinning worked (not on every platform)."""
     try:
         cores = os.sched_getaffinity(0)
         os.sched_setaffinity(0, {min(cores)})
     except (AttributeError, OSError):
         cores = None
     try:
+        yield cores is not None
+    finally:
+        if cores is not None:
+            os.sched_setaffinity(0, cores)
+
+
+def bench(intruder_counts: list[int], seconds: float) -> dict:
+    """Pinned to one core (one_core)."""
+    with one_core() as pinned:
         return {
             "benchmark": "end-to-end ADSB_VEHICLE -> advisory, in-process",
             "version": __version__,
             "python": platform.python_version(),
             "machine": platform.machine(),
-            "pinned_to_one_core": cores is not None,
+            "pinned_to_one_core": pinned,
             "per_report": [_run_per_report(n, seconds, _free_port()) for n in intruder_counts],
             "real_time": [_run_real_time(n, seconds, _free_port()) for n in intruder_counts],
         }
-    finally:
-        if cores is not None:
-            os.sched_setaffinity(0, cores)

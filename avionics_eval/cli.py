@@ -31,10 +31,26 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.capacity:
+        from avionics_eval.capacity_bench import capacity_bench
+
+        counts = [int(n) for n in (args.intruders or "100,1000,3000").split(",")]
+        log = None if args.quiet else (lambda line: print(f"avionics bench: {line}", file=sys.stderr, flush=True))
+        print(json.dumps(capacity_bench(counts, args.trial_seconds, zenoh=args.zenoh,
+                                        startup_repeats=args.startup_repeats, max_trials=args.max_trials,
+                                        log=log), indent=1))
+        return 0
     from avionics_eval.bench import bench
 
-    print(json.dumps(bench([int(n) for n in args.intruders.split(",")], args.seconds), indent=1))
+    print(json.dumps(bench([int(n) for n in (args.intruders or "10,100,1000").split(",")], args.seconds), indent=1))
     return 0
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
 
 
 def add_commands(sub) -> None:
@@ -50,8 +66,20 @@ def add_commands(sub) -> None:
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="end-to-end throughput and report-to-advisory latency (JSON)")
-    p.add_argument("--intruders", default="10,100,1000", help="comma-separated intruder counts")
+    p.add_argument("--intruders", help="comma-separated intruder counts (default 10,100,1000; with --capacity "
+                                       "100,1000,3000)")
     p.add_argument("--seconds", type=float, default=20.0, help="simulated seconds of traffic per count")
+    p.add_argument("--capacity", action="store_true",
+                   help="issue 13's instrument: capacity, latency at 1 Hz, one report alone, start-up, memory and "
+                        "filterpy's IMM step as a reference (avionics_eval/capacity_bench.py, docs/performance.md)")
+    p.add_argument("--trial-seconds", type=_positive, default=20.0, metavar="S",
+                   help="--capacity: length of each trial of the capacity search and of the 1 Hz run")
+    p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,
+                   help="--capacity: publish on a loopback zenoh session (default) or MAVLink only")
+    p.add_argument("--startup-repeats", type=int, default=5, metavar="K",
+                   help="--capacity: warm launches of avionics run timed (median reported)")
+    p.add_argument("--max-trials", type=int, default=16, metavar="K",
+                   help="--capacity: trials per intruder count at most (then the capacity is a lower bound)")
     p.set_defaults(func=cmd_bench)
 
 

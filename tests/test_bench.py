@@ -23,3 +23,41 @@ def test_bench_command_prints_both_modes_with_every_report_accounted_for(capsys)
     # cpu_load is the loop's busy share of the wall time (a fraction, whatever the load); steps and the largest
     # batch depend on how promptly the loop was woken: it ran in steps, each taking what had arrived.
     assert 0 < live["cpu_load"] <= 1 and 1 <= live["steps"] and 1 <= live["largest_batch"] <= live["reports"]
+
+
+def test_capacity_bench_prints_every_measure_positive_finite_and_ordered(capsys):
+    """`avionics bench --capacity` with tiny parameters: the JSON's keys and sanity, never its timings."""
+    import math
+
+    cores = os.sched_getaffinity(0)
+    assert main(["-q", "bench", "--capacity", "--intruders", "20", "--trial-seconds", "2", "--no-zenoh",
+                 "--startup-repeats", "1", "--max-trials", "3"]) == 0
+    assert os.sched_getaffinity(0) == cores
+    out = json.loads(capsys.readouterr().out)
+    assert out["zenoh"] is False and out["trial_s"] == 2.0
+    for key in ("reference_filterpy_imm_step_us", "startup_s", "startup_first_launch_s"):
+        assert 0 < out[key] < math.inf, key
+    assert len(out["startup_launches_s"]) == 1
+    [row] = out["counts"]
+    assert row["intruders"] == 20
+    for key in ("latency_us_p50", "latency_us_p99", "latency_us_max", "single_report_us_p50",
+                "tracker_update_us_per_track", "tracker_vs_filterpy", "resident_memory_mb",
+                "resident_memory_peak_mb"):
+        assert 0 < row[key] < math.inf, key
+    assert row["latency_us_p50"] <= row["latency_us_p99"] <= row["latency_us_max"]
+    assert row["resident_memory_mb"] <= row["resident_memory_peak_mb"]
+    assert row["memory_run_reports_received"] > 0  # the child really was fed the traffic it was measured with
+    # the search: the 1 Hz run is the first trial, at most 3; the capacity is a rate that was sustained (or 0)
+    trials = row["trials"]
+    assert 1 <= len(trials) <= 3 and trials[0]["offered_reports_per_s"] == 20
+    assert row["sustained_at_1hz"] == trials[0]["sustained"]
+    passed = [t["offered_reports_per_s"] for t in trials if t["sustained"]]
+    failed = [t["offered_reports_per_s"] for t in trials if not t["sustained"]]
+    assert row["capacity_reports_per_s"] == (max(passed) if passed else 0.0)
+    lo, hi = row["capacity_bracket"]
+    assert lo == row["capacity_reports_per_s"] and (hi is None if not failed else hi == min(failed) > lo)
+    for t in trials:
+        assert 0 < t["cpu_load"] <= 1
+        growth = t["lag_p99_last_quarter_s"] - t["lag_p99_second_quarter_s"] - 0.1  # the JSON rounds to 0.1 ms
+        if abs(growth) > 1e-3 and abs(t["last_report_lag_s"] - 0.5) > 1e-3:
+            assert t["sustained"] == (growth <= 0 and t["last_report_lag_s"] <= 0.5)
