@@ -252,15 +252,18 @@ class BeastServer:
     """A TCP server on one address sending `events` to every client as scenario time passes.
 
     Real time: scenario time is `start_s` + `speed` x wall time since start() (speed 1: live), or since the first
-    client connected (start_on_connect: a receiver switched on before the process that reads it). Every client
+    client connected (start_on_connect: a receiver switched on before the process that reads it), or `clock()` when
+    given (scenario seconds: one clock shared with another schedule, sitl live's MAVLink). Every client
     receives the frames
     due from its connection on (a receiver does not replay the past). Fast time is the caller's: `send_until(t)`
     sends every frame due by scenario time t, and nothing else moves time. `stop()` closes the listener and every
     client (a receiver that goes away); a new server on the same port is a receiver that came back."""
 
     def __init__(self, events: list[BeastEvent], host: str = "127.0.0.1", port: int = 30005,
-                 real_time: bool = True, speed: float = 1.0, start_s: float = 0.0, start_on_connect: bool = False):
+                 real_time: bool = True, speed: float = 1.0, start_s: float = 0.0, start_on_connect: bool = False,
+                 clock=None):
         self.events, self.real_time, self.speed = list(events), real_time, speed
+        self._clock = clock
         self.start_s, self.start_on_connect = start_s, start_on_connect
         self._listener = socket.create_server((host, port), reuse_port=False)
         self._listener.settimeout(0.05)
@@ -286,6 +289,8 @@ class BeastServer:
 
     def scenario_time(self) -> float:
         """Scenario time now (start_s until the clock starts)."""
+        if self._clock is not None:
+            return self._clock()
         t0 = self._t0
         return self.start_s if t0 is None else self.start_s + (time.monotonic() - t0) * self.speed
 

@@ -6,10 +6,11 @@ import argparse
 import json
 import sys
 
-from avionics.cli import ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file
+from avionics.cli import ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file, port_number
 from avionics_sitl.impairments import PRESETS
 
-ERRORS = FLIGHT_ERRORS + (("avionics_sitl.encounters", "ScenarioError", 2, ""),)  # a bad encounter name or file: exit 2
+ERRORS = FLIGHT_ERRORS + (("avionics_sitl.encounters", "ScenarioError", 2, ""),  # a bad encounter name or file: exit 2
+                          ("avionics_sitl.live", "FeedServerError", 1, ""))  # --sbs/--beast cannot listen: exit 1
 
 
 def _scenario(args):
@@ -55,8 +56,16 @@ def cmd_replay(args) -> int:
     return 0
 
 
+def tcp_listen_address(text: str) -> tuple[str, int]:
+    """`[HOST:]PORT` of a feed server; HOST 127.0.0.1 when left out (never another interface by default)."""
+    host, sep, port = text.rpartition(":")
+    if sep and not host:
+        raise argparse.ArgumentTypeError(f"no host before ':' in {text!r} (use PORT or HOST:PORT)")
+    return (host or "127.0.0.1"), port_number(port)
+
+
 def cmd_live(args) -> int:
-    from avionics_sitl.live import fly
+    from avionics_sitl.live import ScenarioClock, feed_servers, fly
 
     def show(received):
         msg = received.msg
@@ -72,10 +81,28 @@ def cmd_live(args) -> int:
             return
         print(json.dumps(line), flush=True)
 
-    recording = fly(_scenario(args), args.connection, PRESETS[args.noise], seed=args.seed,
-                    start_s=args.start, duration_s=args.duration, on_receive=show)
-    print(json.dumps({"sent": recording.sent, "received": len(recording.received),
-                      "collisions": len(recording.of_type("COLLISION"))}), file=sys.stderr)
+    scenario = _scenario(args)
+    end_s = scenario.duration_s if args.duration is None else min(scenario.duration_s, args.start + args.duration)
+    clock = ScenarioClock(args.start)
+    # listening before the link opens and the clock starts: a port in use is exit 1 before anything flies
+    servers = feed_servers(scenario, PRESETS[args.noise], args.seed, clock, end_s, sbs=args.sbs, beast=args.beast)
+    try:
+        for server in servers:
+            server.start()  # sends nothing before the clock starts (fly starts it once the link is open)
+        recording = fly(scenario, args.connection, PRESETS[args.noise], seed=args.seed, start_s=args.start,
+                        duration_s=args.duration, on_receive=show, adsb_vehicle=not args.no_adsb_vehicle,
+                        clock=clock)
+    finally:
+        for server in servers:
+            server.stop()  # also on Ctrl-C and errors: the listeners and every client connection are closed
+    summary = {"sent": recording.sent, "received": len(recording.received),
+               "collisions": len(recording.of_type("COLLISION"))}
+    for server in servers:
+        if hasattr(server, "sent_lines"):
+            summary["sbs_lines"] = server.sent_lines
+        else:
+            summary["beast_frames"] = server.sent_frames
+    print(json.dumps(summary), file=sys.stderr)
     return 0
 
 
@@ -123,12 +150,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="connection string (default: where avionics run listens by default)")
     p.add_argument("--start", type=float, default=0.0, metavar="S", help="start at scenario time S")
     p.add_argument("--duration", type=float, metavar="S", help="fly S seconds (default: to the scenario's end)")
+    f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
+    f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
+                   help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")
+    f.add_argument("--beast", type=tcp_listen_address, metavar="[HOST:]PORT",
+                   help="serve Beast binary frames on TCP (as dump1090/readsb port 30005; HOST default 127.0.0.1)")
+    f.add_argument("--no-adsb-vehicle", action="store_true",
+                   help="leave ADSB_VEHICLE out of the MAVLink schedule: the feeds are the only traffic source")
     p.set_defaults(func=cmd_live)
     return parser
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):
+        parser.error("--no-adsb-vehicle needs --sbs or --beast (otherwise no traffic is sent at all)")
     return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file
 
 

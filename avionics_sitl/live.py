@@ -1,7 +1,11 @@
-"""Live SITL: flies a scenario in real time over a MAVLink link and records what the DAA process sends back."""
+"""Live SITL: flies a scenario in real time over a MAVLink link and records what the DAA process sends back; the
+same intruders may also be served as a ground ADS-B receiver serves them (SBS-1 BaseStation lines, Beast binary
+frames, over TCP), on the MAVLink schedule's clock."""
 
 from __future__ import annotations
 
+import errno
+import os
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -10,6 +14,68 @@ from avionics.io.link import MavlinkLink
 from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.scenario import Scenario
+
+
+class FeedServerError(OSError):
+    """A receiver-feed server could not listen (port in use, address not on this machine): exit 1, one line."""
+
+
+class ScenarioClock:
+    """Scenario seconds on the monotonic clock, shared by the MAVLink schedule and the feed servers: `start_s` until
+    start(), then start_s + the wall time since start()."""
+
+    def __init__(self, start_s: float = 0.0):
+        self.start_s = start_s
+        self._wall0: float | None = None
+
+    def start(self) -> None:
+        self._wall0 = time.monotonic() - self.start_s
+
+    @property
+    def wall0(self) -> float:
+        """The monotonic time of scenario time 0 (once started)."""
+        if self._wall0 is None:
+            raise RuntimeError("the scenario clock has not started")
+        return self._wall0
+
+    def __call__(self) -> float:
+        wall0 = self._wall0
+        return self.start_s if wall0 is None else time.monotonic() - wall0
+
+
+def feed_servers(scenario: Scenario, impairments: AdsbImpairments, seed: int, clock: ScenarioClock, end_s: float,
+                 sbs: tuple[str, int] | None = None, beast: tuple[str, int] | None = None) -> list:
+    """The simulated receiver's SBS (avionics_sitl/sbs.py) and Beast (avionics_sitl/beast.py) servers, listening
+    (not yet sending: start() them), paced by `clock` from its start_s (nothing due before it is sent). The same
+    seed as the MAVLink schedule: the SBS lines are its ADSB_VEHICLE reports exactly. FeedServerError when one
+    cannot listen; none is left open then."""
+    from avionics_sitl.beast import BeastServer, beast_schedule
+    from avionics_sitl.encounters import ScenarioError
+    from avionics_sitl.sbs import SbsServer, sbs_schedule
+
+    wanted = [(name, option, address, cls, make) for name, option, address, cls, make in (
+        ("SBS", "--sbs", sbs, SbsServer, sbs_schedule),
+        ("Beast", "--beast", beast, BeastServer, beast_schedule),
+    ) if address is not None]
+    servers = []
+    try:
+        for name, option, (host, port), cls, make in wanted:
+            try:
+                events = make(scenario, impairments, seed, duration_s=end_s)
+            except ValueError as exc:  # Beast: a callsign or altitude the format cannot carry
+                raise ScenarioError(f"{option}: the scenario cannot be encoded: {exc}") from exc
+            try:
+                servers.append(cls(events, host, port, start_s=clock.start_s, clock=clock))
+            except OSError as exc:
+                reason = os.strerror(exc.errno) if exc.errno else str(exc)
+                if exc.errno == errno.EADDRINUSE:
+                    reason = f"in use ({reason})"
+                raise FeedServerError(f"{name} TCP port {host}:{port} cannot listen: {reason}; {option}") from exc
+    except BaseException:
+        for server in servers:
+            server.stop()
+        raise
+    return servers
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,15 +96,23 @@ class Recording:
 
 def fly(scenario: Scenario, connection: str, impairments: AdsbImpairments, seed: int = 0,
         start_s: float = 0.0, duration_s: float | None = None, autopilot: AutopilotConfig = AutopilotConfig(),
-        on_receive=None, stop=None) -> Recording:
+        on_receive=None, stop=None, adsb_vehicle: bool = True, clock: ScenarioClock | None = None) -> Recording:
     """Send the schedule from scenario time start_s in real time; receive until the end. on_receive(Received)
-    is called for each message from the DAA side (e.g. to print COLLISION as it arrives)."""
+    is called for each message from the DAA side (e.g. to print COLLISION as it arrives). adsb_vehicle=False: the
+    ownship only (the traffic goes by receiver feeds). clock: started here once the link is open, for the feed
+    servers paced by it (its start_s is start_s)."""
     end_s = scenario.duration_s if duration_s is None else min(scenario.duration_s, start_s + duration_s)
-    events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s) if e.deliver_s >= start_s]
+    events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s) if e.deliver_s >= start_s
+              and (adsb_vehicle or e.msg.get_type() != "ADSB_VEHICLE")]
     recording = Recording()
+    if clock is None:
+        clock = ScenarioClock(start_s)
+    elif clock.start_s != start_s:
+        raise ValueError(f"the clock starts at {clock.start_s} s, the flight at {start_s} s")
     link = MavlinkLink(connection, recording.counters, autopilot.system_id, autopilot.component_id)
     packer = Packer(autopilot)
-    wall0 = time.monotonic() - start_s
+    clock.start()
+    wall0 = clock.wall0
     i = 0
     try:
         while True:
