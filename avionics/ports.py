@@ -21,6 +21,7 @@ from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
 from avionics.io.payloads import advisory_payload, bands_payload, ownship_payload, status_payload, track_payload
+from avionics.io.traffic import TrafficBatch
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,9 +172,15 @@ class MavlinkOut:
         pass
 
 
+TRACK_KEYS_PERIOD_S = 10.0  # each track's own key (tracks/<intruder>) is refreshed this often, round-robin
+
+
 class ZenohOut:
-    """zenoh topics daa/<vehicle>/... (docs/zenoh.md): advisories on change and refreshed while active, tracks at
-    zenoh.tracks_hz, ownship and status at zenoh.status_hz. publish: a ZenohBus's publish(suffix, payload)."""
+    """zenoh topics daa/<vehicle>/... (docs/zenoh.md): advisories on change and refreshed while active; at
+    zenoh.tracks_hz every track in one `traffic` sample (a TrafficBatch, encoded on the bus's publisher thread) and
+    some per-track `tracks/<intruder>` samples: a new track's at once, then each track's every TRACK_KEYS_PERIOD_S,
+    spread round-robin over the ticks; ownship and status at zenoh.status_hz. publish: a ZenohBus's
+    publish(suffix, payload)."""
 
     def __init__(self, publish, config: Config):
         self._publish = publish
@@ -183,6 +190,9 @@ class ZenohOut:
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
         self._wanted = NOTHING
         self._profile = config.advisory.profile
+        self._keys_per_tick = TRACK_KEYS_PERIOD_S * config.zenoh.tracks_hz  # ticks per round of per-track keys
+        self._keyed: set = set()  # tracks whose own key was published (new ones go at once)
+        self._cursor = 0  # round-robin position in the sorted tracks
 
     def wants(self, now_s: float) -> Demand:
         self._wanted = Demand(self._tracks.due(now_s), self._status.due(now_s))
@@ -196,14 +206,29 @@ class ZenohOut:
             self._refresh.clear()
         for advisory in self._refresh.due(result):
             self._advisory(advisory, result)
-        for track in result.tracks or ():
-            self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, result.time_s))
+        if result.tracks is not None:
+            self._traffic(result.tracks, result.time_s)
         if result.bands is not None:
             self._publish("bands", bands_payload(self.vehicle, self._profile, result.bands))
         if result.status is not None:
             self._publish("ownship", ownship_payload(self.vehicle, result.time_s, result.status["ownship"]))
             self._publish("status", status_payload(self.vehicle, result.time_s, dict(result.status),
                                                    result.counters or {}))
+
+    def _traffic(self, tracks, now_s: float) -> None:
+        """One batched sample of every track, then the per-track keys due: new tracks, and the next slice of the
+        round (len/keys_per_tick tracks, so that every track's key is refreshed once per TRACK_KEYS_PERIOD_S)."""
+        self._publish("traffic", TrafficBatch(self.vehicle, now_s, tuple(tracks)))
+        n = len(tracks)
+        due = [t for t in tracks if t.key not in self._keyed]
+        if n:
+            size = min(n, max(1, math.ceil(n / self._keys_per_tick)))
+            start = self._cursor % n
+            due += [t for t in (tracks[start:start + size] + tracks[:max(0, start + size - n)]) if t.key in self._keyed]
+            self._cursor = start + size
+        self._keyed = {t.key for t in tracks}
+        for track in due:
+            self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, now_s))
 
     def _advisory(self, advisory: Advisory, result: DaaResult) -> None:
         self._publish(f"advisories/{advisory.intruder}",

@@ -2,7 +2,8 @@
 
 Key expressions (vehicle = config vehicle.id, intruder = "<source>-<ICAO hex>", e.g. 1090es-A1B2C3):
   <prefix>/<vehicle>/advisories/<intruder>   on every change and each collision_refresh_s while active
-  <prefix>/<vehicle>/tracks/<intruder>       at zenoh.tracks_hz
+  <prefix>/<vehicle>/traffic                 at zenoh.tracks_hz: every track in one Arrow IPC sample (io/traffic.py)
+  <prefix>/<vehicle>/tracks/<intruder>       a new track at once, then each every 10 s (ports.TRACK_KEYS_PERIOD_S)
   <prefix>/<vehicle>/ownship                 at zenoh.status_hz
   <prefix>/<vehicle>/status                  at zenoh.status_hz, with the rejection counters
   <prefix>/<vehicle>/bands                   once a second with a DO-365 alerter: the guidance bands
@@ -31,6 +32,7 @@ import zenoh
 
 from avionics.core.jsonsafe import dumps
 from avionics.io.params import ZenohConfig
+from avionics.io.traffic import ARROW_STREAM, TrafficBatch
 
 SNAPSHOT_SCHEMA = 1
 # The publisher thread is Python too, so it must not take the interpreter lock or a CPU from the onboard
@@ -130,7 +132,9 @@ class ZenohBus:
         self._ownship: dict | None = None
         self._status: dict | None = None
         self._bands: dict | None = None  # a DO-365 alerter's latest guidance bands
-        self._tracks: dict[str, dict] = {}
+        self._tracks: dict[str, dict] = {}  # per-track payloads, for the snapshot while no traffic batch came
+        self._traffic: TrafficBatch | None = None  # the latest batch: the snapshot's tracks once there is one
+        self._traffic_names: set[str] = set()
         self._active: dict[str, dict] = {}  # intruder -> latest advisory, while TA or RA
         self._state: dict[str, tuple] = {}  # intruder -> advisory_state of its latest advisory
         self._changes: deque = deque(maxlen=cfg.snapshot_changes)  # recent advisory changes, oldest first
@@ -175,9 +179,11 @@ class ZenohBus:
                     if self.counters is not None:
                         self.counters["zenoh.dropped_updates"] += 1
                 self._updates.append((suffix, payload))
-                if kind == "tracks":
+                if kind == "traffic":
+                    self._new_traffic(payload)
+                elif kind == "tracks" and self._traffic is None:
                     self._tracks[name] = payload
-            t = payload.get("time_s")
+            t = payload.time_s if kind == "traffic" else payload.get("time_s")
             if isinstance(t, (int, float)):
                 self._last_time_s = t if self._last_time_s is None else max(self._last_time_s, t)
             self._last_publish = time.perf_counter()  # no notify(): see POLL_S
@@ -194,6 +200,20 @@ class ZenohBus:
         else:
             self._active.pop(intruder, None)
 
+    def _new_traffic(self, batch: TrafficBatch) -> None:
+        """The latest batch is the picture's tracks: a track missing from it is gone (publisher undeclared)."""
+        names = set(batch.names())
+        for name in self._traffic_names - names:
+            self._forget_track(name)
+        self._traffic, self._traffic_names = batch, names
+        self._tracks.clear()
+
+    def _forget_track(self, name: str) -> None:
+        self._forget.add(f"tracks/{name}")
+        if self._state.get(name, ("NONE",))[0] == "NONE":  # no alert left to end
+            self._state.pop(name, None)
+            self._forget.add(f"advisories/{name}")
+
     def _prune(self, now_s) -> None:
         """Tracks not republished for two track periods are gone: out of the picture, publisher undeclared."""
         if not isinstance(now_s, (int, float)):
@@ -201,10 +221,7 @@ class ZenohBus:
         horizon = now_s - 2.0 / self.cfg.tracks_hz - 0.05
         for name in [n for n, p in self._tracks.items() if p.get("time_s", now_s) < horizon]:
             del self._tracks[name]
-            self._forget.add(f"tracks/{name}")
-            if self._state.get(name, ("NONE",))[0] == "NONE":  # no alert left to end
-                self._state.pop(name, None)
-                self._forget.add(f"advisories/{name}")
+            self._forget_track(name)
 
     def flush(self, timeout_s: float = 2.0) -> bool:
         """Wait until every queued sample has been put (for tests and shutdown). True if the queues emptied."""
@@ -276,6 +293,14 @@ class ZenohBus:
         key = f"{self.prefix}/{suffix}"
         try:
             pub = self._publishers.get(key)
+            if suffix == "traffic":
+                if pub is None:  # one sample per tick, dropped rather than queued by zenoh like the tracks
+                    pub = self._publishers[key] = self.session.declare_publisher(
+                        key, encoding=zenoh.Encoding(ARROW_STREAM), congestion_control=zenoh.CongestionControl.DROP,
+                        priority=zenoh.Priority.DATA)
+                pub.put(payload.encode())
+                self.stats["published_updates"] += 1
+                return
             if pub is None:
                 if is_advisory:  # reliable, never dropped by zenoh's congestion control, ahead of data
                     pub = self.session.declare_publisher(key, encoding=zenoh.Encoding.APPLICATION_JSON,
@@ -297,6 +322,9 @@ class ZenohBus:
     def snapshot(self) -> dict:
         """The current picture: latest ownship and status, live tracks, active advisories, recent changes."""
         with self._cond:
+            traffic = self._traffic
+        tracks = traffic.payloads() if traffic is not None else None  # off the lock: the views are immutable
+        with self._cond:
             picture = {
                 "schema": SNAPSHOT_SCHEMA,
                 "vehicle": self.vehicle,
@@ -304,7 +332,7 @@ class ZenohBus:
                 "ownship": self._ownship,
                 "status": self._status,
                 "bands": self._bands,
-                "tracks": list(self._tracks.values()),
+                "tracks": tracks if tracks is not None else list(self._tracks.values()),
                 "advisories": list(self._active.values()),
                 "advisory_changes": list(self._changes),
                 "advisory_changes_total": self.changes_published,

@@ -1,7 +1,9 @@
 """The monitor's zenoh side: one session, one subscriber for every vehicle's samples, a liveliness subscriber,
 and a worker that asks a vehicle's snapshot whenever it appears (start-up, late join, reconnection).
 
-Topics: `<prefix>/<vehicle>/{ownship,status,bands}` and `<prefix>/<vehicle>/{tracks,advisories}/<intruder>`.
+Topics: `<prefix>/<vehicle>/{ownship,status,bands,traffic}` and `<prefix>/<vehicle>/{tracks,advisories}/<intruder>`.
+`traffic` (every track of a tick in one Arrow sample) is what keeps the picture's tracks current; the per-track
+`tracks/<intruder>` samples (a new track at once, then each every 10 s) and the snapshot are applied as well.
 Every sample and snapshot passes the schema check (schema.py) before it is applied: a bad one is counted in
 `FleetState.stats` (`rejected`, `rejected.<kind>`, `rejected.<kind>.<reason>`; `/api/stats`) and dropped."""
 
@@ -18,11 +20,11 @@ import zenoh
 from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import open_session
 from avionics.monitor.schema import (MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejected, check_id, clean_sample,
-                                     clean_snapshot)
+                                     clean_snapshot, clean_traffic)
 from avionics.monitor.state import FleetState
 
 log = logging.getLogger("avionics.monitor")
-KINDS = ("ownship", "status", "tracks", "advisories", "bands")  # bands: DO-365 guidance (per vehicle)
+KINDS = ("ownship", "status", "tracks", "advisories", "bands", "traffic")  # bands: DO-365 guidance (per vehicle)
 INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pushed back on)
 
 
@@ -81,6 +83,13 @@ class ZenohFeed:
                 raise Rejected("key")
             name = check_id(parts[3]) if per_intruder else ""
             raw = sample.payload.to_bytes()
+            if kind == "traffic":
+                dropped: dict = {}
+                rows = clean_traffic(raw, vehicle, dropped)
+                for reason, n in dropped.items():
+                    self.state.reject(kind, reason, n)
+                self.state.apply_traffic(vehicle, rows)
+                return
             if len(raw) > MAX_SAMPLE_BYTES:
                 raise Rejected("size")
             try:

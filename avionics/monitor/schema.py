@@ -16,6 +16,12 @@ against their current values: a future level is shown as text rather than losing
 the terminal view render every payload string as text, never as markup. Fields the monitor does not display
 (e.g. `spoof_suspected`, `daa_available`) are not in the tables, so a change to their form never costs a sample.
 
+Traffic (`<prefix>/<vehicle>/traffic`, an Arrow IPC stream of every track, io/traffic.py): the stream is decoded
+and fully validated first; a batch that is not a stream, too big, with a header that is not the contract's (schema,
+layout, vehicle, time_s, keys) or a column of a type outside it is rejected whole (`rejected.traffic.<reason>`).
+Each row is then checked as a per-track sample is, with the same table (TRACK): a bad row is left out and counted
+(`rejected.traffic.row.<field>`), and the good rows of the batch are applied.
+
 Bands (`<prefix>/<vehicle>/bands`, DO-365 alerters): each kind's intervals must be objects with `lower` <=
 `upper` within the kind's range (track 0-360 deg, ...), in increasing order, each with a `region` (a bounded
 string: DAIDALUS's NONE/FAR/MID/NEAR/RECOVERY, or a newer one, which the page draws as UNKNOWN); only those
@@ -28,6 +34,8 @@ import re
 
 MAX_SAMPLE_BYTES = 256 * 1024  # one track is ~1.2 kB, a status with every counter a few kB
 MAX_SNAPSHOT_BYTES = 32 * 1024 * 1024  # a vehicle's whole picture: thousands of tracks and the change log
+MAX_TRAFFIC_BYTES = 32 * 1024 * 1024  # one traffic batch (Arrow): ~320 bytes a track
+MAX_TRAFFIC_ROWS = 20_000  # tracks in one traffic batch
 MAX_ID_LEN = 64  # vehicle and intruder ids (key expression chunks), callsigns, enumerations
 MAX_TEXT_LEN = 256  # reasons, RA words, warnings
 MAX_LIST = 10_000  # list fields (datum_mismatch_intruders) and snapshot lists
@@ -331,9 +339,10 @@ BANDS = {
     "recovery": _map(_bool, 16),
     "intruders": _objects({"intruder": ID, "alert_level": _int(0, 9), "alert_name": ID}, 2_000),
 }
+TRAFFIC_HEADER = {**COMMON, "layout": _int(0, 1_000_000), "keys": _map(_list(ID, 64), 16)}
 KIND_FIELDS = {kind: _compile(fields) for kind, fields in
                (("tracks", TRACK), ("advisories", ADVISORY), ("ownship", OWNSHIP), ("status", STATUS),
-                ("bands", BANDS))}
+                ("bands", BANDS), ("traffic", TRAFFIC_HEADER))}
 
 
 def clean_sample(kind: str, payload, name: str | None = None) -> dict:
@@ -392,3 +401,35 @@ def clean_snapshot(snap, rejected: dict | None = None) -> dict:
                     rejected[reason] = rejected.get(reason, 0) + 1
         out[key] = good
     return out
+
+
+def clean_traffic(raw: bytes, vehicle: str, rejected: dict | None = None) -> list[dict]:
+    """The good rows of a traffic batch (io/traffic.py), each a checked per-track payload; a bad row is left out
+    and counted in `rejected` (`row.<field>` -> n). Rejected when the batch as a whole is not the contract's:
+    `size`, `arrow` (not a valid Arrow IPC stream), `rows`, `header`, `keys`, `type.<column>`, `columns`,
+    `vehicle_key` (the header names another vehicle than the key expression)."""
+    from avionics.io.traffic import TrafficError, decode_traffic
+
+    if len(raw) > MAX_TRAFFIC_BYTES:
+        raise Rejected("size")
+    try:
+        header, rows = decode_traffic(raw, MAX_TRAFFIC_ROWS)
+    except TrafficError as exc:
+        raise Rejected(exc.reason) from None
+    try:
+        header_ok = _clean(KIND_FIELDS["traffic"], header)
+    except Rejected as exc:
+        raise Rejected(f"header.{exc.reason}") from None
+    if header_ok.get("vehicle") != vehicle:
+        raise Rejected("vehicle_key")
+    good = []
+    for row in rows:
+        try:
+            p = clean_sample("tracks", row)
+            check_id(p.get("intruder"))  # a row names its intruder
+            good.append(p)
+        except Rejected as exc:
+            if rejected is not None:
+                reason = f"row.{exc.reason}"
+                rejected[reason] = rejected.get(reason, 0) + 1
+    return good

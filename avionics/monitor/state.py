@@ -390,6 +390,23 @@ class FleetState:
         if new and self.on_new_vehicle is not None:
             self.on_new_vehicle(vid)
 
+    def apply_traffic(self, vid: str, rows: list[dict]) -> None:
+        """One traffic batch (feed.py, rows checked): each row as a per-track sample of its intruder."""
+        with self.cond:
+            v, new = self._vehicle(vid)
+            if v is None:
+                return
+            v.last_sample_wall_s = self.clock()
+            self.stats["samples.traffic"] += 1
+            self.stats["samples.traffic.rows"] += len(rows)
+            if any(isinstance(r.get("schema"), int) and r["schema"] > KNOWN_SCHEMA for r in rows[:1]):
+                self.stats["schema.newer"] += 1
+            for row in rows:
+                self._set_track(v, row["intruder"], row)
+            self.cond.notify_all()
+        if new and self.on_new_vehicle is not None:
+            self.on_new_vehicle(vid)
+
     def _set_track(self, v: VehicleState, name: str, payload: dict) -> None:
         self._hear(v, name)
         entry = v.tracks.get(name)
