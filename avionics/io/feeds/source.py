@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import re
 import threading
 from collections import Counter, deque
 from dataclasses import dataclass, replace
@@ -59,6 +60,18 @@ def parse_host_port(spec: str, target: str) -> tuple[str, int]:
     return host.strip("[]"), number
 
 
+# The warning is one line of at most 256 characters without control or bidi-override characters: the monitor rejects a
+# status sample with any other warning text whole (avionics/monitor/schema.py MAX_TEXT_LEN, _BAD_CHARS), and would
+# lose every warning exactly while a feed is down. A long readsb-json URL or a multi-line exception text is shortened.
+WARNING_PATH_CHARS, WARNING_ERROR_CHARS = 80, 100
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]+")
+
+
+def _one_line(text: str, limit: int) -> str:
+    text = " ".join(_UNPRINTABLE.sub(" ", text).split())
+    return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
 @dataclass(frozen=True, slots=True)
 class FeedHealth:
     """One feed as the status shows it (daa.py status: `traffic_feeds`, and a warning while it is down)."""
@@ -73,7 +86,8 @@ class FeedHealth:
     def warning(self) -> str | None:
         if self.connected:
             return None
-        return f"traffic source {self.path} down ({self.error or 'connecting'}): retrying; DAA goes on without it"
+        return (f"traffic source {_one_line(self.path, WARNING_PATH_CHARS)} down "
+                f"({_one_line(self.error or 'connecting', WARNING_ERROR_CHARS)}): retrying; DAA goes on without it")
 
     def as_dict(self) -> dict:
         return {"path": self.path, "connected": self.connected, "error": self.error, "reports": self.reports,
