@@ -7,10 +7,11 @@ fields) is the Arrow schema's metadata. `traffic_rows` turns the rows back into 
 form (non-finite floats null), field for field; numeric columns computed vectorised (ground speed, track, sigmas)
 agree with payloads.track_payload to the last bit or two (numpy's hypot/arctan2 against math's).
 
-Why Arrow and not JSON columns (`python -m avionics_eval.traffic_payload_bench`, docs/performance.md): at 3000
-tracks one tick costs 16.6 ms to build and put as Arrow, 68 ms as JSON columns (of which 36 ms is one json.dumps
-call, which holds the interpreter lock from the onboard loop for that long) and 152 ms as 3000 per-track JSON
-samples; 318 bytes a track against 565 and 1229. Arrow IPC is language-neutral (C++, Rust, Go, Java, JS, ...).
+Why Arrow and not JSON columns (`python -m avionics_eval.traffic_payload_bench`, docs/performance.md, two runs on a
+loaded 2-core machine): one tick of 3000 tracks costs 30-61 ms to build and put as Arrow, 63-183 ms as JSON columns
+(38-98 ms of it one json.dumps call, which holds the interpreter lock from the onboard loop all along) and
+317-407 ms as 3000 per-track JSON samples; 369 bytes a track against 565 and 1229. Arrow IPC is language-neutral
+(C++, Rust, Go, Java, JavaScript, ...).
 
 `TrafficBatch` is what the onboard loop files with the ZenohBus: the TrackViews (immutable) and the time; the
 publisher thread encodes it in the loop's idle time, and the snapshot queryable turns it into per-track payloads
