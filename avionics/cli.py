@@ -7,11 +7,20 @@ console script is avionics_eval.cli, which adds `demo` and `bench` to this parse
 
 from __future__ import annotations
 
-import argparse
-import json
-import logging
 import os
-import sys
+
+# One BLAS/OpenMP thread for the onboard process, set before numpy is first imported (its BLAS reads these once, at
+# load; nothing above this imports numpy). The process is pinned to one core on a companion computer and its
+# matrices are 6x6: a BLAS worker thread buys nothing there, and an idle OpenBLAS worker spinning on the pinned
+# core nearly doubled report-to-advisory latency at 3000 intruders (issue 13). setdefault: an operator's choice
+# stands. OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE are left alone (a machine may set them for correctness).
+for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_threads, "1")
+
+import argparse  # noqa: E402  (after the thread settings above)
+import json  # noqa: E402
+import logging  # noqa: E402
+import sys  # noqa: E402
 import traceback
 from pathlib import Path
 

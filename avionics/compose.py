@@ -45,14 +45,15 @@ def build_tracker(tracking_params, counters, capacity: int = 16):
     17-25's variational-Bayes measurement noise), the IMM tracker (tracking/imm_tracker.py) over the motion
     models of tracking.imm_horizontal_modes and imm_vertical_modes (tracking/models.py); capacity: the IMM
     banks' initial number of track slots (they grow as needed)."""
-    from avionics.tracking import models
-    from avionics.tracking.imm import VbParams
-    from avionics.tracking.imm_tracker import ImmTracker
-    from avionics.tracking.tracker import IntruderTracker
-
     t = tracking_params
     if t.filter == "cv":
+        from avionics.tracking.tracker import IntruderTracker
+
         return IntruderTracker(t, counters)
+    from avionics.tracking import models  # only the variant configured is imported: start-up (issue 13)
+    from avionics.tracking.imm import VbParams
+    from avionics.tracking.imm_tracker import ImmTracker
+
     motion = {  # the mode filters by name, their noise from [tracking]
         "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2),  # Baek & Bang eq 5
         "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2, heading_noise=True),  # eq 6 with eq 31
@@ -98,11 +99,11 @@ def build_hysteresis(profile):
 def build_bands(profile):
     """A DO-365 alerter's guidance bands (advisory/bands.py, DAIDALUS DaidalusRealBands): the profile's [bands]
     parameters and the alerter's levels, each painting its region; None for the tcas2 alerter."""
-    from avionics.advisory.bands import BandsEngine, BandsLevel
-
     spec = profile.alerter
     if spec is None:
         return None
+    from avionics.advisory.bands import BandsEngine, BandsLevel  # not imported for tcas2: start-up (issue 13)
+
     levels = [BandsLevel(i, lv.region, lv.thresholds, lv.alerting_time_s, lv.early_alerting_time_s)
               for i, lv in enumerate(spec.levels, start=1)]
     return BandsEngine(profile.bands, levels)
