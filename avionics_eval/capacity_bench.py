@@ -22,8 +22,9 @@ socket read left out, zenoh on a real loopback session with `--zenoh`, MAVLink o
   outputs), each datagram its own step as fast as it goes, N tracks present; reports of the first
   WARMUP_S simulated seconds (track starts) are left out.
 - `tracker_update_us_per_track`: the configured tracker (compose.build_tracker, IMM by default) updating N
-  established tracks with one report each in one ingest_many call, per track; `tracker_vs_filterpy` is
-  reference_filterpy_imm_step_us over it (how many filterpy IMM steps one track update costs less than).
+  established tracks with one report each per ingest_many call, per track, CPU time
+  (avionics_eval/tracking_bench.py `bench_tracker`, as docs/tracking.md); `tracker_vs_filterpy` is
+  reference_filterpy_imm_step_us over it: how many times faster than filterpy a track update is.
 - `resident_memory_mb` / `resident_memory_peak_mb`: VmRSS at the end and VmHWM of a real `avionics run` child
   fed N intruders at 1 Hz over loopback UDP for `trial_s` seconds (the same traffic), read from /proc before it
   is stopped.
@@ -34,8 +35,8 @@ environment disables byte code) from Popen to the first datagram it sends back t
 ownship fix every 2 ms: it answers only a sender it has heard, in the step that decoded that sender's
 message, so this is launch to first processed message (zenoh session included with `--zenoh`);
 `startup_first_launch_s` is the first, unwarmed launch. `reference_filterpy_imm_step_us`: filterpy's
-IMMEstimator (two KalmanFilters, the CV and CT models of docs/tracking.md's filterpy equivalence, 6 states,
-4 measured) predict + update, median per step.
+IMMEstimator predict + update (tracking_bench `bench_filterpy`: two KalmanFilters with the CV and CT models of
+docs/tracking.md's filterpy equivalence, 6 states, 4 measured), CPU time per step, best of 5.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ import numpy as np
 
 from avionics import __version__
 from avionics_eval import bench as b
+from avionics_eval import tracking_bench
 
 GROWTH_SLACK_S = 0.1
 END_LAG_S = 0.5
@@ -64,6 +66,8 @@ WARMUP_S = 1.5
 MIN_RATE_PER_INTRUDER_HZ = 1.0 / 16  # below this a count is reported as not sustained at all (capacity 0)
 SINGLE_SECONDS = 3.0  # simulated seconds of the one-report-alone run
 STARTUP_TIMEOUT_S = 30.0
+FILTERPY_STEPS = 400  # tracking_bench.bench_filterpy: best of 5 runs of this many IMMEstimator steps
+TRACKER_CYCLES = 10  # tracking_bench.bench_tracker: cycles of one report per track, best of 5
 
 
 def sustained(run: b.LiveRun, trial_s: float) -> tuple[bool, dict]:
@@ -151,71 +155,6 @@ def single_report(n: int, zenoh: bool) -> dict:
     finally:
         b._close(bus)
     return {"single_report_us_p50": round(float(np.median(lat)) * 1e6, 1), "single_reports": len(lat)}
-
-
-def tracker_update(n: int, repeats: int = 10) -> float:
-    """µs per track of the configured tracker updating n established tracks, one report each, one call."""
-    from avionics.compose import build_tracker
-    from avionics.config import load_config
-    from avionics.core.geodesy import LocalTangentPlane
-    from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
-
-    config = load_config(overrides=["zenoh.enabled=false"])
-    tracker = build_tracker(config.tracking, Counter(), capacity=n)
-    rng = np.random.default_rng(3)
-    plane = LocalTangentPlane(b.LAT0, b.LON0)
-    e0, n0 = rng.uniform(-20000, 20000, n), rng.uniform(-20000, 20000, n)
-    ve, vn = rng.uniform(-120, 120, n), rng.uniform(-120, 120, n)
-    keys = [IntruderKey(0x200000 + i, AddressSource.ES1090) for i in range(n)]
-
-    def batch(t: float):
-        e, nn = e0 + ve * t + rng.normal(0, 10, n), n0 + vn * t + rng.normal(0, 10, n)
-        lat, lon = plane.to_geodetic(e, nn)
-        reports = [IntruderReport(keys[i], t, t, float(lat[i]), float(lon[i]), 1500.0, AltitudeDatum.PRESSURE,
-                                  (float(ve[i]), float(vn[i])), 0.0) for i in range(n)]
-        return reports, plane.to_en(np.array(lat), np.array(lon))
-
-    times = []
-    for k in range(repeats + 2):  # two to start and settle the tracks, then timed
-        reports, (east, north) = batch(float(k))
-        east, north = east.tolist(), north.tolist()
-        t0 = time.perf_counter()
-        took = tracker.ingest_many(reports, east, north)
-        if k >= 2:
-            times.append(time.perf_counter() - t0)
-            if not all(took):
-                raise RuntimeError(f"the tracker refused {len(took) - sum(took)} of {n} reports of established tracks")
-    return float(np.median(times)) / n * 1e6
-
-
-def filterpy_imm_step(steps: int = 2000) -> float:
-    """Median µs of filterpy's IMMEstimator predict + update: the CV and CT KalmanFilters of the tracking
-    report's filterpy equivalence (avionics_eval/reports/tracking.py `equivalence`)."""
-    from filterpy.kalman import IMMEstimator, KalmanFilter
-
-    from avionics.tracking import models
-    from avionics_eval.reports.tracking import HWANG_MODES, HWANG_SIGMA
-
-    modes = [models.ConstantVelocity(HWANG_MODES[0][1]), models.CoordinatedTurn(HWANG_MODES[1][1])]
-    trans = models.switching_matrix(2, 0.05)
-    x0 = np.array([0.0, 0.0, 247.0, 0.0, 0.0, 0.0])
-    filters = []
-    for mode in modes:
-        f, _, q = mode.matrices(np.array([1.0]), np.zeros((1, 6)), None)
-        kf = KalmanFilter(6, 4)
-        kf.F, kf.Q, kf.H, kf.R = f[0], q[0], np.eye(4, 6), np.diag(HWANG_SIGMA**2)
-        kf.x, kf.P = x0.copy(), np.diag(np.r_[HWANG_SIGMA**2, 9.0, 9.0])
-        filters.append(kf)
-    imm = IMMEstimator(filters, np.array([0.5, 0.5]), trans)
-    rng = np.random.default_rng(5)
-    times = []
-    for k in range(1, steps + 1):
-        z = np.array([247.0 * k, 0.0, 247.0, 0.0]) + rng.normal(0, HWANG_SIGMA)
-        t0 = time.perf_counter()
-        imm.predict()
-        imm.update(z)
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times[steps // 10:])) * 1e6
 
 
 # --- the real process: start-up and memory ------------------------------------------------------------------
@@ -330,7 +269,7 @@ def capacity_bench(intruder_counts: list[int], trial_s: float = 20.0, zenoh: boo
                    startup_repeats: int = 5, max_bisections: int = 3, max_trials: int = 16, log=None) -> dict:
     """The whole instrument (module docstring), pinned to one core (bench.one_core); children inherit the pin."""
     with b.one_core() as pinned:
-        reference = filterpy_imm_step()
+        reference = tracking_bench.bench_filterpy(FILTERPY_STEPS)
         out = {
             "benchmark": "avionics bench --capacity (issue 13)",
             "version": __version__, "python": platform.python_version(), "machine": platform.machine(),
@@ -345,7 +284,7 @@ def capacity_bench(intruder_counts: list[int], trial_s: float = 20.0, zenoh: boo
         for n in intruder_counts:
             row = capacity(n, trial_s, zenoh, max_bisections, max_trials, log)
             row.update(single_report(n, zenoh))
-            per_track = tracker_update(n)
+            per_track = tracking_bench.bench_tracker(n, TRACKER_CYCLES)
             row["tracker_update_us_per_track"] = round(per_track, 2)
             row["tracker_vs_filterpy"] = round(reference / per_track, 1)
             row.update(memory(n, trial_s, zenoh))

@@ -99,7 +99,7 @@ def bench_filterpy(updates: int) -> float:
     h = np.eye(4, 6)
     filters = []
     for mode in MODES:
-        f, _, q = mode.build(np.array([1.0]), np.zeros((1, 6)), None)
+        f, _, q = mode.matrices(np.array([1.0]), np.zeros((1, 6)), None)
         kf = KalmanFilter(6, 4)
         kf.F, kf.Q, kf.H, kf.R = f[0], q[0], h, np.diag(SIGMA**2)
         kf.x = np.array([0.0, 0.0, 200.0, 0.0, 0.0, 0.0])
