@@ -43,10 +43,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from avionics.conflict import kernels
 from avionics.conflict.params import ConflictConfig
 from avionics.conflict.prediction import cv_relative_prediction, lookahead_times, max_over_lookahead, pc_within_cv_mc
-from avionics.conflict.probability import ExactPc, PcMethod, pc_paielli_erzberger, vertical_probability
+from avionics.conflict.probability import ExactPc, PcMethod, as_c, pc_paielli_erzberger, vertical_probability
 from avionics.conflict.scheduling import TIME_EPSILON_S, ConflictScheduler, Prefilter, min_distance_filter
+from avionics.core import jit
 
 KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
 
@@ -76,13 +78,32 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
             out.update(t_s=t, pc_curve=np.zeros((0, t.size)))
         return out
     rng = np.random.default_rng(cfg.seed if rng is None else rng)
-    mean_xy, cov_xy, mean_z, var_z = cv_relative_prediction(rel_x, rel_p, t, cfg.step_s, cfg.accel_sigma_h_mps2,
-                                                            cfg.accel_sigma_v_mps2)
     half = cfg.zone_half_height_m + margin
-    vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
-    curve = pc_along(method, mean_xy, cov_xy, cfg.zone_radius_m, vel, rng)
-    pv = vertical_probability(mean_z, var_z, half[:, None])
-    curve = curve * np.where(has_alt[:, None], pv, 1.0)
+    # the (clamped) CPA time of the mean, on the step grid: where Hwang's eq 24 is evaluated below
+    v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
+    k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
+    rows = np.arange(n)
+    if jit.ENABLED and isinstance(method, ExactPc):
+        # the compiled curve (conflict/kernels.py pc_curve_cv_pairs): the same CV prediction, exact disk and slab
+        # at every step in one call, without the (N, K, 2, 2) arrays; the prediction at the CPA step only, below
+        curve = kernels.pc_curve_cv_pairs(as_c(rel_x), as_c(rel_p), as_c(t), float(cfg.step_s),
+                                          float(cfg.accel_sigma_h_mps2), float(cfg.accel_sigma_v_mps2),
+                                          float(cfg.zone_radius_m), as_c(half),
+                                          np.require(has_alt, bool, ("C_CONTIGUOUS", "WRITEABLE")))
+        mean_k, cov_k, mz_k, vz_k = cv_relative_prediction(rel_x, rel_p, t[k][:, None], cfg.step_s,
+                                                           cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2)
+        mean_k, cov_k = mean_k[:, 0], cov_k[:, 0]
+        pv_k = vertical_probability(mz_k[:, 0], vz_k[:, 0], half)
+    else:
+        mean_xy, cov_xy, mean_z, var_z = cv_relative_prediction(rel_x, rel_p, t, cfg.step_s, cfg.accel_sigma_h_mps2,
+                                                                cfg.accel_sigma_v_mps2)
+        vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
+        curve = pc_along(method, mean_xy, cov_xy, cfg.zone_radius_m, vel, rng)
+        pv = vertical_probability(mean_z, var_z, half[:, None])
+        curve = curve * np.where(has_alt[:, None], pv, 1.0)
+        mean_k, cov_k, pv_k = mean_xy[rows, k], cov_xy[rows, k], pv[rows, k]
     pc_max, t_max = max_over_lookahead(curve, t)
     out = {"pc_now": curve[:, 0], "pc_max": pc_max, "t_pc_max_s": t_max}
 
@@ -95,18 +116,13 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
                                                    cfg.within_samples, rng)
 
     # Hwang eq 24 at the (clamped) CPA time of the mean.
-    v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
-    k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
-    rows = np.arange(n)
-    pe = pc_paielli_erzberger(mean_xy[rows, k], cov_xy[rows, k], cfg.zone_radius_m, rel_x[:, 3:5])
+    pe = pc_paielli_erzberger(mean_k, cov_k, cfg.zone_radius_m, rel_x[:, 3:5])
     # eq 24 is blind to the direction of motion (a receding pair gets the Pc of an approaching one): Hwang's
     # condition 2(b) - only pairs whose predicted minimum distance within the lookahead is below alpha R (plus
     # 3 sigma of the predicted position) - removes that.
     near = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], cfg.zone_radius_m, cfg.lookahead_s,
-                               cfg.prefilter_alpha, 3.0 * np.sqrt(np.trace(cov_xy[rows, k], axis1=1, axis2=2)))
-    out["pc_pe"] = np.where(near, pe * np.where(has_alt, pv[rows, k], 1.0), 0.0)
+                               cfg.prefilter_alpha, 3.0 * np.sqrt(np.trace(cov_k, axis1=1, axis2=2)))
+    out["pc_pe"] = np.where(near, pe * np.where(has_alt, pv_k, 1.0), 0.0)
     if return_curve:
         out.update(t_s=t, pc_curve=curve)
     return out

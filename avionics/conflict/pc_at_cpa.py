@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from avionics.conflict.probability import conflict_probability, vertical_probability
+from avionics.conflict import kernels
+from avionics.conflict.probability import as_c, pc_exact_reference, vertical_probability
+from avionics.core import jit
 
 # A CPA further ahead than this is no conflict any alerter here acts on (TCAS II alerts at most 48 s ahead, DO-365
 # 75 s): the propagation stops there. Without a bound a pair closing at 1e-131 m/s (two hovering aircraft, a
@@ -25,7 +27,23 @@ MAX_PROPAGATION_S = 3600.0
 
 def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, accel_sigma_h_mps2: float,
               accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
-    """rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; volumes: V pairs (radius m, half
+    """As `pc_at_cpa_reference` (the arguments and the result are described there), in one call of the compiled
+    kernel (conflict/kernels.py pc_at_cpa_pairs: propagation, disk and slab of every volume) when compiled kernels
+    are on (avionics.core.jit), else the numpy reference."""
+    if not jit.ENABLED:
+        return pc_at_cpa_reference(rel_x, rel_p, t_s, volumes, accel_sigma_h_mps2, accel_sigma_v_mps2, has_altitude)
+    t = as_c(np.asarray(t_s, float).reshape(-1))
+    n = t.shape[0]
+    radii = np.array([r for r, _ in volumes], float)
+    half = np.array([np.nan if h is None else h for _, h in volumes], float)
+    has_alt = np.require(np.broadcast_to(np.asarray(has_altitude, bool), (n,)), bool, ("C_CONTIGUOUS", "WRITEABLE"))
+    return kernels.pc_at_cpa_pairs(as_c(np.reshape(rel_x, (n, 6))), as_c(np.reshape(rel_p, (n, 6, 6))), t, radii, half,
+                                   has_alt, float(accel_sigma_h_mps2), float(accel_sigma_v_mps2), MAX_PROPAGATION_S)
+
+
+def pc_at_cpa_reference(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, accel_sigma_h_mps2: float,
+                        accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
+    """The numpy reference. rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; volumes: V pairs (radius m, half
     height m or None). Returns (V, N) probabilities, every volume's disks in one exact call (the per-call cost
     dominates for the few pairs of a single report). Without altitude (has_altitude False) or without a half
     height the vertical factor is 1."""
@@ -38,8 +56,8 @@ def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, ac
     cov = cov + q[:, :, None] * np.eye(3)[None]
     radii = np.repeat(np.array([r for r, _ in volumes], float), n)
     v = len(volumes)
-    out = conflict_probability(np.tile(mean[:, 0:2], (v, 1)), np.tile(cov[:, 0:2, 0:2], (v, 1, 1)),
-                               radii).reshape(v, n)
+    out = pc_exact_reference(np.tile(mean[:, 0:2], (v, 1)), np.tile(cov[:, 0:2, 0:2], (v, 1, 1)),
+                             radii).reshape(v, n)
     for k, (_, half_height_m) in enumerate(volumes):
         if half_height_m is not None:
             out[k] *= np.where(has_altitude, vertical_probability(mean[:, 2], cov[:, 2, 2], half_height_m), 1.0)

@@ -135,16 +135,18 @@ def cv_relative_prediction(rel_x, rel_p, t_s, step_s: float, sigma_h_mps2: float
         P_pos(t) = P_pp + t (P_pv + P_vp) + t^2 P_vv + sigma^2 step^4 (k^3/3 - k/12) I
 
     (the last term is sum_{i<k} F^i Q F^iT for Q = sigma^2 [[h^4/4, h^3/2], [h^3/2, h^2]]).
-    Returns mean_xy (N, K, 2), cov_xy (N, K, 2, 2), mean_z (N, K), var_z (N, K)."""
+    t_s: (K,) times common to every pair, or (N, K) per pair (e.g. one time each: the same numbers as the
+    common grid's at those times). Returns mean_xy (N, K, 2), cov_xy (N, K, 2, 2), mean_z (N, K), var_z (N, K)."""
     rel_x = np.asarray(rel_x, float)
     rel_p = np.asarray(rel_p, float)
     t = np.asarray(t_s, float)
     k = np.rint(t / step_s)
     qpos = step_s**4 * (k**3 / 3.0 - k / 12.0)  # per unit sigma^2
-    mean = rel_x[:, None, 0:3] + t[None, :, None] * rel_x[:, None, 3:6]
+    tb = t if t.ndim == 2 else t[None, :]  # (N or 1, K)
+    mean = rel_x[:, None, 0:3] + tb[:, :, None] * rel_x[:, None, 3:6]
     pp, pv, vv = rel_p[:, 0:3, 0:3], rel_p[:, 0:3, 3:6], rel_p[:, 3:6, 3:6]
     cross = pv + np.swapaxes(pv, 1, 2)
-    cov = pp[:, None] + t[None, :, None, None] * cross[:, None] + (t * t)[None, :, None, None] * vv[:, None]
+    cov = pp[:, None] + tb[:, :, None, None] * cross[:, None] + (tb * tb)[:, :, None, None] * vv[:, None]
     cov_xy = cov[:, :, 0:2, 0:2].copy()
     cov_xy[:, :, 0, 0] += sigma_h_mps2**2 * qpos
     cov_xy[:, :, 1, 1] += sigma_h_mps2**2 * qpos

@@ -44,6 +44,9 @@ from typing import Protocol
 import numpy as np
 from scipy import special
 
+from avionics.conflict import kernels
+from avionics.core import jit
+
 METHODS = ("exact", "one_block", "blocks", "pe", "mc")
 
 SQRT_2PI = math.sqrt(2.0 * math.pi)
@@ -129,6 +132,21 @@ def _tau_of_u(u, r):
 
 
 def pc_exact(mean, cov, radius) -> np.ndarray:
+    """Exact Pc over the disk |x| <= R for N pairs: mean (N, 2), cov (N, 2, 2), radius scalar or (N,): the
+    compiled kernel (conflict/kernels.py pc_exact_pairs, every pair in one call) when compiled kernels are on
+    (avionics.core.jit), else the numpy reference `pc_exact_reference` (the method is described there)."""
+    if not jit.ENABLED:
+        return pc_exact_reference(mean, cov, radius)
+    mean, cov, radius = _as_pairs(mean, cov, radius)
+    return kernels.pc_exact_pairs(as_c(mean), as_c(cov), as_c(radius))
+
+
+def as_c(a) -> np.ndarray:
+    """a as the compiled kernels take it: float64, C-contiguous, writable (a copy only when it is not)."""
+    return np.require(a, np.float64, ("C_CONTIGUOUS", "WRITEABLE", "ALIGNED"))
+
+
+def pc_exact_reference(mean, cov, radius) -> np.ndarray:
     """Exact Pc over the disk |x| <= R for N pairs: mean (N, 2), cov (N, 2, 2), radius scalar or (N,).
 
     In the principal frame (u along the minor axis, sigma s_a <= s_b) the inner integral over v is closed form:

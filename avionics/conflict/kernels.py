@@ -1,0 +1,403 @@
+"""Compiled kernels of the conflict stage (issue 13 item 1): one call over every pair.
+
+Each kernel is the numpy reference beside it written as a loop over pairs, with the same formulas in the same
+order (the equations cited are the reference's):
+
+  pc_exact_pairs        probability.pc_exact_reference / _exact_general / _gl_panels: the disk probability of a
+                        2-D Gaussian, 1D Gauss-Legendre along the minor principal axis with the major axis in
+                        closed form (Baek & Bang eq 24 over the disk), N pairs
+  pc_at_cpa_pairs       pc_at_cpa.pc_at_cpa_reference: straight-line propagation to the CPA time with the white-
+                        acceleration term, the disk (as above) and the vertical slab, every volume in one call
+  pc_curve_cv_pairs     assess.conflict_probabilities' curve: prediction.cv_relative_prediction (closed form CV)
+                        at every step, the exact disk and the slab factor, (N, K) in one call
+  pair_geometry_pairs   cpa.pair_geometry_reference: range, s.v, closure, t_cpa, hmd, vmd, taus, 3D CPA
+  pc_within_paths       prediction.pc_within_cv_mc_reference's arithmetic on random numbers drawn by numpy
+
+`avionics.core.jit.kernel` compiles them with numba at import (explicit signatures, disk cache); with
+AVIONICS_COMPILED=0 they stay plain Python and the public functions call the numpy references instead.
+
+Numerics: `ndtr` is cephes' (scipy.special.ndtr) structure on the C library's erf/erfc (1 ulp apart from scipy's);
+sums are taken in the reference's order where numpy's is sequential (cumsum), so the kernels agree with the
+references to ~1e-15, well inside the 1e-9 of tests/test_kernels_conflict.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from avionics.core.jit import kernel
+
+SQRT1_2 = math.sqrt(0.5)
+SQRT_2PI = math.sqrt(2.0 * math.pi)
+K_SIGMA = 7.5  # = probability.K_SIGMA
+GAUSS_CORE = 3.0  # = probability.GAUSS_CORE
+TAU_WIDTH_FEW_NODES = 0.5  # = probability.TAU_WIDTH_FEW_NODES
+TAU_SPLIT = 1.0  # = probability.TAU_SPLIT
+SPAN_16, SPAN_24 = 4.0, 6.5  # = probability.GL_RULES: 16 nodes up to 4 sigmas, 24 up to 6.5, 32 beyond
+
+
+def _gl_table():
+    x = np.zeros((3, 32))
+    w = np.zeros((3, 32))
+    for row, n in enumerate((16, 24, 32)):
+        gx, gw = np.polynomial.legendre.leggauss(n)  # the reference's rules (probability._GL), same values
+        x[row, :n], w[row, :n] = gx, gw
+    return x, w
+
+
+GL_X, GL_W = _gl_table()
+GL_NODES = np.array([16, 24, 32], np.int64)
+
+# --- scalar helpers -------------------------------------------------------------------------------------
+
+
+@kernel("float64(float64)")
+def ndtr(a):
+    """Standard normal CDF, cephes ndtr (scipy.special.ndtr): 0.5 + 0.5 erf(a/sqrt 2) near 0, else the erfc
+    tail (no 1 - 1e-17 cancellation)."""
+    if a != a:
+        return a
+    x = a * SQRT1_2
+    z = abs(x)
+    if z < SQRT1_2:
+        return 0.5 + 0.5 * math.erf(x)
+    y = 0.5 * math.erfc(z)
+    if x > 0.0:
+        y = 1.0 - y
+    return y
+
+
+@kernel("float64(float64, float64, float64, float64)")
+def interval_mass(lo, hi, mean, sigma):
+    """probability._interval_mass: P(lo <= N(mean, sigma^2) <= hi), sigma = 0 a point mass (boundary inclusive);
+    the difference taken in the tail where the CDF is small."""
+    if sigma > 0.0:
+        za = (lo - mean) / sigma
+        zb = (hi - mean) / sigma
+        if za > 0.0:
+            p = ndtr(-za) - ndtr(-zb)
+        else:
+            p = ndtr(zb) - ndtr(za)
+        return max(p, 0.0) if p == p else p
+    if hi >= lo:
+        return 1.0 if (lo <= mean and mean <= hi) else 0.0
+    return 0.0
+
+
+@kernel("float64(float64, float64)")
+def tau_of_u(u, r):
+    """probability._tau_of_u: u = R sin t -> tau = tan(t/2) = (u/R) / (1 + sqrt(1 - (u/R)^2))."""
+    w = min(max(u / r, -1.0), 1.0)
+    return w / (1.0 + math.sqrt(max(1.0 - w * w, 0.0)))
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64, float64, int64, float64, float64, boolean)")
+def gl_panel(a, b, r, z_a, s_a, s_b, m_v, rule, offset, sign, both):
+    """probability._gl_panels for one panel: Gauss-Legendre (rule 0, 1, 2: 16, 24, 32 nodes) over tau in [a, b]
+    of phi(z(u)) bracket(h) du/dtau, u = 2R tau / (1 + tau^2), h = R (1 - tau^2) / (1 + tau^2); bracket =
+    offset + sign Phi(sign h/s_b - m_v/s_b) with one term constant, both terms when `both`."""
+    half = 0.5 * (b - a)
+    c_u = 2.0 * r / s_a
+    inv_a = 1.0 + a * a
+    hz_scale = r / s_b
+    mvz = m_v / s_b
+    acc = 0.0
+    for j in range(GL_NODES[rule]):
+        d = half * (1.0 + GL_X[rule, j])  # t - a, without cancellation
+        t = a + d
+        t2 = t * t
+        den = 1.0 / (1.0 + t2)
+        q = (1.0 - t2) * den  # h / R
+        zu = z_a + c_u * d * (1.0 - t * a) * den / inv_a
+        f = math.exp(-0.5 * zu * zu)
+        hz = q * hz_scale
+        if both:
+            brk = ndtr(hz - mvz) - ndtr(-hz - mvz)
+        else:
+            brk = offset + sign * ndtr(sign * hz - mvz)
+        f *= brk
+        f *= q * den  # du/dtau = 2 R (1 - t^2) / (1 + t^2)^2
+        acc += f * GL_W[rule, j]
+    return acc * half * (2.0 / SQRT_2PI) * r / s_a
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64, float64, float64, float64)")
+def zone_piece(a, b, za, hm, r, s_a, s_b, m_v, kb):
+    """One zone panel (or half of a wide one) of probability._exact_general: which bracket terms vary (from the
+    panel's midpoint h), the sigmas the panel spans, the Gauss-Legendre rule by GL_RULES, the integral."""
+    act1 = abs(hm - m_v) < kb  # upper term Phi((h - m_v)/s_b) varies
+    act2 = abs(hm + m_v) < kb  # lower term Phi((-h - m_v)/s_b) varies
+    c1 = 1.0 if hm > m_v else 0.0  # constant value of a term that does not vary
+    c2 = 1.0 if -hm - m_v > 0.0 else 0.0
+    dzp = 2.0 * r * (b - a) * (1.0 - a * b) / ((1.0 + a * a) * (1.0 + b * b)) / s_a
+    ha = r * (1 - a * a) / (1 + a * a)
+    hb = r * (1 - b * b) / (1 + b * b)
+    hmax = r if (a < 0.0 and b > 0.0) else max(ha, hb)
+    span = max(dzp, (hmax - min(ha, hb)) / s_b)
+    if b - a > TAU_WIDTH_FEW_NODES:  # the rational tau map needs more nodes on wide panels
+        span = SPAN_24 if span <= SPAN_16 else np.inf
+    if span <= SPAN_16:
+        rule = 0
+    elif span <= SPAN_24:
+        rule = 1
+    else:
+        rule = 2
+    both = act1 and act2
+    sign = 1.0 if act1 else -1.0
+    offset = 0.0 if both else (-c2 if act1 else c1)
+    return gl_panel(a, b, r, za, s_a, s_b, m_v, rule, offset, sign, both)
+
+
+@kernel("float64(float64, float64, float64, float64, float64)")
+def exact_general(m_u, m_v, s_a, s_b, r):
+    """probability._exact_general for one pair (s_a > 0, R > 0): the window m_u +- 7.5 s_a clipped to the disk,
+    in tau; break points at the zone ends (h within 7.5 s_b of +-m_v) and at m_u +- 3 s_a; closed-form Gaussian
+    mass on the panels outside every zone, Gauss-Legendre on the zone panels."""
+    lo = max(-r, m_u - K_SIGMA * s_a)
+    hi = min(r, m_u + K_SIGMA * s_a)
+    if lo >= hi:
+        return 0.0
+    t_lo = tau_of_u(lo, r)
+    t_hi = tau_of_u(hi, r)
+    kb = K_SIGMA * s_b
+    knots = np.empty(12)
+    knots[0] = t_lo
+    k = 1
+    for sgn in (1.0, -1.0):
+        c = sgn * m_v
+        for h_end in (c + kb, c - kb):
+            if h_end > 0.0 and h_end < r:
+                tb = math.sqrt(abs((r - h_end) / (r + h_end)))
+                knots[k] = tb
+                knots[k + 1] = -tb
+            else:
+                knots[k] = t_lo
+                knots[k + 1] = t_lo
+            k += 2
+    knots[9] = tau_of_u(m_u - GAUSS_CORE * s_a, r)
+    knots[10] = tau_of_u(m_u + GAUSS_CORE * s_a, r)
+    for i in range(1, 11):  # clip to the window, then sort the ten candidates (insertion sort)
+        knots[i] = min(max(knots[i], t_lo), t_hi)
+    for i in range(2, 11):
+        v = knots[i]
+        j = i - 1
+        while j >= 1 and knots[j] > v:
+            knots[j + 1] = knots[j]
+            j -= 1
+        knots[j + 1] = v
+    knots[11] = t_hi
+
+    # standardised u of every knot, chained from the window start by exact differences
+    # u(b) - u(a) = 2R (b - a)(1 - ab) / ((1 + a^2)(1 + b^2)) (as numpy: z0 + cumsum of the differences)
+    z0 = max((-r - m_u) / s_a, -K_SIGMA)
+    z = np.empty(12)
+    z[0] = z0
+    cum = 0.0
+    for p in range(11):
+        ta = knots[p]
+        tb = knots[p + 1]
+        cum += 2.0 * r * (tb - ta) * (1.0 - ta * tb) / ((1.0 + ta * ta) * (1.0 + tb * tb)) / s_a
+        z[p + 1] = z0 + cum
+    total = 0.0
+    zone = 0.0
+    cdf_a = ndtr(z[0])
+    for p in range(11):
+        ta = knots[p]
+        tb = knots[p + 1]
+        width = tb - ta
+        cdf_b = ndtr(z[p + 1])
+        tm = 0.5 * (ta + tb)
+        h_mid = r * (1.0 - tm * tm) / (1.0 + tm * tm)
+        in_zone = ((abs(h_mid - m_v) < kb) or (abs(h_mid + m_v) < kb)) and width > 0.0
+        if in_zone:
+            if width > TAU_SPLIT:  # a zone panel covering most of the disk: two halves
+                mid = 0.5 * (ta + tb)
+                z_mid = z[p] + 2.0 * r * (mid - ta) * (1.0 - ta * mid) / ((1.0 + ta * ta) * (1.0 + mid * mid)) / s_a
+                zone += zone_piece(ta, mid, z[p], h_mid, r, s_a, s_b, m_v, kb)
+                zone += zone_piece(mid, tb, z_mid, h_mid, r, s_a, s_b, m_v, kb)
+            else:
+                zone += zone_piece(ta, tb, z[p], h_mid, r, s_a, s_b, m_v, kb)
+        elif h_mid > m_v + kb and h_mid > -m_v + kb:  # inside the disk on the whole panel: bracket 1
+            total += cdf_b - cdf_a
+        cdf_a = cdf_b
+    total += zone
+    return min(max(total, 0.0), 1.0)
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64, float64)")
+def disk_pc(mx, my, c00, c01, c10, c11, r):
+    """probability.pc_exact_reference for one pair: the principal frame of the covariance (principal_frame, the
+    small eigenvalue as det / large one), then the line case (s_a = 0) or the general one; NaN for non-finite
+    inputs, 0 for R <= 0."""
+    b = 0.5 * (c01 + c10)
+    half_tr = 0.5 * (c00 + c11)
+    disc = math.hypot(0.5 * (c00 - c11), b)
+    lam_b = half_tr + disc
+    det = max(c00 * c11 - b * b, 0.0)
+    lam_a = det / lam_b if lam_b > 0.0 else 0.0
+    lam_a = min(lam_a, lam_b)
+    theta = 0.5 * math.atan2(2.0 * b, c00 - c11)  # direction of the major axis
+    c = math.cos(theta)
+    s = math.sin(theta)
+    m_u = mx * -s + my * c
+    m_v = mx * c + my * s
+    s_a = np.sqrt(lam_a)
+    s_b = np.sqrt(max(lam_b, 0.0))
+    if not (np.isfinite(m_u) and np.isfinite(m_v) and np.isfinite(s_a) and np.isfinite(s_b) and np.isfinite(r)):
+        return np.nan
+    if not r > 0.0:
+        return 0.0
+    if s_a == 0.0:  # all the mass on the line u = m_u (or a point when s_b = 0 too)
+        if abs(m_u) <= r:
+            h = math.sqrt(max(r * r - m_u * m_u, 0.0))
+            return interval_mass(-h, h, m_v, s_b)
+        return 0.0
+    if s_a > 0.0:
+        return exact_general(m_u, m_v, s_a, s_b, r)
+    return 0.0
+
+
+# --- over pairs ------------------------------------------------------------------------------------------
+
+
+@kernel("float64[::1](float64[:, ::1], float64[:, :, ::1], float64[::1])")
+def pc_exact_pairs(mean, cov, radius):
+    """probability.pc_exact for N pairs: mean (N, 2), cov (N, 2, 2), radius (N,) -> (N,)."""
+    n = mean.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = disk_pc(mean[i, 0], mean[i, 1], cov[i, 0, 0], cov[i, 0, 1], cov[i, 1, 0], cov[i, 1, 1], radius[i])
+    return out
+
+
+@kernel("float64[:, ::1](float64[:, ::1], float64[:, :, ::1], float64[::1], float64[::1], float64[::1], "
+        "boolean[::1], float64, float64, float64)")
+def pc_at_cpa_pairs(rel_x, rel_p, t_s, radii, half_heights, has_alt, sigma_h, sigma_v, max_t):
+    """pc_at_cpa.pc_at_cpa_reference: rel_x (N, 6), rel_p (N, 6, 6), t_s (N,), volumes radii (V,) and half heights
+    (V,) (NaN: no slab) -> (V, N). Propagation to t = min(t_s, max_t):
+
+        m(t) = m_pos + t m_vel,   P_pos(t) = P_pp + t (P_pv + P_vp) + t^2 P_vv + (t^4 / 4) diag(s_h^2, s_h^2, s_v^2)
+
+    then Pc = P(|x_h(t)| <= R) * P(|z(t)| <= H) (the slab factor 1 without altitude or half height)."""
+    n = rel_x.shape[0]
+    nv = radii.shape[0]
+    out = np.empty((nv, n))
+    qh = sigma_h * sigma_h
+    qv = sigma_v * sigma_v
+    for i in range(n):
+        t = max_t if t_s[i] > max_t else t_s[i]  # np.minimum: a NaN stays NaN
+        q = t ** 4 / 4.0
+        mx = rel_x[i, 0] + t * rel_x[i, 3]
+        my = rel_x[i, 1] + t * rel_x[i, 4]
+        mz = rel_x[i, 2] + t * rel_x[i, 5]
+        p = rel_p[i]
+        tt = t * t
+        # P_pv + P_pv^T as the reference forms it (pv + swapaxes(pv)), then the noise on the diagonal
+        c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + q * qh
+        c01 = p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4]
+        c10 = p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3]
+        c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + q * qh
+        czz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + q * qv
+        for k in range(nv):
+            pc = disk_pc(mx, my, c00, c01, c10, c11, radii[k])
+            hh = half_heights[k]
+            if hh == hh and has_alt[i]:
+                pc *= interval_mass(-hh, hh, mz, np.sqrt(max(czz, 0.0)))
+            out[k, i] = pc
+    return out
+
+
+@kernel("float64[:, ::1](float64[:, ::1], float64[:, :, ::1], float64[::1], float64, float64, float64, float64, "
+        "float64[::1], boolean[::1])")
+def pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights, has_alt):
+    """The conflict stage's Pc curve (assess.conflict_probabilities with the exact method): the closed-form CV
+    prediction of prediction.cv_relative_prediction at every t = k step,
+
+        m(t) = m_pos + t m_vel
+        P_pos(t) = P_pp + t (P_pv + P_vp) + t^2 P_vv + sigma^2 step^4 (k^3/3 - k/12) I
+
+    the exact disk probability and the slab factor P(|z| <= H_i) where the altitude is known: (N, K)."""
+    n = rel_x.shape[0]
+    nk = t_s.shape[0]
+    out = np.empty((n, nk))
+    sh2 = sigma_h * sigma_h
+    sv2 = sigma_v * sigma_v
+    for i in range(n):
+        p = rel_p[i]
+        x = rel_x[i]
+        hh = half_heights[i]
+        for j in range(nk):
+            t = t_s[j]
+            k = np.rint(t / step_s)
+            qpos = step_s ** 4 * (k ** 3 / 3.0 - k / 12.0)  # per unit sigma^2
+            tt = t * t
+            mx = x[0] + t * x[3]
+            my = x[1] + t * x[4]
+            c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sh2 * qpos
+            c01 = p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4]
+            c10 = p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3]
+            c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sh2 * qpos
+            pc = disk_pc(mx, my, c00, c01, c10, c11, radius)
+            if has_alt[i]:
+                mz = x[2] + t * x[5]
+                vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sv2 * qpos
+                pc *= interval_mass(-hh, hh, mz, np.sqrt(max(vz, 0.0)))
+            out[i, j] = pc
+    return out
+
+
+GEOMETRY_COLUMNS = ("range_m", "s_dot_v", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
+                    "vertical_tau_s", "cpa_x", "cpa_y", "t_cpa3d_s", "cpa3d_x", "cpa3d_y", "cpa3d_z", "miss3d_m")
+
+
+@kernel("float64[:, ::1](float64[:, ::1], float64[:, ::1], float64[::1], float64[::1])")
+def pair_geometry_pairs(s_xy, v_xy, sz, vz):
+    """cpa.pair_geometry_reference for N pairs, the columns GEOMETRY_COLUMNS (N, 15):
+    t_cpa = max(0, -s.v / |v|^2) (0 when v = 0), hmd = |s + v t_cpa|, vmd = sz + vz t_cpa, range tau = r / closure
+    when closing (0 at r = 0, else inf), vertical tau = -sz / vz when converging (0 at co-altitude, else inf),
+    3D CPA time max(0, -(s.v + sz vz) / (|v|^2 + vz^2)) and the relative position and slant distance there."""
+    n = s_xy.shape[0]
+    out = np.empty((n, 15))
+    for i in range(n):
+        sx = s_xy[i, 0]
+        sy = s_xy[i, 1]
+        vx = v_xy[i, 0]
+        vy = v_xy[i, 1]
+        z = sz[i]
+        w = vz[i]
+        r = math.hypot(sx, sy)
+        sv = sx * vx + sy * vy
+        v2 = vx * vx + vy * vy
+        t_cpa = max(0.0, -sv / v2) if v2 > 0.0 else 0.0
+        closure = -sv / r if r > 0.0 else 0.0
+        range_tau = r / closure if closure > 0.0 else np.inf
+        if r == 0.0:
+            range_tau = 0.0
+        vtau = -z / w if z * w < 0.0 else np.inf
+        if z == 0.0:
+            vtau = 0.0
+        cx = sx + vx * t_cpa
+        cy = sy + vy * t_cpa
+        v3 = v2 + w * w
+        t3 = max(0.0, -(sv + z * w) / v3) if v3 > 0.0 else 0.0
+        px = sx + vx * t3
+        py = sy + vy * t3
+        pz = z + w * t3
+        out[i, 0] = r
+        out[i, 1] = sv
+        out[i, 2] = closure
+        out[i, 3] = t_cpa
+        out[i, 4] = math.hypot(cx, cy)
+        out[i, 5] = z + w * t_cpa
+        out[i, 6] = range_tau
+        out[i, 7] = vtau
+        out[i, 8] = cx
+        out[i, 9] = cy
+        out[i, 10] = t3
+        out[i, 11] = px
+        out[i, 12] = py
+        out[i, 13] = pz
+        out[i, 14] = np.sqrt(px * px + py * py + pz * pz)
+    return out
