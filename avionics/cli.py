@@ -1,4 +1,4 @@
-"""`avionics` command line of the flight package: run, config, monitor, router.
+"""`avionics` command line of the flight package: run, warmup, config, monitor, router.
 
 Flight code only: nothing here imports the simulator (sitl) or avionics_eval, not even lazily. The `avionics`
 console script is avionics_eval.cli, which adds `demo` and `bench` to this parser through `add_commands`;
@@ -153,6 +153,23 @@ def _tls(args, listening: bool) -> dict:
             f"tls_{side}_private_key": args.tls_key}
 
 
+def cmd_warmup(args) -> int:
+    """Compile every kernel (avionics.core.jit.KERNEL_MODULES) into the disk cache, or find it there."""
+    from avionics.core import jit
+
+    if not jit.ENABLED:
+        print("avionics warmup: compiled kernels are off (AVIONICS_COMPILED=0, or numba missing): nothing to compile")
+        return 0
+    records = jit.warmup()
+    for r in records:
+        print(f"{r['state']:8} {r['kernel']} ({len(r['signatures'])} signature{'s' if len(r['signatures']) != 1 else ''})")
+    dirs = sorted({r["cache_dir"] for r in records if r["cache_dir"]})
+    compiled = sum(r["state"] == "compiled" for r in records)
+    print(f"avionics warmup: {len(records)} kernels from {len(jit.KERNEL_MODULES)} modules, {compiled} compiled now, "
+          f"{len(records) - compiled} loaded from the cache; cache: {', '.join(dirs) or 'none'}")
+    return 0
+
+
 def cmd_monitor(args) -> int:
     from avionics.config import validate, Config
     from avionics.monitor.app import run_monitor  # checks the endpoints and --http before opening anything
@@ -200,6 +217,9 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_run)
     if add_commands is not None:
         add_commands(sub)
+
+    p = sub.add_parser("warmup", help="compile the numeric kernels into the disk cache (once after install)")
+    p.set_defaults(func=cmd_warmup)
 
     p = sub.add_parser("config", help="print the effective configuration as JSON")
     _config_args(p)

@@ -49,3 +49,29 @@ def kernel(*signatures):
         return compiled
 
     return wrap
+
+
+# Every module that defines kernels, for `avionics warmup` (and so for the README's install command, which runs it
+# so that the pytest-xdist workers and the first `avionics run` find a warm cache): add yours here.
+KERNEL_MODULES: list[str] = [
+    "avionics.conflict.kernels",
+]
+
+
+def warmup() -> list[dict]:
+    """Import every module of KERNEL_MODULES: each kernel compiles, or loads from the disk cache, at import. Returns
+    one record per kernel: name, signatures, 'compiled' or 'cached' (numba's cache counters), cache directory."""
+    import importlib
+
+    for name in KERNEL_MODULES:
+        importlib.import_module(name)
+    out = []
+    for k in KERNELS:
+        cache = getattr(k, "_cache", None)
+        out.append({
+            "kernel": f"{k.py_func.__module__}.{k.py_func.__name__}",
+            "signatures": [str(s) for s in k.signatures],
+            "state": "compiled" if sum(k._cache_misses.values()) else "cached",
+            "cache_dir": getattr(cache, "_cache_path", None),
+        })
+    return out
