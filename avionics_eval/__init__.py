@@ -3,6 +3,7 @@
 cli             the `avionics` console script: avionics.cli's flight commands plus `demo` and `bench`
 demo            `avionics demo`: the onboard process and a SITL encounter as two processes on loopback
 bench           `avionics bench`: end-to-end throughput and report-to-advisory latency
+capacity_bench  `avionics bench --capacity`: capacity, latency, start-up and memory (issue 13's instrument)
 flood_bench     link framing and flood measurements (docs/performance.md)
 tracking_bench  microseconds per track update, against filterpy (docs/tracking.md)
 monitor_bench   monitor throughput and page frame rate (docs/monitor.md)
