@@ -49,6 +49,9 @@ class Outcome:
     first_ra: object = None  # (time, Resolution, threats, inhibits) of the first RA
     words: list[str] = field(default_factory=list)
     threats: set[int] = field(default_factory=set)  # intruders that were RA threats at some time
+    # per RA threat, |vertical miss| at its CPA on the path ownship was flying when it became a threat (the RA
+    # logic's "never worse than doing nothing" reference: before the first RA, the unflown path)
+    joined_miss_m: dict[int, float] = field(default_factory=dict)
     # the TCAS II v7.1 HMD filter ended an RA while the range still closed: (its threats' HMD, the filter's HMD),
     # [B71] "the HMD filter can terminate an RA prior to ALIM being obtained"
     hmd_filter_ended: tuple | None = None
@@ -148,6 +151,10 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             was_ra = (candidate == int(AdvisoryLevel.RA)) & (ra is not None)  # a blocked RA stays a TA
             if ra is not None:
                 out.threats.update(ra_now)
+                for j in ra_now:
+                    if j not in out.joined_miss_m:
+                        at_cpa_z = encounter.agl_m + intr[j].sz_m + intr[j].vz_mps * t_cpa[j]
+                        out.joined_miss_m[j] = abs(at_cpa_z - (own_z + pilot.vz * (t_cpa[j] - t)))
                 if out.first_ra is None:
                     out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
             if ra is not None and (not out.words or out.words[-1] != ra.words()):
