@@ -27,13 +27,11 @@ and stamped with the receiver's 12 MHz counter then; the counter starts at an ar
 from __future__ import annotations
 
 import math
-import socket
-import threading
-import time
 from dataclasses import dataclass
 
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.core.units import FPM, FT, KT
+from avionics_sitl.feed_server import FeedServer
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.scenario import Scenario
 from avionics_sitl.trajectory import KinematicState
@@ -248,127 +246,15 @@ def beast_schedule(scenario: Scenario, impairments: AdsbImpairments, seed: int =
     return events
 
 
-class BeastServer:
-    """A TCP server on one address sending `events` to every client as scenario time passes.
+class BeastServer(FeedServer):
+    """Beast binary frames over TCP, each event at its delivery time (feed_server.py: clocks, clients, stop)."""
 
-    Real time: scenario time is `start_s` + `speed` x wall time since start() (speed 1: live), or since the first
-    client connected (start_on_connect: a receiver switched on before the process that reads it), or `clock()` when
-    given (scenario seconds: one clock shared with another schedule, sitl live's MAVLink). Every client
-    receives the frames
-    due from its connection on (a receiver does not replay the past). Fast time is the caller's: `send_until(t)`
-    sends every frame due by scenario time t, and nothing else moves time. `stop()` closes the listener and every
-    client (a receiver that goes away); a new server on the same port is a receiver that came back."""
+    name = "beast server"
+    sent_key = "beast_frames"
 
-    def __init__(self, events: list[BeastEvent], host: str = "127.0.0.1", port: int = 30005,
-                 real_time: bool = True, speed: float = 1.0, start_s: float = 0.0, start_on_connect: bool = False,
-                 clock=None):
-        self.events, self.real_time, self.speed = list(events), real_time, speed
-        self._clock = clock
-        self.start_s, self.start_on_connect = start_s, start_on_connect
-        self._listener = socket.create_server((host, port), reuse_port=False)
-        self._listener.settimeout(0.05)
-        self.port = self._listener.getsockname()[1]
-        self._clients: list[socket.socket] = []
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._next = 0
-        self._t0: float | None = None
-        self._threads: list[threading.Thread] = []
-        self.sent_frames = 0
+    def __init__(self, events: list[BeastEvent], host: str = "127.0.0.1", port: int = 30005, **kw):
+        super().__init__(events, host, port, **kw)
 
-    def start(self) -> "BeastServer":
-        if not self.start_on_connect:
-            self._t0 = time.monotonic()
-        self._skip_to(self.start_s)
-        self._threads.append(threading.Thread(target=self._accept, name="beast-accept", daemon=True))
-        if self.real_time:
-            self._threads.append(threading.Thread(target=self._pace, name="beast-pace", daemon=True))
-        for thread in self._threads:
-            thread.start()
-        return self
-
-    def scenario_time(self) -> float:
-        """Scenario time now (start_s until the clock starts)."""
-        if self._clock is not None:
-            return self._clock()
-        t0 = self._t0
-        return self.start_s if t0 is None else self.start_s + (time.monotonic() - t0) * self.speed
-
-    def started(self) -> bool:
-        return self._t0 is not None
-
-    def clients(self) -> int:
-        with self._lock:
-            return len(self._clients)
-
-    def _skip_to(self, t: float) -> None:
-        while self._next < len(self.events) and self.events[self._next].deliver_s < t:
-            self._next += 1
-
-    def _accept(self) -> None:
-        while not self._stop.is_set():
-            try:
-                client, _ = self._listener.accept()
-            except (TimeoutError, socket.timeout):
-                continue
-            except OSError:
-                return
-            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            with self._lock:
-                self._clients.append(client)
-                if self._t0 is None:
-                    self._t0 = time.monotonic()
-
-    def _pace(self) -> None:
-        while not self._stop.is_set():
-            if self._t0 is not None:
-                self.send_until(self.scenario_time())
-            self._stop.wait(0.02)
-
-    def send_until(self, t: float) -> int:
-        """Send every frame due by scenario time t to every client; the number of frames."""
-        with self._lock:
-            start = self._next
-            while self._next < len(self.events) and self.events[self._next].deliver_s <= t:
-                self._next += 1
-            data = b"".join(e.frame for e in self.events[start:self._next])
-            if data:
-                self.send_raw_locked(data)
-            self.sent_frames += self._next - start
-            return self._next - start
-
-    def send_raw(self, data: bytes) -> None:
-        """Bytes to every client as they are (garbage, a frame split in two, ...)."""
-        with self._lock:
-            self.send_raw_locked(data)
-
-    def send_raw_locked(self, data: bytes) -> None:
-        for client in list(self._clients):
-            try:
-                client.sendall(data)
-            except OSError:
-                self._clients.remove(client)
-                client.close()
-
-    def done(self) -> bool:
-        return self._next >= len(self.events)
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._listener.close()
-        for thread in self._threads:
-            thread.join(timeout=5.0)
-        with self._lock:
-            for client in self._clients:
-                try:
-                    client.shutdown(socket.SHUT_RDWR)
-                except OSError:
-                    pass
-                client.close()
-            self._clients.clear()
-
-    def __enter__(self) -> "BeastServer":
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
+    @staticmethod
+    def payload(event: BeastEvent) -> bytes:
+        return event.frame

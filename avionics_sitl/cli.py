@@ -98,10 +98,7 @@ def cmd_live(args) -> int:
     summary = {"sent": recording.sent, "received": len(recording.received),
                "collisions": len(recording.of_type("COLLISION"))}
     for server in servers:
-        if hasattr(server, "sent_lines"):
-            summary["sbs_lines"] = server.sent_lines
-        else:
-            summary["beast_frames"] = server.sent_frames
+        summary[server.sent_key] = server.sent
     print(json.dumps(summary), file=sys.stderr)
     return 0
 

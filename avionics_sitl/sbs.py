@@ -16,14 +16,12 @@ need not be our clock: the reader aligns it); fields 9-10 the time it was logged
 
 from __future__ import annotations
 
-import socket
-import threading
-import time
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 
 from avionics.core.units import FPM, FT, KT
 from avionics_sitl.autopilot import AutopilotConfig, schedule
+from avionics_sitl.feed_server import FeedServer
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.scenario import Scenario
 
@@ -85,104 +83,19 @@ def sbs_schedule(scenario: Scenario, impairments: AdsbImpairments, seed: int = 0
     return events
 
 
-class SbsServer:
-    """Serves events over TCP to every client connected, each line at its delivery time on `clock` (scenario
-    seconds; default: real time from start(), times `speed`, from `start_s`). Loopback by default."""
+class SbsServer(FeedServer):
+    """SBS-1 BaseStation lines over TCP, each event at its delivery time (feed_server.py: clocks, clients, stop)."""
 
-    def __init__(self, events: list[SbsEvent], host: str = "127.0.0.1", port: int = 30003, speed: float = 1.0,
-                 start_s: float = 0.0, clock=None):
-        self.events = sorted(events, key=lambda e: e.deliver_s)
-        self.host, self.speed, self.start_s = host, speed, start_s
-        self._clock = clock
-        self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        self._listener.bind((host, port))
-        self._listener.listen(8)
-        self._listener.settimeout(0.05)
-        self.port = self._listener.getsockname()[1]
-        self._clients: list[socket.socket] = []
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self._next = 0
-        self._t0 = None
-        self.sent_lines = 0
+    name = "sbs server"
+    sent_key = "sbs_lines"
 
-    def scenario_time(self) -> float:
-        if self._clock is not None:
-            return self._clock()
-        return self.start_s + (time.monotonic() - self._t0) * self.speed
+    def __init__(self, events: list[SbsEvent], host: str = "127.0.0.1", port: int = 30003, **kw):
+        super().__init__(events, host, port, **kw)
 
-    def start(self) -> "SbsServer":
-        self._t0 = time.monotonic()
-        while self._next < len(self.events) and self.events[self._next].deliver_s < self.start_s:
-            self._next += 1  # a late start: what was due before it is not sent
-        self._thread = threading.Thread(target=self._run, name=f"sbs server {self.port}", daemon=True)
-        self._thread.start()
-        return self
+    @staticmethod
+    def payload(event: SbsEvent) -> bytes:
+        return event.data
 
-    @property
-    def clients(self) -> int:
-        with self._lock:
-            return len(self._clients)
-
-    @property
-    def done(self) -> bool:
-        return self._next >= len(self.events)
-
-    def send_raw(self, data: bytes) -> None:
-        """Bytes to every client now (garbage, partial lines: tests)."""
-        with self._lock:
-            self._send(data)
-
-    def _send(self, data: bytes) -> None:
-        for client in list(self._clients):
-            try:
-                client.sendall(data)
-            except OSError:
-                self._clients.remove(client)
-                client.close()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                client, _ = self._listener.accept()
-                client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                with self._lock:
-                    self._clients.append(client)
-            except (socket.timeout, TimeoutError):
-                pass
-            except OSError:
-                if self._stop.is_set():
-                    return
-            now = self.scenario_time()
-            chunk = []
-            while self._next < len(self.events) and self.events[self._next].deliver_s <= now:
-                chunk.append(self.events[self._next].data)
-                self._next += 1
-            if chunk:
-                data = b"".join(chunk)
-                with self._lock:
-                    self._send(data)
-                self.sent_lines += data.count(b"\n")
-
-    def stop(self) -> None:
-        """Close the listener and every connection (the clients see the connection end), join the thread."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5.0)
-        self._listener.close()
-        with self._lock:
-            for client in self._clients:
-                try:
-                    client.shutdown(socket.SHUT_RDWR)
-                except OSError:
-                    pass
-                client.close()
-            self._clients.clear()
-
-    def __enter__(self) -> "SbsServer":
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
+    @staticmethod
+    def units(event: SbsEvent) -> int:
+        return event.data.count(b"\n")

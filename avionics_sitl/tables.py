@@ -29,7 +29,6 @@ import csv
 import io
 import math
 import re
-import sys
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path

@@ -8,7 +8,6 @@ read by the feed framework's reader thread (avionics/io/feeds/source.py), the se
 from __future__ import annotations
 
 import json
-from collections import Counter
 
 import avionics.io  # noqa: F401  (MAVLink 2 before pymavlink is imported)
 import pytest
@@ -18,11 +17,10 @@ from avionics.io.feeds.beast import BeastParser
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch
 from avionics_sitl.autopilot import Packer, schedule
-from avionics_sitl.beast import BeastServer, beast_schedule
+from avionics_sitl.beast import beast_schedule
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from harness import Harness
-from tests.conftest import DEADLINE_S, wait_for
 
 SCENARIO = load_encounter("head-on")
 DURATION_S = 75.0  # TA ~55 s, RA ~65 s

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from avionics.config import load_config
-from avionics.core.types import AdvisoryLevel, IntruderKey
+from avionics.core.types import IntruderKey
 from avionics.daa import Daa
 from avionics.io.feeds.sbs import SbsParser
 from avionics.io.framing import FrameScanner
