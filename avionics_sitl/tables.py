@@ -140,7 +140,7 @@ def _read_parquet(path: Path, progress: bool | None) -> tuple[list[str], dict[st
         import pyarrow.compute as pc
         import pyarrow.parquet as pq
     except ImportError:
-        raise ValueError("reading Parquet needs pyarrow: pip install 'avionics-daa[tables]'") from None
+        raise ValueError("reading Parquet needs pyarrow: pip install pyarrow") from None
     try:
         parquet = pq.ParquetFile(path)
     except (pa.ArrowException, OSError) as e:
