@@ -55,6 +55,7 @@ def kernel(*signatures):
 # so that the pytest-xdist workers and the first `avionics run` find a warm cache): add yours here.
 KERNEL_MODULES: list[str] = [
     "avionics.conflict.kernels",
+    "avionics.tracking.kernels",
 ]
 
 

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avionics.tracking import models
+from avionics.core import jit
+from avionics.tracking import kernels, models
 
 LOG_2PI = math.log(2.0 * math.pi)
 TINY = 1e-300
@@ -88,7 +89,7 @@ class ImmBank:
 
     def __init__(self, modes: list[models.MotionModel], d: int, switch_matrix: np.ndarray, period_s: float = 1.0,
                  likelihood: str = "standard", vb: VbParams | None = None, rmimm_floor: float = 1.0,
-                 capacity: int = 16, yaw_time_constant_s: float = 11.9):
+                 capacity: int = 16, yaw_time_constant_s: float = 11.9, compiled: bool | None = None):
         if len(modes) < 1 or len({m.dim for m in modes}) != 1:
             raise ValueError("modes must be non-empty and share one state dimension")
         if likelihood not in LIKELIHOODS:
@@ -105,7 +106,23 @@ class ImmBank:
         self.yaw_time_constant_s = yaw_time_constant_s
         self.horizontal = self.n == models.H_DIM
         self._turn_mode = next((i for i, m in enumerate(self.modes) if m.estimates_turn), None)
+        self.spec = kernels.BankSpec(self.modes, self.chain, likelihood, vb)
+        self.compiled = compiled
         self._alloc(capacity)
+
+    @property
+    def compiled(self) -> bool:
+        """True: the cycle runs the compiled kernels (tracking/kernels.py), False: the numpy reference below."""
+        return self._compiled
+
+    @compiled.setter
+    def compiled(self, value: bool | None) -> None:
+        """None: compiled when kernels are on (jit.ENABLED) and this configuration is covered (kernels.BankSpec);
+        True forces the kernels (plain Python when jit is off: for tests), False the reference."""
+        if value and not self.spec.covered:
+            raise ValueError(f"no compiled kernels for modes {self.names} with the {self.likelihood} likelihood"
+                             f"{' and VB noise' if self.vb is not None else ''}")
+        self._compiled = (jit.ENABLED and self.spec.covered) if value is None else bool(value)
 
     # -- storage -----------------------------------------------------------------------------------------
     def _alloc(self, capacity: int) -> None:
@@ -190,6 +207,13 @@ class ImmBank:
         stored: combined x (B, n), P (B, n, n) and Markov-propagated mode probabilities (B, M) (eq 20)."""
         slots = np.atleast_1d(slots)
         dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
+        if self._compiled:
+            b, sp = len(slots), self.spec
+            x, p, cbar = np.empty((b, self.n)), np.empty((b, self.n, self.n)), np.empty((b, self.m))
+            kernels.bank_predict(self.x, self.p, self.mu, kernels.arr(slots, np.int64),
+                                 kernels.arr(dt), sp.codes, sp.sigma, sp.v, sp.vinv, sp.lam,
+                                 self.horizontal, x, p, cbar)
+            return x, p, cbar
         cbar, _, xp, pp, _ = self._interact_predict(slots, dt)
         x, p = combine(xp, pp, cbar)
         return x, p, cbar
@@ -204,6 +228,10 @@ class ImmBank:
     def posterior(self, slots):
         """Combined posterior at each slot's last update (eqs 16-17)."""
         slots = np.atleast_1d(slots)
+        if self._compiled:
+            x, p = np.empty((len(slots), self.n)), np.empty((len(slots), self.n, self.n))
+            kernels.bank_combine(self.x, self.p, self.mu, kernels.arr(slots, np.int64), x, p)
+            return x, p
         return combine(self.x[slots], self.p[slots], self.mu[slots])
 
     def update(self, slots, dt, z: np.ndarray, mask: np.ndarray, r_var: np.ndarray) -> Pending:
@@ -215,6 +243,8 @@ class ImmBank:
         mask = np.asarray(mask, bool).reshape(b, d)
         mf = mask.astype(float)
         z = np.where(mask, np.asarray(z, float).reshape(b, d), 0.0)
+        if self._compiled:
+            return self._update_compiled(slots, dt, z, mask, r_var)
         cbar, x0, xp, pp, fm = self._interact_predict(slots, dt)
         # combined prediction (eqs 16-17 on the priors): its mean, and the variance of its first two components
         x_prior = (cbar[:, None, :] @ xp)[:, 0, :]
@@ -255,6 +285,20 @@ class ImmBank:
         w_mu = np.exp(logw)
         mu_new = w_mu / w_mu.sum(axis=1, keepdims=True)
         return Pending(slots, dt, x_upd, p_upd, mu_new, maha.min(axis=1), dof, loglik, extra)
+
+    def _update_compiled(self, slots, dt, z, mask, r_var) -> Pending:
+        """update() through kernels.bank_update: the same cycle, the same Pending."""
+        b, m, n, sp = len(slots), self.m, self.n, self.spec
+        x, p, mu = np.empty((b, m, n)), np.empty((b, m, n, n)), np.empty((b, m))
+        d2, loglik, x_prior, var2 = np.empty(b), np.empty((b, m)), np.empty((b, n)), np.empty((b, 2))
+        status = kernels.bank_update(self.x, self.p, self.mu, kernels.arr(slots, np.int64),
+                                     kernels.arr(dt), z, kernels.arr(mask, bool),
+                                     kernels.arr(np.broadcast_to(np.asarray(r_var, float).reshape(b, -1), (b, self.d))),
+                                     sp.codes, sp.sigma, sp.v, sp.vinv, sp.lam, self.horizontal,
+                                     x, p, mu, d2, loglik, x_prior, var2)
+        if status != kernels.OK:
+            raise np.linalg.LinAlgError("matrix is not positive definite")
+        return Pending(slots, dt, x, p, mu, d2, mask.sum(axis=1), loglik, {"x_prior": x_prior, "var_prior": var2})
 
     def _residual_mean(self, loglik, slots, x0, xp, fm, k, s_inv, cbar, mf):
         """RMIMM likelihood (Hwang eqs 11-14): Lambda_j <- Lambda_j / ||E[r_j | Z^k-1]||, with

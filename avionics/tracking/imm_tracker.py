@@ -35,7 +35,7 @@ import numpy as np
 from avionics.core.chi2 import chi2_quantile
 
 from avionics.core.types import IntruderKey, IntruderReport
-from avionics.tracking import models
+from avionics.tracking import kernels, models
 from avionics.tracking.imm import ImmBank, VbParams
 from avionics.tracking.lifecycle import TrackLifecycle
 from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
@@ -71,19 +71,30 @@ class ImmTracker(TrackLifecycle):
 
     def __init__(self, params, counters: Counter | None, horizontal: list[models.MotionModel],
                  vertical: list[models.MotionModel], *, likelihood: str = "standard", vb: VbParams | None = None,
-                 name: str = "imm", capacity: int = 16):
+                 name: str = "imm", capacity: int = 16, compiled: bool | None = None):
         super().__init__(params, counters, capacity)
         self.model = name
         self.h_modes = list(horizontal)
         self.v_modes = list(vertical)
         p = params.imm_switch_probability
         kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=params.rmimm_floor, capacity=capacity,
-                  yaw_time_constant_s=params.yaw_rate_time_constant_s)
+                  yaw_time_constant_s=params.yaw_rate_time_constant_s, compiled=compiled)
         self.bank_h = ImmBank(self.h_modes, H_MEAS, models.switching_matrix(len(self.h_modes), p), **kw)
         self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))
         self._gate = np.array([0.0] + [chi2_quantile(params.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])
+
+    @property
+    def compiled(self) -> bool:
+        """Both banks run the compiled kernels: the update, the prediction and the posterior are then one fused
+        kernel call each (tracking/kernels.py); otherwise the numpy reference of imm.py."""
+        return self.bank_h.compiled and self.bank_v.compiled
+
+    @compiled.setter
+    def compiled(self, value: bool | None) -> None:
+        self.bank_h.compiled = value
+        self.bank_v.compiled = value
 
     # -- slots -------------------------------------------------------------------------------------------
     def _take_slots(self, n: int) -> np.ndarray:
@@ -189,6 +200,35 @@ class ImmTracker(TrackLifecycle):
         times = np.fromiter((r.time_s for r in reps), float, len(reps))
         dt = times - self._t[slots]
         (z_h, m_h, r_h), (z_v, m_v, r_v) = self._measure(reps, easts, norths, stale)
+        if self.compiled:
+            in_gate, plausible = self._update_compiled(slots, dt, z_h, m_h, r_h, z_v, m_v, r_v)
+        else:
+            in_gate, plausible = self._update_reference(slots, dt, z_h, m_h, r_h, z_v, m_v, r_v)
+        self._t[slots[in_gate]] = times[in_gate]
+        for k in np.flatnonzero(in_gate):
+            self._accepted(tracks[k], reps[k])
+        for k in np.flatnonzero(~in_gate) if count else ():
+            self.counters["track.implausible_jump" if not plausible[k] else "track.gate_miss"] += 1
+        return in_gate
+
+    def _update_compiled(self, slots, dt, z_h, m_h, r_h, z_v, m_v, r_v):
+        """_update_reference in one fused kernel call (kernels.tracker_update): both banks, the plausibility
+        test, the gate and the commit of the accepted slots."""
+        bh, bv, sh, sv = self.bank_h, self.bank_v, self.bank_h.spec, self.bank_v.spec
+        b = len(slots)
+        in_gate, plausible = np.empty(b, bool), np.empty(b, bool)
+        status = kernels.tracker_update(
+            bh.x, bh.p, bh.mu, bh.yaw, sh.codes, sh.sigma, sh.v, sh.vinv, sh.lam, sh.turn_mode, bh.yaw_time_constant_s,
+            bv.x, bv.p, bv.mu, sv.codes, sv.sigma, sv.v, sv.vinv, sv.lam,
+            kernels.arr(slots, np.int64), dt, z_h, m_h, r_h, z_v, m_v, r_v, self._gate,
+            float(self.config.max_innovation_speed_mps), in_gate, plausible)
+        if status != kernels.OK:
+            raise np.linalg.LinAlgError("matrix is not positive definite")
+        return in_gate, plausible
+
+    def _update_reference(self, slots, dt, z_h, m_h, r_h, z_v, m_v, r_v):
+        """Both banks' IMM cycles (imm.ImmBank.update), the plausibility test and the gate; the accepted slots
+        are committed. Returns (in_gate, plausible) per slot."""
         pend_h = self.bank_h.update(slots, dt, z_h, m_h, r_h)
         pend_v = self.bank_v.update(slots, dt, z_v, m_v, r_v)
         # physical plausibility: could the tracked aircraft be where this report says?
@@ -201,12 +241,7 @@ class ImmTracker(TrackLifecycle):
         in_gate = plausible & (d2 <= self._gate[pend_h.dof + pend_v.dof])
         self.bank_h.commit(pend_h, in_gate)
         self.bank_v.commit(pend_v, in_gate)
-        self._t[slots[in_gate]] = times[in_gate]
-        for k in np.flatnonzero(in_gate):
-            self._accepted(tracks[k], reps[k])
-        for k in np.flatnonzero(~in_gate) if count else ():
-            self.counters["track.implausible_jump" if not plausible[k] else "track.gate_miss"] += 1
-        return in_gate
+        return in_gate, plausible
 
     def _handle_miss(self, track: ImmTrack, rep: IntruderReport, east: float, north: float) -> bool:
         """A report outside the track's gate: it goes to the key's competing track (started if needed); the
@@ -247,6 +282,12 @@ class ImmTracker(TrackLifecycle):
         return xs, ps
 
     def _posterior(self, slots: np.ndarray):
+        if self.compiled:
+            xs, ps = np.empty((len(slots), 6)), np.empty((len(slots), 6, 6))
+            bh, bv = self.bank_h, self.bank_v
+            kernels.tracker_posterior(bh.x, bh.p, bh.mu, bv.x, bv.p, bv.mu, kernels.arr(slots, np.int64),
+                                      xs, ps)
+            return xs, ps
         xh, ph = self.bank_h.posterior(slots)
         xv, pv = self.bank_v.posterior(slots)
         return self._assemble(xh, ph, xv, pv)
@@ -258,9 +299,15 @@ class ImmTracker(TrackLifecycle):
             return np.empty((0, 6)), np.empty((0, 6, 6))
         slots = np.fromiter((self.tracks[k].slot for k in keys), int, len(keys))
         dt = t_s - self._t[slots]
-        xh, ph, _ = self.bank_h.predict(slots, dt)
-        xv, pv, _ = self.bank_v.predict(slots, dt)
-        xs, ps = self._assemble(xh, ph, xv, pv)
+        if self.compiled:
+            bh, bv, sh, sv = self.bank_h, self.bank_v, self.bank_h.spec, self.bank_v.spec
+            xs, ps = np.empty((len(slots), 6)), np.empty((len(slots), 6, 6))
+            kernels.tracker_predict(bh.x, bh.p, bh.mu, sh.codes, sh.sigma, sh.v, sh.vinv, sh.lam,
+                                    bv.x, bv.p, bv.mu, sv.codes, sv.sigma, sv.v, sv.vinv, sv.lam, slots, dt, xs, ps)
+        else:
+            xh, ph, _ = self.bank_h.predict(slots, dt)
+            xv, pv, _ = self.bank_v.predict(slots, dt)
+            xs, ps = self._assemble(xh, ph, xv, pv)
         return xs, self.integrity.widen(keys, ps)  # a degraded track's position is widened by its fault size
 
     def mode_info(self, key: IntruderKey, t_s: float | None = None) -> dict:
