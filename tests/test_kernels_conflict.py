@@ -211,3 +211,75 @@ def test_pair_geometry_kernel_is_used():
     with mock.patch.object(kernels, "pair_geometry_pairs", side_effect=AssertionError("kernel called")):
         with pytest.raises(AssertionError, match="kernel called"):
             pair_geometry([[1.0, 2.0]], [[0.0, 1.0]], [0.0], [0.0])
+
+
+# --- the alerter's TCAS3D tests --------------------------------------------------------------------------------
+
+
+@SETTINGS
+@given(st.lists(st.tuples(coord, coord, coord, coord, coord, coord, st.booleans(), st.booleans(),
+                          st.sampled_from([0.0, 30.0, 1e4])), min_size=1, max_size=10),
+       st.sampled_from([0.0, 500.0, 1500.0]), st.sampled_from([0.0, 100.0, 250.0]), st.sampled_from([0.0, 25.0, 48.0]),
+       st.sampled_from([None, 0.0, 400.0]), st.booleans(), st.booleans(), st.booleans())
+@example([(1000.0, 0.0, -20.0, 0.0, 100.0, -4.0, True, True, 0.0)], 1000.0, 100.0, 25.0, None, False, True, False)
+def test_tcas3d_kernel_equals_reference(rows, dmod, zthr, tau, hmd, altitude_required, hmd_filter, scalar_flags):
+    from avionics.advisory.alerting import TCAS3D, Encounter, TcasThresholds
+
+    a = np.array([r[:6] for r in rows], float)
+    g = pair_geometry_reference(a[:, 0:2], a[:, 2:4], a[:, 4], a[:, 5])
+    has_alt = np.array([r[6] for r in rows])
+    eligible = True if scalar_flags else np.array([r[7] for r in rows])
+    margin = 0.0 if scalar_flags else np.array([r[8] for r in rows])
+    enc = Encounter(g, has_alt, margin, eligible)
+    det = TCAS3D(altitude_required=altitude_required, hmd_filter=hmd_filter)
+    thr = TcasThresholds(tau, dmod, zthr, hmd)
+    for time_s in (tau, 0.0):
+        got = det.conflict(enc, thr, time_s)
+        assert got.dtype == bool
+        np.testing.assert_array_equal(got, det.conflict_reference(enc, thr, time_s))
+
+
+def test_tcas3d_kernel_is_used():
+    from avionics.advisory.alerting import TCAS3D, Encounter, TcasThresholds
+
+    enc = Encounter(pair_geometry([[1.0, 2.0]], [[0.0, 1.0]], [0.0], [0.0]), np.array([True]))
+    with mock.patch.object(kernels, "tcas3d_conflict_pairs", side_effect=AssertionError("kernel called")):
+        with pytest.raises(AssertionError, match="kernel called"):
+            TCAS3D().conflict(enc, TcasThresholds(25.0, 1000.0, 100.0), 25.0)
+
+
+# --- the pc_within Monte Carlo ---------------------------------------------------------------------------------
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cpa_case(), st.integers(0, 2**32 - 1), st.sampled_from([0.5, 1.0]), st.sampled_from([0, 1, 7, 30]),
+       st.sampled_from([None, 100.0, "mixed"]), st.sampled_from([(2.0, 1.0), (0.0, 0.0), (30.0, 10.0)]))
+def test_pc_within_kernel_equals_reference_sample_for_sample(case, seed, step_s, steps, half, sigmas):
+    """The same random numbers from the same Generator: the same hits, exactly (a fraction of the samples)."""
+    from avionics.conflict.prediction import pc_within_cv_mc, pc_within_cv_mc_reference
+
+    x, p, _, volumes, _, _, _ = case
+    x = x.copy()
+    x[:, 0:2] *= 0.1  # within reach of the disk in a few steps
+    hh = None if half is None else (np.where(np.arange(len(x)) % 2 == 0, 100.0, np.inf) if half == "mixed" else half)
+    args = (x, p, volumes[0][0] or 300.0, steps * step_s, step_s, *sigmas, hh, 200)
+    got = pc_within_cv_mc(*args, np.random.default_rng(seed))
+    want = pc_within_cv_mc_reference(*args, np.random.default_rng(seed))
+    np.testing.assert_array_equal(got, want)
+
+
+def test_pc_within_kernel_agrees_on_the_conflict_stage_and_leaves_the_generator_where_the_reference_does():
+    from avionics.conflict.prediction import pc_within_cv_mc, pc_within_cv_mc_reference
+
+    rng = np.random.default_rng(5)
+    n = 40
+    x = np.column_stack([rng.uniform(-2000, 2000, (n, 2)), rng.uniform(-150, 150, n),
+                         rng.uniform(-40, 40, (n, 2)), rng.uniform(-2, 2, n)])
+    x[:, 3:5] -= x[:, 0:2] / 40.0  # converging
+    p = np.broadcast_to(np.diag([400.0, 400.0, 100.0, 4.0, 4.0, 1.0]), (n, 6, 6))
+    g1, g2 = np.random.default_rng(9), np.random.default_rng(9)
+    got = pc_within_cv_mc(x, p, 300.0, 60.0, 1.0, 2.0, 1.0, np.full(n, 100.0), 500, g1)
+    want = pc_within_cv_mc_reference(x, p, 300.0, 60.0, 1.0, 2.0, 1.0, np.full(n, 100.0), 500, g2)
+    np.testing.assert_array_equal(got, want)
+    assert 0.0 < got.max() and got.min() < 1.0  # not a vacuous comparison: some pairs hit, some do not
+    assert g1.random() == g2.random()

@@ -33,7 +33,10 @@ from typing import Callable, Protocol
 import numpy as np
 
 from avionics.advisory.tables import SensitivityLevel
+from avionics.conflict import kernels
 from avionics.conflict.cpa import PairGeometry
+from avionics.conflict.probability import as_c
+from avionics.core import jit
 from avionics.core.types import AdvisoryLevel
 from avionics.core.units import FT, NM
 
@@ -140,6 +143,22 @@ class TCAS3D:
     hmd_filter: bool = True
 
     def conflict(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
+        """The tests of every pair in one call of the compiled kernel (conflict/kernels.py tcas3d_conflict_pairs)
+        when compiled kernels are on (avionics.core.jit), else `conflict_reference`."""
+        if not jit.ENABLED:
+            return self.conflict_reference(encounter, thresholds, time_s)
+        g = encounter.geometry
+        n = g.range_m.shape[0]
+        flags = lambda a: np.require(np.broadcast_to(np.asarray(a, bool), (n,)), bool, ("C", "W"))  # noqa: E731
+        hmd = thresholds.hmd_m if self.hmd_filter and thresholds.hmd_m is not None else np.nan
+        return kernels.tcas3d_conflict_pairs(
+            as_c(g.range_m), as_c(g.s_dot_v), as_c(g.hmd_m), as_c(g.sz_m), as_c(g.vz_mps), flags(encounter.has_altitude),
+            as_c(np.broadcast_to(np.asarray(encounter.vertical_margin_m, float), (n,))),
+            flags(encounter.threat_eligible), float(thresholds.dmod_m), float(thresholds.zthr_m), float(time_s),
+            float(hmd), self.altitude_required)
+
+    def conflict_reference(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
+        """The numpy reference of `conflict`."""
         g = encounter.geometry
         horizontal = _horizontal_test(g, thresholds.dmod_m, time_s)
         vertical = _vertical_test(encounter.separation_z_m(), g.vz_mps, thresholds.zthr_m, time_s)

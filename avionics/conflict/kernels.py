@@ -202,12 +202,12 @@ def exact_general(m_u, m_v, s_a, s_b, r):
         z[p + 1] = z0 + cum
     total = 0.0
     zone = 0.0
-    cdf_a = ndtr(z[0])
+    cdf = np.empty(12)  # Phi(z) of the knots, evaluated only where a closed-form panel needs it
+    have = -1  # cdf[have] is known
     for p in range(11):
         ta = knots[p]
         tb = knots[p + 1]
         width = tb - ta
-        cdf_b = ndtr(z[p + 1])
         tm = 0.5 * (ta + tb)
         h_mid = r * (1.0 - tm * tm) / (1.0 + tm * tm)
         in_zone = ((abs(h_mid - m_v) < kb) or (abs(h_mid + m_v) < kb)) and width > 0.0
@@ -220,8 +220,11 @@ def exact_general(m_u, m_v, s_a, s_b, r):
             else:
                 zone += zone_piece(ta, tb, z[p], h_mid, r, s_a, s_b, m_v, kb)
         elif h_mid > m_v + kb and h_mid > -m_v + kb:  # inside the disk on the whole panel: bracket 1
-            total += cdf_b - cdf_a
-        cdf_a = cdf_b
+            if have != p:
+                cdf[p] = ndtr(z[p])
+            cdf[p + 1] = ndtr(z[p + 1])
+            have = p + 1
+            total += cdf[p + 1] - cdf[p]
     total += zone
     return min(max(total, 0.0), 1.0)
 
@@ -401,3 +404,133 @@ def pair_geometry_pairs(s_xy, v_xy, sz, vz):
         out[i, 13] = pz
         out[i, 14] = np.sqrt(px * px + py * py + pz * pz)
     return out
+
+
+@kernel("boolean[::1](float64[::1], float64[::1], float64[::1], float64[::1], float64[::1], boolean[::1], "
+        "float64[::1], boolean[::1], float64, float64, float64, float64, boolean)")
+def tcas3d_conflict_pairs(range_m, s_dot_v, hmd_m, sz_m, vz_mps, has_alt, margin_m, eligible, dmod_m, zthr_m, tau_s,
+                          hmd_thr_m, altitude_required):
+    """advisory/alerting.py TCAS3D.conflict (its numpy code is the reference) for N pairs ([B71] Table 3 thresholds;
+    DAIDALUS TCAS2D.horizontal_RA, TCAS3D.vertical_RA; HMD filter where hmd_thr_m is not NaN):
+
+      horizontal: r <= DMOD, or closing (s.v < 0) with modified tau (DMOD^2 - r^2) / (s.v) <= TAU
+      vertical:   |sz'| <= ZTHR, or converging with time to co-altitude -sz'/vz <= TAU,
+                  sz' = sign(sz) max(|sz| - margin, 0) (the datum margin taken off)
+      out:        altitude_required: has_alt & eligible & horizontal & vertical; else horizontal & (!has_alt | vertical)
+    """
+    n = range_m.shape[0]
+    out = np.empty(n, np.bool_)
+    d2 = dmod_m ** 2
+    for i in range(n):
+        r = range_m[i]
+        sv = s_dot_v[i]
+        if r <= dmod_m:
+            horizontal = True
+        elif sv < 0.0:
+            horizontal = (d2 - r ** 2) / sv <= tau_s
+        else:
+            horizontal = False
+        z = sz_m[i]
+        sep = np.sign(z) * max(abs(z) - margin_m[i], 0.0)
+        w = vz_mps[i]
+        converging = sep * w < 0.0
+        vertical = abs(sep) <= zthr_m or (converging and -sep / w <= tau_s)
+        if altitude_required:
+            fire = has_alt[i] and eligible[i] and horizontal and vertical
+        else:
+            fire = horizontal and ((not has_alt[i]) or vertical)
+        if hmd_thr_m == hmd_thr_m:
+            fire = fire and hmd_m[i] <= hmd_thr_m
+        out[i] = fire
+    return out
+
+
+@kernel("boolean(float64, float64, float64, float64, float64, float64, float64, float64, boolean)")
+def segment_hits(p0x, p0y, p1x, p1y, z0, z1, radius, half_height, vertical):
+    """prediction._segment_hits for one segment: the straight segment p0 -> p1 (with z0 -> z1 when vertical) passes
+    inside the disk |p| <= R (and the slab |z| <= H) at the same instant: the roots of |d|^2 s^2 + 2 (p0.d) s +
+    |p0|^2 - R^2 = 0 and of |z0 + dz s| = H intersected with s in [0, 1]."""
+    dx = p1x - p0x
+    dy = p1y - p0y
+    a = dx * dx + dy * dy
+    b = p0x * dx + p0y * dy
+    c = (p0x * p0x + p0y * p0y) - radius ** 2
+    disc = b * b - a * c
+    sq = math.sqrt(max(disc, 0.0))
+    if a > 0.0:
+        ta = (-b - sq) / a
+        tb = (-b + sq) / a
+    else:
+        ta = 0.0 if c <= 0.0 else np.inf
+        tb = 1.0 if c <= 0.0 else -np.inf
+    ok = disc >= 0.0 or a == 0.0
+    lo = max(ta, 0.0)
+    hi = min(tb, 1.0)
+    if vertical:
+        dz = z1 - z0
+        level_in = abs(z0) <= half_height
+        if dz != 0.0:
+            u1 = (-half_height - z0) / dz
+            u2 = (half_height - z0) / dz
+            za = min(u1, u2)
+            zb = max(u1, u2)
+        else:
+            za = 0.0 if level_in else np.inf
+            zb = 1.0 if level_in else -np.inf
+        lo = max(lo, za)
+        hi = min(hi, zb)
+    return ok and lo <= hi
+
+
+@kernel("int64(float32[:, ::1], float32[:, ::1], float32[:, ::1], int64[::1], float64[::1], float32[::1], "
+        "float64[::1], boolean, float32[::1], float32, float32, boolean, float64, float64[::1], int64)")
+def within_step(pos, vel, accel, owner, radius, reach0, half_height, vertical, sig32, h32, half_h2, drop, v_min, hits,
+                m):
+    """One step of prediction.pc_within_cv_mc_reference over its m undecided samples (the first m rows), with the
+    step's standard normals `accel` (m, 3) drawn by numpy: the float32 propagation pos1 = pos + vel h + a h^2/2,
+    vel += a h (a = sigma * normal); the exact float64 segment test on the samples that can reach the disk during
+    the step (start range - step length <= R + 1 m); a hit counted for its pair (hits[owner] += 1) and the sample
+    removed; when `drop`, the samples outside the disk receding faster than v_min removed too. Arrays are
+    compacted in place, in order (as the reference's boolean indexing); returns the samples left."""
+    w = 0
+    for i in range(m):
+        ax = accel[i, 0] * sig32[0]
+        ay = accel[i, 1] * sig32[1]
+        az = accel[i, 2] * sig32[2]
+        p0x = pos[i, 0]
+        p0y = pos[i, 1]
+        p0z = pos[i, 2]
+        p1x = p0x + vel[i, 0] * h32 + ax * half_h2
+        p1y = p0y + vel[i, 1] * h32 + ay * half_h2
+        p1z = p0z + vel[i, 2] * h32 + az * half_h2
+        dx = p1x - p0x
+        dy = p1y - p0y
+        reach = reach0[i] + np.sqrt(dx * dx + dy * dy)
+        vx = vel[i, 0] + ax * h32
+        vy = vel[i, 1] + ay * h32
+        vz = vel[i, 2] + az * h32
+        done = False
+        if p0x * p0x + p0y * p0y <= reach * reach:
+            if segment_hits(np.float64(p0x), np.float64(p0y), np.float64(p1x), np.float64(p1y), np.float64(p0z),
+                            np.float64(p1z), radius[i], half_height[i], vertical):
+                hits[owner[i]] += 1.0
+                done = True
+        if drop and not done:  # outside the disk and receding at v_r > v_min: it cannot come back
+            range2 = p1x * p1x + p1y * p1y
+            radial = p1x * vx + p1y * vy  # v_r |r|
+            # as numpy promotes: range2 against the float64 R^2; v_min (a float64 scalar) times sqrt(range2) (float32)
+            done = (np.float64(range2) > radius[i] * radius[i]) and \
+                (np.float64(radial) > v_min * np.float64(np.sqrt(range2)))
+        if not done:
+            pos[w, 0] = p1x
+            pos[w, 1] = p1y
+            pos[w, 2] = p1z
+            vel[w, 0] = vx
+            vel[w, 1] = vy
+            vel[w, 2] = vz
+            owner[w] = owner[i]
+            radius[w] = radius[i]
+            reach0[w] = reach0[i]
+            half_height[w] = half_height[i]
+            w += 1
+    return w

@@ -36,7 +36,9 @@ from typing import Sequence
 
 import numpy as np
 
+from avionics.conflict import kernels
 from avionics.conflict.probability import conflict_probability, vertical_probability
+from avionics.core import jit
 from avionics.core.units import KT, NM
 from avionics.tracking.imm import combine, interact, mode_matched_predict
 from avionics.tracking.models import MotionModel
@@ -290,6 +292,52 @@ def _sqrt_psd(p: np.ndarray) -> np.ndarray:
 
 def pc_within_cv_mc(rel_x, rel_p, radius, lookahead_s: float, step_s: float, sigma_h_mps2: float,
                     sigma_v_mps2: float, half_height=None, samples: int = 1000, rng=None) -> np.ndarray:
+    """`pc_within_cv_mc_reference` (the method is described there) with each step's arithmetic in the compiled
+    kernel (conflict/kernels.py within_step) when compiled kernels are on (avionics.core.jit). The random numbers
+    are the reference's, drawn by numpy from the same Generator in the same order and sizes, so the result is
+    the reference's, sample for sample."""
+    if not jit.ENABLED:
+        return pc_within_cv_mc_reference(rel_x, rel_p, radius, lookahead_s, step_s, sigma_h_mps2, sigma_v_mps2,
+                                         half_height, samples, rng)
+    rng = np.random.default_rng(rng)
+    rel_x = np.asarray(rel_x, float)
+    n = rel_x.shape[0]
+    if n == 0:
+        return np.zeros(0)
+    steps = int(round(lookahead_s / step_s))
+    if steps == 0:  # the instant only: no steps to compile
+        return pc_within_cv_mc_reference(rel_x, rel_p, radius, lookahead_s, step_s, sigma_h_mps2, sigma_v_mps2,
+                                         half_height, samples, rng)
+    root = _sqrt_psd(np.asarray(rel_p, float))
+    x = rel_x[:, None, :] + np.einsum("nij,nsj->nsi", root, rng.standard_normal((n, samples, 6)))
+    r = np.broadcast_to(np.asarray(radius, float), (n,))
+    vertical = half_height is not None
+    sig = np.array([sigma_h_mps2, sigma_h_mps2, sigma_v_mps2])
+    h = step_s
+    f32 = np.float32
+    pos = np.ascontiguousarray(x[..., 0:3].reshape(n * samples, 3), dtype=f32)
+    vel = np.ascontiguousarray(x[..., 3:6].reshape(n * samples, 3), dtype=f32)
+    owner = np.repeat(np.arange(n, dtype=np.int64), samples)
+    r = np.repeat(r, samples)
+    reach0 = (r + 1.0).astype(f32)
+    hh = np.repeat(np.broadcast_to(np.asarray(half_height, float), (n,)), samples) if vertical else np.zeros(r.size)
+    hits = np.zeros(n)
+    sig32 = sig.astype(f32)
+    h32, half_h2 = f32(h), f32(0.5 * h * h)
+    m = owner.size
+    for k in range(steps):
+        a = rng.standard_normal((m, 3), dtype=f32)
+        drop = k % 4 == 3 and k + 1 < steps
+        v_min = 6.0 * sig[0] * h * np.sqrt(steps - k - 1) if drop else 0.0
+        m = kernels.within_step(pos, vel, a, owner, r, reach0, hh, vertical, sig32, h32, half_h2, drop, float(v_min),
+                                hits, m)
+        if m == 0:
+            break
+    return hits / samples
+
+
+def pc_within_cv_mc_reference(rel_x, rel_p, radius, lookahead_s: float, step_s: float, sigma_h_mps2: float,
+                              sigma_v_mps2: float, half_height=None, samples: int = 1000, rng=None) -> np.ndarray:
     """P(conflict at any time in [0, lookahead]) for the pipeline's relative CV model: N pairs of relative
     state (N, 6) [e, n, z, ve, vn, vz] and covariance (N, 6, 6); samples trajectories per pair with
     piecewise-constant white acceleration (sigma per axis) in steps of step_s; a trajectory is in conflict
