@@ -164,16 +164,19 @@ class LiveRun:
     largest_batch: int
     wall_s: float
     last_event_s: float
+    aborted: bool = False  # stopped once a report's lag passed abort_lag_s (the rest never processed)
 
     @property
     def latencies_s(self) -> np.ndarray:
         return self.done_s - self.arrived_s
 
 
-def drive_real_time(loop: Loop, mavlink: MavlinkInput, scanner: FrameScanner, events, tick: float) -> LiveRun:
+def drive_real_time(loop: Loop, mavlink: MavlinkInput, scanner: FrameScanner, events, tick: float,
+                    abort_lag_s: float = math.inf) -> LiveRun:
     """The live loop (avionics/runner.py) on the wall clock: the events arrive at their times and each step takes
     what has arrived since the last one, at most MAX_DATAGRAMS_PER_RECEIVE datagrams, as the link hands over its
-    backlog; a step at least every tick. Ends when the last event's step is done."""
+    backlog; a step at least every tick. Ends when the last event's step is done, or (aborted) after the step
+    that answered a report more than abort_lag_s after its arrival."""
     arrived, done, busy, steps, biggest = [], [], 0.0, 0, 0
     i = 0
     start = time.perf_counter()
@@ -201,8 +204,11 @@ def drive_real_time(loop: Loop, mavlink: MavlinkInput, scanner: FrameScanner, ev
         arrived.extend(batch)
         done.extend([t1 - start] * len(batch))
         last_step = now
+        if batch and t1 - start - batch[0] > abort_lag_s:
+            break
     wall = time.perf_counter() - start
-    return LiveRun(np.array(arrived), np.array(done), busy, steps, biggest, wall, events[-1][0] if events else 0.0)
+    return LiveRun(np.array(arrived), np.array(done), busy, steps, biggest, wall, events[-1][0] if events else 0.0,
+                   aborted=i < len(events))
 
 
 def _run_real_time(n: int, seconds: float, port: int, zenoh: bool = True, rate_hz: float = 1.0) -> dict:

@@ -58,6 +58,22 @@ def test_capacity_bench_prints_every_measure_positive_finite_and_ordered(capsys)
     assert lo == row["capacity_reports_per_s"] and (hi is None if not failed else hi == min(failed) > lo)
     for t in trials:
         assert 0 < t["cpu_load"] <= 1
+        if "reason" in t:  # stopped far over capacity, or too few reports to judge: never sustained
+            assert t["sustained"] is False
+            continue
         growth = t["lag_p99_last_quarter_s"] - t["lag_p99_second_quarter_s"] - 0.1  # the JSON rounds to 0.1 ms
         if abs(growth) > 1e-3 and abs(t["last_report_lag_s"] - 0.5) > 1e-3:
             assert t["sustained"] == (growth <= 0 and t["last_report_lag_s"] <= 0.5)
+
+
+def test_a_trial_past_its_lag_bound_stops_and_is_not_sustained():
+    """The capacity search stops a trial once a report's lag passes the bound (a bound of -1 s: the first report)."""
+    from avionics_eval import bench, capacity_bench
+
+    config, counters, loop, mavlink, scanner, bus, sent, events = bench._setup(5, 2.0, 0, zenoh=False)
+    run = bench.drive_real_time(loop, mavlink, scanner, events, 0.1, abort_lag_s=-1.0)
+    assert run.aborted and len(run.arrived_s) < 10  # 5 intruders x 2 s: stopped before the last report
+    ok, why = capacity_bench.sustained(run, 2.0)
+    assert ok is False and "stopped" in why["reason"]
+    full = bench.drive_real_time(*bench._setup(5, 2.0, 0, zenoh=False)[2:4], scanner, events, 0.1)
+    assert not full.aborted and len(full.arrived_s) == 10
