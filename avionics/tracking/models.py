@@ -275,7 +275,10 @@ class MarkovChain:
             self._v = self._vinv = np.ones((1, 1))
             self._lam = np.zeros(1)
             return
-        w, v = np.linalg.eig(m1)
+        # A symmetric M1 (the uniform switching built from tracking.imm_switch_probability) has a repeated
+        # eigenvalue from 3 modes on; eig may then return dependent eigenvectors (4 modes at 0.23 did: "Singular
+        # matrix"), eigh always returns an orthonormal basis.
+        w, v = np.linalg.eigh(m1) if np.allclose(m1, m1.T) else np.linalg.eig(m1)
         if np.iscomplexobj(w) and np.abs(w.imag).max() > 1e-12 or (w.real <= 0).any():
             raise ValueError("mode transition matrix has no real logarithm (make it diagonally dominant)")
         self._v = v.real
