@@ -3,7 +3,7 @@ edges and local ENU metres inside. Altitudes always say which datum they are in.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 
 
@@ -27,6 +27,15 @@ class IntruderKey:
 
     address: int
     source: AddressSource
+    # hashed once: a key is looked up in several dicts per intruder per assessment (the generated hash built a
+    # tuple and called Enum.__hash__ every time)
+    _hash: int = field(init=False, repr=False, compare=False, default=0)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_hash", hash((self.address, self.source)))
+
+    def __hash__(self) -> int:
+        return self._hash
 
     def __str__(self) -> str:
         return f"{self.source.value}-{self.address:06X}"
