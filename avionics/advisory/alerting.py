@@ -126,6 +126,12 @@ def _vertical_test(sz_m: np.ndarray, vz_mps: np.ndarray, zthr_m: float, tau_s: f
     return (np.abs(sz_m) <= zthr_m) | (converging & (t_coalt <= tau_s))
 
 
+def _per_pair(a, n: int, dtype) -> np.ndarray:
+    """An (N,) array or a scalar of the Encounter as an (N,) array the kernels take."""
+    a = np.asarray(a, dtype)
+    return as_c(a if a.shape == (n,) else np.full(n, a, dtype), dtype)
+
+
 @dataclass(frozen=True, slots=True)
 class TCAS3D:
     """TCAS II v7.1 threat detection (DO-185B; DAIDALUS TCAS3D after Muñoz, Narkawicz & Chamberlain 2013):
@@ -149,13 +155,12 @@ class TCAS3D:
             return self.conflict_reference(encounter, thresholds, time_s)
         g = encounter.geometry
         n = g.range_m.shape[0]
-        flags = lambda a: np.require(np.broadcast_to(np.asarray(a, bool), (n,)), bool, ("C", "W"))  # noqa: E731
         hmd = thresholds.hmd_m if self.hmd_filter and thresholds.hmd_m is not None else np.nan
         return kernels.tcas3d_conflict_pairs(
-            as_c(g.range_m), as_c(g.s_dot_v), as_c(g.hmd_m), as_c(g.sz_m), as_c(g.vz_mps), flags(encounter.has_altitude),
-            as_c(np.broadcast_to(np.asarray(encounter.vertical_margin_m, float), (n,))),
-            flags(encounter.threat_eligible), float(thresholds.dmod_m), float(thresholds.zthr_m), float(time_s),
-            float(hmd), self.altitude_required)
+            as_c(g.range_m), as_c(g.s_dot_v), as_c(g.hmd_m), as_c(g.sz_m), as_c(g.vz_mps),
+            _per_pair(encounter.has_altitude, n, bool), _per_pair(encounter.vertical_margin_m, n, np.float64),
+            _per_pair(encounter.threat_eligible, n, bool), float(thresholds.dmod_m), float(thresholds.zthr_m),
+            float(time_s), float(hmd), self.altitude_required)
 
     def conflict_reference(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
         """The numpy reference of `conflict`."""

@@ -91,7 +91,7 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
         curve = kernels.pc_curve_cv_pairs(as_c(rel_x), as_c(rel_p), as_c(t), float(cfg.step_s),
                                           float(cfg.accel_sigma_h_mps2), float(cfg.accel_sigma_v_mps2),
                                           float(cfg.zone_radius_m), as_c(half),
-                                          np.require(has_alt, bool, ("C_CONTIGUOUS", "WRITEABLE")))
+                                          as_c(has_alt, bool))
         mean_k, cov_k, mz_k, vz_k = cv_relative_prediction(rel_x, rel_p, t[k][:, None], cfg.step_s,
                                                            cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2)
         mean_k, cov_k = mean_k[:, 0], cov_k[:, 0]

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.conflict import kernels
+from avionics.conflict.probability import as_c
 from avionics.core import jit
 
 INF = np.inf
@@ -85,17 +86,16 @@ def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
     s_xy, v_xy = np.atleast_2d(s_xy).astype(float), np.atleast_2d(v_xy).astype(float)
     sz, vz = np.atleast_1d(sz).astype(float), np.atleast_1d(vz).astype(float)
     n = max(s_xy.shape[0], v_xy.shape[0], sz.shape[0], vz.shape[0])
-    s_xy, v_xy = _c(np.broadcast_to(s_xy, (n, 2))), _c(np.broadcast_to(v_xy, (n, 2)))
-    sz, vz = _c(np.broadcast_to(sz, (n,))), _c(np.broadcast_to(vz, (n,)))
+    # (broadcast only where needed: np.broadcast_to costs 4 us a call on the one-report path)
+    s_xy = as_c(s_xy if s_xy.shape == (n, 2) else np.broadcast_to(s_xy, (n, 2)))
+    v_xy = as_c(v_xy if v_xy.shape == (n, 2) else np.broadcast_to(v_xy, (n, 2)))
+    sz = as_c(sz if sz.shape == (n,) else np.broadcast_to(sz, (n,)))
+    vz = as_c(vz if vz.shape == (n,) else np.broadcast_to(vz, (n,)))
     g = kernels.pair_geometry_pairs(s_xy, v_xy, sz, vz)
     return PairGeometry(
         range_m=g[:, 0], s_dot_v=g[:, 1], closure_rate_mps=g[:, 2], t_cpa_s=g[:, 3], hmd_m=g[:, 4], sz_m=sz,
         vz_mps=vz, vmd_m=g[:, 5], range_tau_s=g[:, 6], vertical_tau_s=g[:, 7], s_xy_m=s_xy, v_xy_mps=v_xy,
         cpa_xy_m=g[:, 8:10], t_cpa3d_s=g[:, 10], cpa3d_xyz_m=g[:, 11:14], miss3d_m=g[:, 14])
-
-
-def _c(a) -> np.ndarray:
-    return np.require(a, np.float64, ("C_CONTIGUOUS", "WRITEABLE", "ALIGNED"))
 
 
 def pair_geometry_reference(s_xy, v_xy, sz, vz) -> PairGeometry:

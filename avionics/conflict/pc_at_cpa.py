@@ -36,7 +36,8 @@ def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, ac
     n = t.shape[0]
     radii = np.array([r for r, _ in volumes], float)
     half = np.array([np.nan if h is None else h for _, h in volumes], float)
-    has_alt = np.require(np.broadcast_to(np.asarray(has_altitude, bool), (n,)), bool, ("C_CONTIGUOUS", "WRITEABLE"))
+    has_alt = np.asarray(has_altitude, bool)
+    has_alt = as_c(has_alt if has_alt.shape == (n,) else np.full(n, has_alt), bool)
     return kernels.pc_at_cpa_pairs(as_c(np.reshape(rel_x, (n, 6))), as_c(np.reshape(rel_p, (n, 6, 6))), t, radii, half,
                                    has_alt, float(accel_sigma_h_mps2), float(accel_sigma_v_mps2), MAX_PROPAGATION_S)
 

@@ -141,9 +141,11 @@ def pc_exact(mean, cov, radius) -> np.ndarray:
     return kernels.pc_exact_pairs(as_c(mean), as_c(cov), as_c(radius))
 
 
-def as_c(a) -> np.ndarray:
-    """a as the compiled kernels take it: float64, C-contiguous, writable (a copy only when it is not)."""
-    return np.require(a, np.float64, ("C_CONTIGUOUS", "WRITEABLE", "ALIGNED"))
+def as_c(a, dtype=np.float64) -> np.ndarray:
+    """a as the compiled kernels take it: float64 (or dtype), C-contiguous, writable (numba types a read-only
+    array apart); a copy only when it is not already (np.require costs six times more on the one-report path)."""
+    a = np.ascontiguousarray(a, dtype=dtype)
+    return a if a.flags.writeable else a.copy()
 
 
 def pc_exact_reference(mean, cov, radius) -> np.ndarray:
