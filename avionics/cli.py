@@ -162,7 +162,8 @@ def cmd_warmup(args) -> int:
         return 0
     records = jit.warmup()
     for r in records:
-        print(f"{r['state']:8} {r['kernel']} ({len(r['signatures'])} signature{'s' if len(r['signatures']) != 1 else ''})")
+        count = len(r["signatures"])
+        print(f"{r['state']:8} {r['kernel']} ({count} signature{'s' if count != 1 else ''})")
     dirs = sorted({r["cache_dir"] for r in records if r["cache_dir"]})
     compiled = sum(r["state"] == "compiled" for r in records)
     print(f"avionics warmup: {len(records)} kernels from {len(jit.KERNEL_MODULES)} modules, {compiled} compiled now, "

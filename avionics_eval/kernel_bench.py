@@ -186,7 +186,8 @@ def main(argv=None) -> int:
     res["meta"] = {"date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M"),
                    "python": platform.python_version(), "numpy": np.__version__, "machine": platform.machine(),
                    "cpus": os.cpu_count(), "load_average": [round(v, 2) for v in os.getloadavg()],
-                   "command": "python -m avionics_eval.kernel_bench " + " ".join(sys.argv[1:] if argv is None else argv)}
+                   "command": "python -m avionics_eval.kernel_bench "
+                              + " ".join(sys.argv[1:] if argv is None else argv)}
     print(json.dumps(res, indent=1))
     return 0
 

@@ -44,10 +44,10 @@ def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, ac
 
 def pc_at_cpa_reference(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, accel_sigma_h_mps2: float,
                         accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
-    """The numpy reference. rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; volumes: V pairs (radius m, half
-    height m or None). Returns (V, N) probabilities, every volume's disks in one exact call (the per-call cost
-    dominates for the few pairs of a single report). Without altitude (has_altitude False) or without a half
-    height the vertical factor is 1."""
+    """The numpy reference. rel_x (N, 6) [e, n, z, ve, vn, vz], rel_p (N, 6, 6), t_s (N,) >= 0; volumes: V pairs
+    (radius m, half height m or None). Returns (V, N) probabilities, every volume's disks in one exact call (the
+    per-call cost dominates for the few pairs of a single report). Without altitude (has_altitude False) or
+    without a half height the vertical factor is 1."""
     t = np.minimum(np.asarray(t_s, float), MAX_PROPAGATION_S)
     n = t.shape[0]
     mean = rel_x[:, 0:3] + t[:, None] * rel_x[:, 3:6]
