@@ -1,7 +1,7 @@
 """Receiver feeds over real sockets on 127.0.0.1, with the real reader threads (avionics/io/feeds/source.py):
 
-- the head-on encounter served by the simulated receiver's SBS output (avionics_sitl/sbs.py) while ownship arrives
-  as MAVLink messages gives the TA and RA onsets of the ADSB_VEHICLE path (within 1 s), run in fast time: the
+- the head-on encounter served by the simulated receiver's SBS or Beast output (avionics_sitl/sbs.py, beast.py) while
+  ownship arrives as MAVLink messages gives the TA and RA onsets of the ADSB_VEHICLE path (within 1 s), run in fast time: the
   server, the loop and the feed's clock are one scenario clock running SPEED times real time;
 - the same aircraft on both paths (ADSB_VEHICLE and SBS) is one track;
 - a killed and restarted SBS server is reconnected to (reports flow again) and, while down, is a status warning;
@@ -31,6 +31,7 @@ from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.tracking.integrity import position_sigma_per_axis
 from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
+from avionics_sitl.beast import BeastServer, beast_schedule
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.sbs import SbsServer, sbs_schedule
@@ -107,7 +108,11 @@ class OwnshipOverMavlink:
         return self.mavlink.status()
 
 
-def test_sbs_feed_gives_the_onsets_of_the_adsb_vehicle_path(tcp_port):
+@pytest.mark.parametrize("scheme, server_type, make_schedule", [("sbs", SbsServer, sbs_schedule),
+                                                                  ("beast", BeastServer, beast_schedule)])
+def test_receiver_feed_gives_the_onsets_of_the_adsb_vehicle_path(tcp_port, scheme, server_type, make_schedule):
+    """SBS-1 lines or Beast frames of the head-on over a real socket, ownship over MAVLink: the ADSB_VEHICLE path's
+    TA and RA onsets within 1 s, one track."""
     reference = mavlink_reference()
     assert set(reference) >= {"TA", "RA"}, reference
     t0 = time.monotonic()
@@ -116,9 +121,9 @@ def test_sbs_feed_gives_the_onsets_of_the_adsb_vehicle_path(tcp_port):
         return (time.monotonic() - t0) * SPEED
 
     counters = Counter()
-    with SbsServer(sbs_schedule(SCENARIO, PRESETS["default"], duration_s=DURATION_S), port=tcp_port,
-                   clock=clock) as server:
-        feeds = FeedSet.open([f"sbs:127.0.0.1:{server.port}"], CONFIG, clock, counters)
+    with server_type(make_schedule(SCENARIO, PRESETS["default"], duration_s=DURATION_S), port=tcp_port,
+                     clock=clock) as server:
+        feeds = FeedSet.open([f"{scheme}:127.0.0.1:{server.port}"], CONFIG, clock, counters)
         source = TrafficSource(OwnshipOverMavlink(MavlinkInput(CONFIG, counters), clock, DURATION_S), feeds)
         loop = Loop(Daa(CONFIG, counters), source, [])
         changes, tracks = [], set()
@@ -128,11 +133,11 @@ def test_sbs_feed_gives_the_onsets_of_the_adsb_vehicle_path(tcp_port):
             tracks |= set(loop.daa._core.tracker.tracks)
         assert not feeds.feeds[0]._thread.is_alive()  # the iteration's end joined the reader thread
     got = onsets(changes)
-    print(json.dumps({"reference_onsets_s": reference, "sbs_onsets_s": got, "counters": {
+    print(json.dumps({"reference_onsets_s": reference, f"{scheme}_onsets_s": got, "counters": {
         k: v for k, v in counters.items() if k.startswith("traffic.")}}))
     assert tracks == {KEY}
-    assert counters["traffic.sbs.reports"] >= 0.8 * DURATION_S  # 1 Hz less the default 5 % dropouts
-    assert not any(k.startswith("traffic.sbs.rejected") for k in counters), counters
+    assert counters[f"traffic.{scheme}.reports"] >= 0.8 * DURATION_S  # at least 1 Hz less the default 5 % dropouts
+    assert not any(k.startswith(f"traffic.{scheme}.rejected") for k in counters), counters
     assert abs(got["TA"] - reference["TA"]) <= 1.0 and abs(got["RA"] - reference["RA"]) <= 1.0
 
 
