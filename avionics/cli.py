@@ -17,10 +17,10 @@ import os
 for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_threads, "1")
 
-import argparse  # noqa: E402  (after the thread settings above)
-import json  # noqa: E402
-import logging  # noqa: E402
-import sys  # noqa: E402
+import argparse  # after the thread settings above (E402 on purpose)
+import json
+import logging
+import sys
 import traceback
 from pathlib import Path
 

@@ -53,7 +53,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections import Counter
 
 import numpy as np
 
@@ -91,7 +90,7 @@ def sustained(run: b.LiveRun, trial_s: float) -> tuple[bool, dict]:
 
 def trial(n: int, rate: float, trial_s: float, zenoh: bool) -> tuple[dict, b.LiveRun]:
     """One trial: N intruders offering `rate` reports per second in total, through the live loop."""
-    config, counters, loop, mavlink, scanner, bus, sent, events = b._setup(n, trial_s, b._free_port(), zenoh,
+    config, _counters, loop, mavlink, scanner, bus, _sent, events = b._setup(n, trial_s, b._free_port(), zenoh,
                                                                            rate_hz=rate / n)
     try:
         run = b.drive_real_time(loop, mavlink, scanner, events, 1.0 / config.advisory.assessment_hz,
@@ -150,7 +149,8 @@ def capacity(n: int, trial_s: float, zenoh: bool, max_bisections: int = 3, max_t
 
 def single_report(n: int, zenoh: bool) -> dict:
     """One report alone through the whole path, each datagram its own step (module docstring)."""
-    config, counters, loop, mavlink, scanner, bus, sent, events = b._setup(n, SINGLE_SECONDS, b._free_port(), zenoh)
+    _config, _counters, loop, mavlink, scanner, bus, _sent, events = b._setup(n, SINGLE_SECONDS, b._free_port(),
+                                                                              zenoh)
     lat = []
     try:
         for t, data, is_report in events:

@@ -70,7 +70,7 @@ def test_a_trial_past_its_lag_bound_stops_and_is_not_sustained():
     """The capacity search stops a trial once a report's lag passes the bound (a bound of -1 s: the first report)."""
     from avionics_eval import bench, capacity_bench
 
-    config, counters, loop, mavlink, scanner, bus, sent, events = bench._setup(5, 2.0, 0, zenoh=False)
+    _config, _counters, loop, mavlink, scanner, _bus, _sent, events = bench._setup(5, 2.0, 0, zenoh=False)
     run = bench.drive_real_time(loop, mavlink, scanner, events, 0.1, abort_lag_s=-1.0)
     assert run.aborted and len(run.arrived_s) < 10  # 5 intruders x 2 s: stopped before the last report
     ok, why = capacity_bench.sustained(run, 2.0)

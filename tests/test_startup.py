@@ -21,9 +21,9 @@ def test_console_entry_point_pins_blas_threads_to_one_before_numpy_loads():
         "import sys, os, json\n"
         "import avionics_eval.cli\n"  # the `avionics` console script's module (pyproject [project.scripts])
         "before = 'numpy' in sys.modules\n"
-        "env = {k: os.environ.get(k) for k in %r}\n"
+        f"env = {{k: os.environ.get(k) for k in {THREAD_VARS!r}}}\n"
         "import numpy\n"
-        "print(json.dumps({'numpy_before': before, 'env': env}))" % (THREAD_VARS,))
+        "print(json.dumps({'numpy_before': before, 'env': env}))")
     assert got["numpy_before"] is False  # numpy, hence its BLAS, loads after the variables are set
     assert got["env"] == {k: "1" for k in THREAD_VARS}
 
