@@ -38,6 +38,7 @@ from avionics.config import load_config
 from avionics.io.dialect import daa as m2
 from avionics.io.decode import MessageDecoder
 from avionics.io.framing import KNOWN_MESSAGES, FrameScanner
+from avionics.io.traffic import TrafficBatch
 from avionics.io.zenoh_bus import to_json
 from harness import Harness
 
@@ -171,8 +172,8 @@ def mutate(rnd: random.Random, frame: bytes, other: bytes) -> tuple[str, bytes]:
 def _serialise(node: Harness, out_mav, counts: Counter) -> None:
     for msg in node.mavlink_out:
         msg.pack(out_mav)
-    for _, payload in node.zenoh_out:
-        to_json(payload)
+    for _, payload in node.zenoh_out:  # as the bus encodes them: the traffic batch as Arrow, the rest as JSON
+        payload.encode() if isinstance(payload, TrafficBatch) else to_json(payload)
     counts["outputs.mavlink"] += len(node.mavlink_out)
     counts["outputs.zenoh"] += len(node.zenoh_out)
     node.mavlink_out.clear()
