@@ -127,7 +127,8 @@ def vertical_probability(mean_z, var_z, half_height):
 
 def _tau_of_u(u, r):
     """u = R sin t -> tau = tan(t/2) = (u/R) / (1 + sqrt(1 - (u/R)^2)), in [-1, 1]."""
-    w = np.clip(u / r, -1.0, 1.0)
+    with np.errstate(over="ignore"):  # a tiny radius: u / r overflows to +-inf, which the clip makes +-1 (exact)
+        w = np.clip(u / r, -1.0, 1.0)
     return w / (1.0 + np.sqrt(np.maximum(1.0 - w * w, 0.0)))
 
 
