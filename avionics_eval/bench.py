@@ -51,9 +51,12 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _traffic(n: int, seconds: float, seed: int = 1, rate_hz: float = 1.0):
+def _traffic(n: int, seconds: float, seed: int = 1, rate_hz: float = 1.0, start: float = 0.0):
     """Pre-encoded datagrams (time, bytes, is_report): ownship at 5 Hz, n intruders at rate_hz each (1 Hz, as
-    ADS-B; higher to offer more reports per second with the same tracks), staggered."""
+    ADS-B; higher to offer more reports per second with the same tracks), staggered. `start`: the window
+    [start, start + seconds) of the same traffic (same seed, same trajectories), so that a long run can be
+    generated a window at a time; consecutive windows tile exactly when start * rate_hz and start * 5 are
+    whole numbers."""
     rng = np.random.default_rng(seed)
     plane = LocalTangentPlane(LAT0, LON0)
     mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
@@ -66,7 +69,7 @@ def _traffic(n: int, seconds: float, seed: int = 1, rate_hz: float = 1.0):
     alt = ALT0 + rng.uniform(-300, 300, n)
     phase = rng.uniform(0, 1, n)
     events = []
-    for k in range(int(seconds * 5)):
+    for k in range(int(start * 5), int((start + seconds) * 5)):
         t = k / 5.0
         lat, lon = plane.to_geodetic(0.0, own_v * t)
         msg = mav.global_position_int_encode(int(t * 1000), int(round(float(lat) * 1e7)),
@@ -76,7 +79,7 @@ def _traffic(n: int, seconds: float, seed: int = 1, rate_hz: float = 1.0):
         events.append((t, mav.scaled_pressure_encode(int(t * 1000), 1013.25 * (1 - 2.25577e-5 * ALT0) ** 5.25588,
                                                      0.0, 1500).pack(mav), False))
     for i in range(n):
-        t = (np.arange(int(seconds * rate_hz)) + phase[i]) / rate_hz
+        t = (np.arange(int(start * rate_hz), int((start + seconds) * rate_hz)) + phase[i]) / rate_hz
         e = distance[i] * math.sin(bearing[i]) + speed[i] * math.sin(heading[i]) * t
         nn = distance[i] * math.cos(bearing[i]) + speed[i] * math.cos(heading[i]) * t
         lats, lons = plane.to_geodetic(e, nn)

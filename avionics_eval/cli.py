@@ -31,6 +31,13 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.soak is not None:
+        from avionics_eval.soak_bench import soak
+
+        log = None if args.quiet else (lambda line: print(f"avionics bench: {line}", file=sys.stderr, flush=True))
+        print(json.dumps(soak(args.soak, int(args.intruders or 1000), zenoh=args.zenoh,
+                              sample_every_s=args.sample_seconds, log=log), indent=1))
+        return 0
     if args.capacity:
         from avionics_eval.capacity_bench import capacity_bench
 
@@ -74,8 +81,13 @@ def add_commands(sub) -> None:
                         "filterpy's IMM step as a reference (avionics_eval/capacity_bench.py, docs/performance.md)")
     p.add_argument("--trial-seconds", type=_positive, default=20.0, metavar="S",
                    help="--capacity: length of each trial of the capacity search and of the 1 Hz run")
+    p.add_argument("--soak", type=_positive, metavar="S",
+                   help="issue 13's memory soak: a real avionics run fed --intruders (one count, default 1000) at "
+                        "1 Hz for S seconds, its VmRSS sampled (avionics_eval/soak_bench.py, docs/performance.md)")
+    p.add_argument("--sample-seconds", type=_positive, default=5.0, metavar="S",
+                   help="--soak: seconds between samples of the child's memory")
     p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,
-                   help="--capacity: publish on a loopback zenoh session (default) or MAVLink only")
+                   help="--capacity, --soak: publish on a loopback zenoh session (default) or MAVLink only")
     p.add_argument("--startup-repeats", type=int, default=5, metavar="K",
                    help="--capacity: warm launches of avionics run timed (median reported)")
     p.add_argument("--max-trials", type=int, default=16, metavar="K",

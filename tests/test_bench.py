@@ -77,3 +77,47 @@ def test_a_trial_past_its_lag_bound_stops_and_is_not_sustained():
     assert ok is False and "stopped" in why["reason"]
     full = bench.drive_real_time(*bench._setup(5, 2.0, 0, zenoh=False)[2:4], scanner, events, 0.1)
     assert not full.aborted and len(full.arrived_s) == 10
+
+
+def test_soak_samples_a_real_child_and_summarizes_its_memory(capsys):
+    """`avionics bench --soak` for 6 s with 20 intruders: the JSON's keys and sanity, never a time or a size."""
+    import math
+    from itertools import pairwise
+
+    cores = os.sched_getaffinity(0)
+    assert main(["-q", "bench", "--soak", "6", "--intruders", "20", "--sample-seconds", "1", "--no-zenoh"]) == 0
+    assert os.sched_getaffinity(0) == cores
+    out = json.loads(capsys.readouterr().out)
+    assert out["intruders"] == 20 and out["soak_s"] == 6.0 and out["zenoh"] is False
+    samples = out["samples"]
+    times = [s["t_s"] for s in samples]
+    assert times[0] == 0 and all(a < b for a, b in pairwise(times)) and times[-1] >= 6.0
+    assert len(samples) >= 7  # one a second from 0 to 6 s, then one after the last datagram
+    for s in samples:
+        assert 0 < s["rss_mb"] <= s["hwm_mb"] < math.inf and 0 <= s["cpu_s"] < math.inf
+    assert [s["hwm_mb"] for s in samples] == sorted(s["hwm_mb"] for s in samples)  # a high-water mark
+    assert all(a["cpu_s"] <= b["cpu_s"] for a, b in pairwise(samples))
+    rss = [s["rss_mb"] for s in samples]
+    for key in ("rss_first_quarter_mb", "rss_last_quarter_mb"):
+        assert min(rss) <= out[key] <= max(rss), key
+    assert out["rss_min_mb"] == min(rss) and out["rss_max_mb"] == max(rss)
+    assert out["rss_peak_mb"] == samples[-1]["hwm_mb"] >= max(rss)
+    assert out["rss_growth_fit_samples"] == sum(t >= 3.0 for t in times) >= 2
+    assert math.isfinite(out["rss_growth_mb_per_min"])
+    # 6 s of 20 intruders at 1 Hz, all sent; the child's own count says how many it decoded
+    assert out["reports_sent"] == 120
+    assert 0 < out["reports_received"] <= out["reports_sent"] == 120
+    assert out["kept_up"] == (out["reports_received"] == 120)
+    assert out["child_counters"]["rx.adsb_vehicle"] == out["reports_received"]
+    assert 0 < out["child_cpu_load"] < math.inf and 0 <= out["send_lag_max_s"] < math.inf
+
+
+def test_soak_growth_is_the_second_half_least_squares_slope_per_minute():
+    """summarize: the fit ignores the first half's warm-up and gives MB per minute; the quarters are means."""
+    from avionics_eval.soak_bench import summarize
+
+    samples = [{"t_s": t, "rss_mb": 100.0 + (50.0 if t < 60 else 0.5 * t / 60.0)} for t in range(0, 241, 10)]
+    out = summarize(samples, 240.0)
+    assert out["rss_growth_mb_per_min"] == 0.5 and out["rss_growth_fit_samples"] == 13
+    assert out["rss_first_quarter_mb"] == 150.0  # t < 60: the warm-up's level
+    assert out["rss_last_quarter_mb"] == round(100.0 + 0.5 * 210.0 / 60.0, 2)  # mean of t = 180..240
