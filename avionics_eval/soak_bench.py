@@ -15,6 +15,9 @@ Summary:
   the tracks' start and the warm-up of caches and allocator pools), in MB per minute; null with fewer than two;
 - `reports_sent` (by this process) and `reports_received` (the child's own `rx.adsb_vehicle` counter, read from
   its `--counters` output at a clean SIGTERM stop), `child_counters` all of them;
+- `rss_peak_mb`: the largest VmHWM sampled (not the last one: the kernel reports max(the high-water mark it
+  recorded, the current RSS) and records the mark only at some events, so a later VmHWM can be below an
+  earlier VmRSS; the 600 s soak of docs/performance.md saw 277.91 then 277.85 MB);
 - `kept_up`: every report sent was received and decoded by the child (a child that falls behind lets the
   socket's buffer overflow: the kernel drops datagrams and the count falls short);
 - `child_cpu_load`: the child's CPU time over the soak's wall time; `send_lag_max_s`: how late this process sent
@@ -116,7 +119,8 @@ def soak(seconds: float, n: int = 1000, zenoh: bool = True, sample_every_s: floa
         "load_average_at_start": load_start, "load_average_at_end": [round(x, 2) for x in os.getloadavg()],
         "startup_s": round(startup_s, 3),
         **summarize(samples, seconds),
-        "rss_peak_mb": samples[-1]["hwm_mb"],
+        "rss_peak_mb": max(s["hwm_mb"] for s in samples),  # VmHWM as read can fall back: the kernel
+        # reports max(its recorded high-water mark, the current RSS) and records the mark only at some events
         "reports_sent": sent, "reports_received": received, "kept_up": received == sent,
         "child_cpu_load": round((samples[-1]["cpu_s"] - samples[0]["cpu_s"]) / wall_s, 3) if wall_s > 0 else None,
         "send_lag_max_s": round(send_lag, 4),

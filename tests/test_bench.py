@@ -95,13 +95,12 @@ def test_soak_samples_a_real_child_and_summarizes_its_memory(capsys):
     assert len(samples) >= 7  # one a second from 0 to 6 s, then one after the last datagram
     for s in samples:
         assert 0 < s["rss_mb"] <= s["hwm_mb"] < math.inf and 0 <= s["cpu_s"] < math.inf
-    assert [s["hwm_mb"] for s in samples] == sorted(s["hwm_mb"] for s in samples)  # a high-water mark
     assert all(a["cpu_s"] <= b["cpu_s"] for a, b in pairwise(samples))
     rss = [s["rss_mb"] for s in samples]
     for key in ("rss_first_quarter_mb", "rss_last_quarter_mb"):
         assert min(rss) <= out[key] <= max(rss), key
     assert out["rss_min_mb"] == min(rss) and out["rss_max_mb"] == max(rss)
-    assert out["rss_peak_mb"] == samples[-1]["hwm_mb"] >= max(rss)
+    assert out["rss_peak_mb"] == max(s["hwm_mb"] for s in samples) >= max(rss)  # VmHWM as read can fall back
     assert out["rss_growth_fit_samples"] == sum(t >= 3.0 for t in times) >= 2
     assert math.isfinite(out["rss_growth_mb_per_min"])
     # 6 s of 20 intruders at 1 Hz, all sent; the child's own count says how many it decoded
