@@ -118,9 +118,14 @@ class Loop:
         self._publish(result)
         return result
 
-    def run(self) -> DaaResult | None:
+    def run(self, after_first_step=None) -> DaaResult | None:
+        """after_first_step: called once, when the first step's outputs are out (avionics/runner.py loads the
+        compiled kernels then, off the path to the first message)."""
         for batch in self.source:
             self.last = self.step(batch)
+            if after_first_step is not None:
+                after_first_step()
+                after_first_step = None
         return self.last
 
     def shutdown(self) -> DaaResult:

@@ -17,7 +17,7 @@ from avionics.compose import build_tracker
 from avionics.config import load_config
 from avionics.core import jit
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
-from avionics.tracking import kernels, models
+from avionics.tracking import imm, imm_tracker, kernels, models
 from avionics.tracking.imm import ImmBank, VbParams
 
 H_MODES = {"cv": models.ConstantVelocity(0.3), "ca": models.ConstantAcceleration(3.0),
@@ -146,9 +146,13 @@ def test_every_kernel_is_compiled_at_import_and_none_compiles_again_in_a_run():
     names = [k for k in dir(kernels) if isinstance(getattr(kernels, k), type(kernels.tracker_update))]
     assert len(names) >= 9 and all(getattr(kernels, k) in jit.KERNELS for k in names)
     before = {k: len(getattr(kernels, k).signatures) for k in names}
+    misses = {k: sum(getattr(kernels, k)._cache_misses.values()) for k in names}  # compilations, at import
     assert all(before.values())
     run_tracker(True, steps=5)
+    # the run called these dispatchers (the trackers' stand-ins gave way to this module, avionics/core/jit.py)
+    assert imm.kernels is kernels and imm_tracker.kernels is kernels and jit.loaded()
     assert {k: len(getattr(kernels, k).signatures) for k in names} == before
+    assert {k: sum(getattr(kernels, k)._cache_misses.values()) for k in names} == misses  # none compiled in it
 
 
 def run_tracker(compiled: bool, steps: int = 60, n: int = 12, seed: int = 11):

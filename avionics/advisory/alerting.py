@@ -33,12 +33,13 @@ from typing import Callable, Protocol
 import numpy as np
 
 from avionics.advisory.tables import SensitivityLevel
-from avionics.conflict import kernels
 from avionics.conflict.cpa import PairGeometry
 from avionics.conflict.probability import as_c
 from avionics.core import jit
 from avionics.core.types import AdvisoryLevel
 from avionics.core.units import FT, NM
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 NONE = int(AdvisoryLevel.NONE)
 

@@ -43,12 +43,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from avionics.conflict import kernels
 from avionics.conflict.params import ConflictConfig
 from avionics.conflict.prediction import cv_relative_prediction, lookahead_times, max_over_lookahead, pc_within_cv_mc
 from avionics.conflict.probability import ExactPc, PcMethod, as_c, pc_paielli_erzberger, vertical_probability
 from avionics.conflict.scheduling import TIME_EPSILON_S, ConflictScheduler, Prefilter, min_distance_filter
 from avionics.core import jit
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
 

@@ -20,9 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.conflict import kernels
 from avionics.conflict.probability import as_c
 from avionics.core import jit
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 INF = np.inf
 

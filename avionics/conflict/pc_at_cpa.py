@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from avionics.conflict import kernels
 from avionics.conflict.probability import as_c, pc_exact_reference, vertical_probability
 from avionics.core import jit
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 # A CPA further ahead than this is no conflict any alerter here acts on (TCAS II alerts at most 48 s ahead, DO-365
 # 75 s): the propagation stops there. Without a bound a pair closing at 1e-131 m/s (two hovering aircraft, a

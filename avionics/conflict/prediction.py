@@ -36,12 +36,13 @@ from typing import Sequence
 
 import numpy as np
 
-from avionics.conflict import kernels
 from avionics.conflict.probability import conflict_probability, vertical_probability
 from avionics.core import jit
 from avionics.core.units import KT, NM
 from avionics.tracking.imm import combine, interact, mode_matched_predict
 from avionics.tracking.models import MotionModel
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 PE_ALONG_RATE_MPS = 15.0 * KT  # Hwang: 15 kn along-track speed uncertainty (0.25 nm/min)
 PE_CROSS_RATE_PER_SPEED = 1.0 / 57.0  # Hwang: cross-track growth v/57 (1 deg of heading)

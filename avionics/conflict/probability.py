@@ -44,8 +44,9 @@ from typing import Protocol
 import numpy as np
 from scipy import special
 
-from avionics.conflict import kernels
 from avionics.core import jit
+
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 METHODS = ("exact", "one_block", "blocks", "pe", "mc")
 

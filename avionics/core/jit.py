@@ -9,42 +9,53 @@ Kernels are cached on disk (numba `cache=True`) so that a restart does not compi
 environment's NUMBA_CACHE_DIR if set, else AVIONICS_CACHE_DIR, else numba's default (`__pycache__` beside the
 module, or a user cache directory when that is not writable). `avionics warmup` compiles every kernel once
 after install.
+
+When kernels load (issue 13 item 5, start-up): importing this module does not import numba (0.2-0.3 s) and no
+caller imports a kernel module at its own import; they hold `lazy(...)` stand-ins instead. The kernel modules
+(KERNEL_MODULES) are imported by `load()`: numba imported, every kernel loaded from the disk cache (or compiled
+when the cache is cold) when its module is imported, so a kernel that calls another finds a real dispatcher.
+`avionics run` starts `load_in_background()` once its first step is out; whatever asks a stand-in for a kernel
+first (a step with an intruder, a test, a replay) waits for that load under its lock, or does it. After it the
+stand-ins are replaced by the modules in their holders' namespaces: a call is then a plain module attribute.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import os
+import sys
+import threading
 
 _ENABLED_ENV = "AVIONICS_COMPILED"
 _CACHE_ENV = "AVIONICS_CACHE_DIR"
 
 
-def _numba():
+def _enabled() -> bool:
+    """Compiled kernels are on unless switched off, when numba is installed; found without importing it."""
     if os.environ.get(_ENABLED_ENV, "1").strip().lower() in ("0", "false", "no", "off"):
-        return None
+        return False
     if _CACHE_ENV in os.environ and "NUMBA_CACHE_DIR" not in os.environ:
         os.environ["NUMBA_CACHE_DIR"] = os.environ[_CACHE_ENV]  # read by numba when it is imported
-    try:
-        import numba
-    except ImportError:  # pragma: no cover  (numba is a dependency; a platform without wheels runs the reference)
-        return None
-    return numba
+    # numba is a dependency; a platform without its wheels runs the reference
+    return importlib.util.find_spec("numba") is not None
 
 
-_NUMBA = _numba()
-ENABLED = _NUMBA is not None
+ENABLED = _enabled()
 KERNELS: list = []  # every compiled kernel, for `avionics warmup` and the tests
 
 
 def kernel(*signatures):
     """Decorator: numba.njit(signatures, cache=True) of the function when compiled kernels are on, the function
     itself otherwise. With explicit signatures numba compiles (or loads from its cache) when the module is
-    imported, never in the middle of a step; `avionics warmup` only has to import the kernel modules."""
+    imported, never in the middle of a step: kernel modules are imported by `load()` only."""
 
     def wrap(fn):
         if not ENABLED:
             return fn
-        compiled = _NUMBA.njit(list(signatures) or None, cache=True, nogil=True)(fn)
+        import numba
+
+        compiled = numba.njit(list(signatures) or None, cache=True, nogil=True)(fn)
         KERNELS.append(compiled)
         return compiled
 
@@ -59,13 +70,79 @@ KERNEL_MODULES: list[str] = [
 ]
 
 
+_lock = threading.Lock()
+_loaded = threading.Event()
+_LAZY: list = []  # (holder module name, attribute, kernel module name) of every stand-in
+_thread: threading.Thread | None = None
+
+
+class _Lazy:
+    """Stands for a kernel module in the namespace of the module that uses it (`kernels = jit.lazy(...)`) until
+    `load()` replaces it there by the module: the first attribute asked of it loads every kernel module."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr):
+        load()
+        return getattr(sys.modules[self._name], attr)
+
+    def __repr__(self) -> str:
+        return f"<kernel module {self._name}, not loaded yet>"
+
+
+def lazy(holder: str, name: str, attr: str = "kernels") -> _Lazy:
+    """The stand-in for kernel module `name`, held as `attr` by module `holder` (its __name__)."""
+    assert name in KERNEL_MODULES, name
+    _LAZY.append((holder, attr, name))
+    return _Lazy(name)
+
+
+def loaded() -> bool:
+    """True once every kernel module is imported (its kernels loaded or compiled)."""
+    return _loaded.is_set()
+
+
+def load() -> None:
+    """Import every module of KERNEL_MODULES (once; a second caller waits for the first), then put the modules in
+    place of their stand-ins. Cheap once done: one Event check."""
+    if _loaded.is_set():
+        return
+    with _lock:
+        if _loaded.is_set():
+            return
+        modules = {name: importlib.import_module(name) for name in KERNEL_MODULES}
+        for holder, attr, name in _LAZY:
+            owner = sys.modules.get(holder)
+            if owner is not None and isinstance(getattr(owner, attr, None), _Lazy):
+                setattr(owner, attr, modules[name])
+        _loaded.set()
+
+
+def load_in_background() -> threading.Thread | None:
+    """`load()` on a daemon thread (None when kernels are off or loaded): `avionics run` calls it once its first
+    step is out. A failure there is not lost: the first caller that needs a kernel loads again and raises it."""
+    global _thread
+    if not ENABLED or _loaded.is_set() or _thread is not None:
+        return None
+
+    def target():
+        try:
+            load()
+        except Exception:  # noqa: BLE001  (raised again, on the step's thread, by the caller's own load())
+            import logging
+
+            logging.getLogger("avionics").warning("compiled kernels did not load in the background", exc_info=True)
+
+    _thread = threading.Thread(target=target, name="avionics-kernel-load", daemon=True)
+    _thread.start()
+    return _thread
+
+
 def warmup() -> list[dict]:
     """Import every module of KERNEL_MODULES: each kernel compiles, or loads from the disk cache, at import. Returns
     one record per kernel: name, signatures, 'compiled' or 'cached' (numba's cache counters), cache directory."""
-    import importlib
-
-    for name in KERNEL_MODULES:
-        importlib.import_module(name)
+    load()
     out = []
     for k in KERNELS:
         cache = getattr(k, "_cache", None)

@@ -33,7 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from avionics.core import jit
-from avionics.tracking import kernels, models
+from avionics.tracking import bank_spec, models
+
+kernels = jit.lazy(__name__, "avionics.tracking.kernels")  # the module, once jit.load() ran (jit.py)
 
 LOG_2PI = math.log(2.0 * math.pi)
 TINY = 1e-300
@@ -106,7 +108,7 @@ class ImmBank:
         self.yaw_time_constant_s = yaw_time_constant_s
         self.horizontal = self.n == models.H_DIM
         self._turn_mode = next((i for i, m in enumerate(self.modes) if m.estimates_turn), None)
-        self.spec = kernels.BankSpec(self.modes, self.chain, likelihood, vb)
+        self.spec = bank_spec.BankSpec(self.modes, self.chain, likelihood, vb)
         self.compiled = compiled
         self._alloc(capacity)
 
@@ -117,7 +119,7 @@ class ImmBank:
 
     @compiled.setter
     def compiled(self, value: bool | None) -> None:
-        """None: compiled when kernels are on (jit.ENABLED) and this configuration is covered (kernels.BankSpec);
+        """None: compiled when kernels are on (jit.ENABLED) and this configuration is covered (bank_spec.BankSpec);
         True forces the kernels (plain Python when jit is off: for tests), False the reference."""
         if value and not self.spec.covered:
             raise ValueError(f"no compiled kernels for modes {self.names} with the {self.likelihood} likelihood"

@@ -32,14 +32,17 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
+from avionics.core import jit
 from avionics.core.chi2 import chi2_quantile
 
 from avionics.core.types import IntruderKey, IntruderReport
-from avionics.tracking import kernels, models
+from avionics.tracking import models
 from avionics.tracking.imm import ImmBank, VbParams
 from avionics.tracking.lifecycle import TrackLifecycle
 from avionics.tracking.record import (DUPLICATE_WINDOW_S, REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M,
                                       UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS, TrackRecord)
+
+kernels = jit.lazy(__name__, "avionics.tracking.kernels")  # the module, once jit.load() ran (jit.py)
 
 H_MEAS = 4  # [x, y, vx, vy]
 V_MEAS = 2  # [z, vz]

@@ -22,7 +22,8 @@ Kernels (every one with an explicit signature: compiled, or loaded from numba's 
     tracker_predict  ImmTracker.predict's two bank predictions, assembled into the pipeline's 6-state
     tracker_posterior  ImmTracker._posterior (both banks' combined posteriors, assembled)
 
-A mode is passed as a code (below) and its noise parameter; the mode-transition matrix M(dt) is evaluated from
+A mode is passed as a code (tracking/bank_spec.py, with BankSpec and arr: what the banks need without numba)
+and its noise parameter; the mode-transition matrix M(dt) is evaluated from
 the eigendecomposition of models.MarkovChain (v, v^-1, generator eigenvalues) as MarkovChain.at does.
 """
 
@@ -34,49 +35,12 @@ import numpy as np
 
 from avionics.core.jit import kernel
 from avionics.tracking import models
+from avionics.tracking.bank_spec import CA, CA_ISO, CAD, CH, CT, CV, BankSpec, arr, mode_code  # noqa: F401
 
-# mode codes
-CV, CA, CA_ISO, CT, CH, CAD = 0, 1, 2, 3, 4, 5
 LOG_2PI = math.log(2.0 * math.pi)
 TINY = 1e-300
 CV_FLOOR_VAR = models.CV_ACCEL_FLOOR_MPS2**2
 OK, NOT_PD = 0, 1
-
-
-def mode_code(mode) -> tuple[int, float] | None:
-    """(code, noise parameter) of a models.MotionModel the kernels cover, else None."""
-    if isinstance(mode, models.ConstantVelocity):
-        return CV, mode.sigma_mps2
-    if isinstance(mode, models.ConstantAcceleration):
-        return (CA if mode.heading_noise else CA_ISO), mode.sigma_mps2
-    if isinstance(mode, models.CoordinatedTurn):
-        return CT, mode.sigma_mps2
-    if isinstance(mode, models.ConstantHeight):
-        return CH, mode.sigma_mps
-    if isinstance(mode, models.ConstantAltitudeChange):
-        return CAD, mode.sigma_mps2
-    return None
-
-
-def arr(a, dtype=float) -> np.ndarray:
-    """a as a writable C-contiguous array of dtype (a kernel's explicit signature takes no read-only or strided
-    views, e.g. of np.broadcast_to); no copy when it already is one."""
-    return np.require(a, dtype, ("C", "W"))
-
-
-class BankSpec:
-    """What a kernel needs of an ImmBank's configuration, as arrays: mode codes and noise parameters, the Markov
-    chain's eigendecomposition. `covered` is False when a mode, the likelihood or VB is not compiled."""
-
-    def __init__(self, modes, chain: models.MarkovChain, likelihood: str = "standard", vb=None):
-        codes = [mode_code(m) for m in modes]
-        self.covered = likelihood == "standard" and vb is None and all(c is not None for c in codes)
-        self.codes = np.array([c[0] if c else -1 for c in codes], np.int64)
-        self.sigma = np.array([c[1] if c else 0.0 for c in codes], float)
-        self.v = np.ascontiguousarray(chain._v, float)
-        self.vinv = np.ascontiguousarray(chain._vinv, float)
-        self.lam = np.ascontiguousarray(chain._lam, float)
-        self.turn_mode = next((i for i, m in enumerate(modes) if m.estimates_turn), -1)
 
 
 # --- per-track building blocks ------------------------------------------------------------------------------
