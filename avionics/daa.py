@@ -126,11 +126,11 @@ class Daa:
         except Exception as exc:  # noqa: BLE001
             self._fault("output", exc)
         level = self._core.level
-        records = self._core.tracker.tracks
+        record = self._core.tracker.tracks.get
         keys = {a.intruder for a in changes} | set(self._active)
         return DaaResult(
             time_s=now_s, changes=changes, assessed=assessed, active=MappingProxyType(dict(self._active)),
-            callsigns=MappingProxyType({k: (records[k].callsign if k in records else None) for k in keys}),
+            callsigns=MappingProxyType({k: (r.callsign if (r := record(k)) is not None else None) for k in keys}),
             unavailable_reason=self._unavailable if self._unavailable != STARTUP else "no_ownship",
             availability_changed=changed, fault_detail=self._fault_detail,
             sensitivity_level=level.sl if level else None, tracks=track_views,

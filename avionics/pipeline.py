@@ -319,9 +319,6 @@ class DaaCore:
         failed: set[IntruderKey] = set()
         candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
 
-        mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if level.ra_dmod_m else None,
-                   AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
-        mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
         ta_hold_s = self.alerter.level(int(AdvisoryLevel.TA)).min_duration_s  # TCAS II: a TA stays 8 s
         states = []
         for i, key in enumerate(keys):
@@ -349,6 +346,11 @@ class DaaCore:
             for key in sorted(self._ra_threats):
                 self._fail(now_s, key, "resolution", exc, changes, failed)
             resolution, blocked = None, ""
+        # modified tau at the RA's DMOD only when an intruder is at RA (the others read the TA's)
+        ra_tau = level.ra_dmod_m and any(s is not None and s[0].level is AdvisoryLevel.RA for s in states)
+        mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if ra_tau else None,
+                   AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
+        mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
         out = []
         for i, key in enumerate(keys):
             if key in failed:

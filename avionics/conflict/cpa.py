@@ -131,7 +131,9 @@ def pair_geometry_reference(s_xy, v_xy, sz, vz) -> PairGeometry:
 def modified_tau(range_m, s_dot_v, dmod_m) -> np.ndarray:
     """TCAS II modified tau: time until range would reach DMOD at the current closure; 0 inside DMOD."""
     range_m, s_dot_v = np.asarray(range_m, float), np.asarray(s_dot_v, float)
-    dmod_m = np.broadcast_to(np.asarray(dmod_m, float), range_m.shape)
+    dmod_m = np.asarray(dmod_m, float)
+    if dmod_m.shape != range_m.shape:  # one DMOD for all (the usual call): broadcast by the ufuncs, same values
+        dmod_m = np.broadcast_to(dmod_m, range_m.shape) if dmod_m.ndim else dmod_m
     inside = range_m <= dmod_m
     closing = s_dot_v < 0.0
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):

@@ -37,8 +37,11 @@ def horizontal_axes(lat_deg, lon_deg) -> np.ndarray:
     """ECEF unit vectors of local true east (row 0) and north (row 1) at points: shape (..., 2, 3)."""
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-    zero = np.zeros_like(sl)
-    return np.stack([np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1)], -2)
+    # filled in place: the nested np.stack it replaces cost more than the arithmetic for one point
+    axes = np.empty(np.shape(sl) + (2, 3), np.result_type(sl, cl, so, co))
+    axes[..., 0, 0], axes[..., 0, 1], axes[..., 0, 2] = -so, co, 0.0
+    axes[..., 1, 0], axes[..., 1, 1], axes[..., 1, 2] = -sl * co, -sl * so, cl
+    return axes
 
 
 class LocalTangentPlane:
@@ -61,7 +64,7 @@ class LocalTangentPlane:
         """Horizontal (east, north) in metres of points at the ellipsoid surface below them."""
         ecef = np.array(geodetic_to_ecef(lat_deg, lon_deg, 0.0))
         d = ecef - self._origin.reshape((3,) + (1,) * (ecef.ndim - 1))
-        enu = np.tensordot(self._rot, d, axes=1)
+        enu = np.dot(self._rot, d.reshape(3, -1)).reshape(d.shape)  # np.tensordot(rot, d, axes=1)'s own dot call
         return enu[0], enu[1]
 
     def velocity_matrix(self, lat_deg, lon_deg) -> np.ndarray:

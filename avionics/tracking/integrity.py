@@ -132,7 +132,8 @@ class IntegrityMonitor:
         altitude only)."""
         rows = np.fromiter((self._row(k) for k in keys), int, len(keys))
         t, received = np.asarray(t, float), np.asarray(received, float)
-        p = np.stack([np.asarray(east, float), np.asarray(north, float)], axis=1)
+        p = np.empty((len(t), 2))  # (B, 2): filled, not np.stack (a fixed cost per call that a lone report pays)
+        p[:, 0], p[:, 1] = east, north
         v = np.asarray(velocity, float).reshape(-1, 2)
         has_v = np.isfinite(v).all(axis=1)
         v0 = np.where(has_v[:, None], v, 0.0)
@@ -147,7 +148,8 @@ class IntegrityMonitor:
         disp = p - last
         prev_v = self._last_v[rows]
         interval_ok = ~first & has_v & np.isfinite(prev_v).all(axis=1)
-        integral = 0.5 * (np.nan_to_num(prev_v) + v0) * dt[:, None]
+        # prev_v is finite or NaN (stored so below): nan_to_num's result, without its fixed cost per call
+        integral = 0.5 * (np.where(np.isnan(prev_v), 0.0, prev_v) + v0) * dt[:, None]
         u = np.where(interval_ok[:, None], disp - integral, 0.0)
         moving = np.hypot(*integral.T) > MOVING_M
         stale = ~first & (np.hypot(*disp.T) < FROZEN_M) & moving & interval_ok
@@ -164,15 +166,19 @@ class IntegrityMonitor:
 
         # window statistics, all windows at once: (B, nW)
         j = (count[:, None] - WINDOWS[None, :]) % RING
-        valid = (count[:, None] >= WINDOWS[None, :]) & (miss_new[:, None] == self._miss[rows[:, None], j])
-        big_u = d_new[:, None, :] - self._d[rows[:, None], j]
-        span = t[:, None] - self._t[rows[:, None], j]
+        flat = rows[:, None] * RING + j  # one flat index for the ring gathers (cheaper than a pair per gather)
+        valid = (count[:, None] >= WINDOWS[None, :]) & (miss_new[:, None] == self._miss.reshape(-1)[flat])
+        big_u = d_new[:, None, :] - self._d.reshape(-1, 2)[flat]
+        span = t[:, None] - self._t.reshape(-1)[flat]
         iso = (2.0 * np.asarray(position_sigma, float)[:, None] ** 2
-               + self.velocity_sigma_mps**2 * (vv_new[:, None] - self._vv[rows[:, None], j])
+               + self.velocity_sigma_mps**2 * (vv_new[:, None] - self._vv.reshape(-1)[flat])
                + (VELOCITY_BIAS_MPS * span) ** 2)
-        vj = self._v[rows[:, None], j]
-        jit = TIME_JITTER_S**2 * (v0[:, None, :, None] * v0[:, None, None, :] + vj[..., :, None] * vj[..., None, :])
-        c00, c01, c11 = iso + jit[..., 0, 0], jit[..., 0, 1], iso + jit[..., 1, 1]
+        vj = self._v.reshape(-1, 2)[flat]
+        # the jitter term's three distinct entries, element for element the outer products' (B, nW, 2, 2) sums
+        ve, vn, vje, vjn = v0[:, None, 0], v0[:, None, 1], vj[..., 0], vj[..., 1]
+        c00 = iso + TIME_JITTER_S**2 * (ve * ve + vje * vje)
+        c01 = TIME_JITTER_S**2 * (ve * vn + vje * vjn)
+        c11 = iso + TIME_JITTER_S**2 * (vn * vn + vjn * vjn)
         q = (c11 * big_u[..., 0] ** 2 - 2 * c01 * big_u[..., 0] * big_u[..., 1] + c00 * big_u[..., 1] ** 2) / (
             c00 * c11 - c01**2)
         q = np.where(valid, q, 0.0)
