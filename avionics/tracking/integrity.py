@@ -45,6 +45,7 @@ ALPHA = 1e-7  # false-alarm probability per window test per report (8 windows x 
 Q_THRESHOLD = chi2_quantile(1.0 - ALPHA, 2)  # 32.2: the NIS bound of one window
 WINDOWS = np.array([1, 2, 4, 8, 16, 32, 64, 128])  # reports; 128 s at 1 Hz (the slowest ramp it can see)
 RING = int(WINDOWS[-1]) + 1
+_WINDOWS = WINDOWS.tolist()  # the same, as Python ints (the one-report path)
 TIME_JITTER_S = 0.1  # 1-sigma receipt-time jitter (tslc is whole seconds: reports are stamped at receipt)
 VELOCITY_BIAS_MPS = 0.3  # a velocity error that does not average out: ~half the 1 kt LSB of DO-260B velocity
 FROZEN_M = 0.05  # a position repeated within 5 cm (4 LSB of MAVLink's 1e-7 deg) is a repeated value, not noise
@@ -130,6 +131,8 @@ class IntegrityMonitor:
         report is in the current plane (the tracker knows it across a re-centred plane; NaN: the stored one).
         Returns, per report, whether its position is a stale repeat (the tracker then uses its velocity and
         altitude only)."""
+        if len(keys) == 1:  # a lone report (the usual step): the same arithmetic on Python floats
+            return self._observe_one(keys[0], t, received, east, north, velocity, position_sigma, previous)
         rows = np.fromiter((self._row(k) for k in keys), int, len(keys))
         t, received = np.asarray(t, float), np.asarray(received, float)
         p = np.empty((len(t), 2))  # (B, 2): filled, not np.stack (a fixed cost per call that a lone report pays)
@@ -192,6 +195,82 @@ class IntegrityMonitor:
         for b in np.flatnonzero(fired):  # rare: only reports that fire
             self._classify(rows[b], t[b], big_u[b], q[b], u[b], disp[b], bool(stale[b]))
         return stale
+
+    def _observe_one(self, key, t, received, east, north, velocity, position_sigma, previous) -> np.ndarray:
+        """observe() for one report, operation for operation the vectorised arithmetic above on Python floats
+        (IEEE doubles: the same values; squares as products, as numpy's ** 2 is; hypot by numpy's), without a
+        numpy call per operation on one-element arrays."""
+        row = self._row(key)
+        t, received = float(np.asarray(t, float).reshape(-1)[0]), float(np.asarray(received, float).reshape(-1)[0])
+        pe, pn = float(np.asarray(east, float).reshape(-1)[0]), float(np.asarray(north, float).reshape(-1)[0])
+        vx, vy = np.asarray(velocity, float).reshape(-1, 2)[0].tolist()
+        has_v = math.isfinite(vx) and math.isfinite(vy)
+        v0x, v0y = (vx, vy) if has_v else (0.0, 0.0)
+        count = int(self._count[row])
+        first = count == 0
+        k_prev = (count - 1) % RING
+        js = [(count - w) % RING for w in _WINDOWS]
+        ring = [k_prev] + js
+        ts, vvs, misses = self._t[row, ring].tolist(), self._vv[row, ring].tolist(), self._miss[row, ring].tolist()
+        ds, vjs = self._d[row, ring].tolist(), self._v[row, js].tolist()
+        dt = t - ts[0]
+        lx, ly = self._last_p[row].tolist()
+        if previous is not None:
+            px, py = np.asarray(previous, float).reshape(-1, 2)[0].tolist()
+            lx, ly = (px if math.isfinite(px) else lx), (py if math.isfinite(py) else ly)
+        dx, dy = pe - lx, pn - ly
+        pvx, pvy = self._last_v[row].tolist()
+        interval_ok = not first and has_v and math.isfinite(pvx) and math.isfinite(pvy)
+        ix = 0.5 * ((0.0 if math.isnan(pvx) else pvx) + v0x) * dt
+        iy = 0.5 * ((0.0 if math.isnan(pvy) else pvy) + v0y) * dt
+        ux, uy = (dx - ix, dy - iy) if interval_ok else (0.0, 0.0)
+        moving = float(np.hypot(ix, iy)) > MOVING_M
+        stale = not first and float(np.hypot(dx, dy)) < FROZEN_M and moving and interval_ok
+        if first:
+            dnx, dny, vv_new, miss_new = 0.0, 0.0, 0.0, 0.0
+        else:
+            dnx, dny = ds[0][0] + ux, ds[0][1] + uy
+            vv_new = vvs[0] + 0.5 * (dt * dt)
+            miss_new = misses[0] + (0.0 if interval_ok else 1.0)
+        k = count % RING
+        self._t[row, k], self._vv[row, k], self._miss[row, k] = t, vv_new, miss_new
+        self._d[row, k] = dnx, dny
+        self._v[row, k] = v0x, v0y
+        self._count[row] = count + 1
+        self._last_p[row] = pe, pn
+        self._last_rx[row] = received
+        self._last_v[row] = (vx, vy) if has_v else (math.nan, math.nan)
+        frozen = (float(self._frozen_run[row]) + 1.0) if stale else 0.0
+        self._frozen_run[row] = frozen
+
+        sig = float(np.asarray(position_sigma, float).reshape(-1)[0])
+        two_sig2, vs2, tj2 = 2.0 * (sig * sig), self.velocity_sigma_mps**2, TIME_JITTER_S**2
+        qs, big_u, fired = [], [], frozen >= 2
+        for i, w in enumerate(_WINDOWS):
+            bux, buy = dnx - ds[i + 1][0], dny - ds[i + 1][1]
+            big_u.append((bux, buy))
+            if not (count >= w and miss_new == misses[i + 1]):
+                qs.append(0.0)
+                continue
+            span = VELOCITY_BIAS_MPS * (t - ts[i + 1])
+            iso = two_sig2 + vs2 * (vv_new - vvs[i + 1]) + span * span
+            vje, vjn = vjs[i]
+            c00 = iso + tj2 * (v0x * v0x + vje * vje)
+            c01 = tj2 * (v0x * v0y + vje * vjn)
+            c11 = iso + tj2 * (v0y * v0y + vjn * vjn)
+            num = c11 * (bux * bux) - 2 * c01 * bux * buy + c00 * (buy * buy)
+            den = c00 * c11 - c01 * c01
+            q = num / den if den != 0.0 else float(np.float64(num) / np.float64(den))
+            qs.append(q)
+            fired = fired or q > Q_THRESHOLD
+
+        mode = float(self._mode[row])
+        ended = mode == _CODE["position_loss"] or t - float(self._last_fire[row]) > HOLD_S
+        if not fired and ended:
+            self._mode[row], self._fault[row] = 0.0, 0.0
+        if fired:
+            self._classify(row, t, np.array(big_u), np.array(qs), np.array([ux, uy]), np.array([dx, dy]), stale)
+        return np.array([stale])
 
     def _classify(self, row: int, t: float, big_u: np.ndarray, q: np.ndarray, u: np.ndarray, disp: np.ndarray,
                   stale: bool) -> None:
