@@ -237,3 +237,29 @@ def test_a_recentred_plane_is_not_a_step():
         e, n = plane.to_en(lat, lon)
         mon.observe(["k"], [float(k)], [float(k)], [float(e)], [float(n)], [(100.0, 0.0)], [30.0])
     assert mon.status("k") is im.OK
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.2, 3.0), st.floats(-50.0, 50.0), st.floats(-50.0, 50.0),
+                          st.booleans(), st.booleans(), st.floats(0.0, 0.5), st.sampled_from([0.0, 3.0, 30.0])),
+                min_size=1, max_size=40),
+       st.floats(-200.0, 200.0), st.floats(-200.0, 200.0))
+def test_a_lone_report_gives_what_the_vectorised_path_gives(steps, ve, vn):
+    """observe() on one report takes a path of its own on Python floats (the usual step); the oracle is the
+    vectorised path, reached by observing the same key beside a second, unrelated key. Stale flags, the status and
+    the widening agree exactly, step after step, through jumps, frozen positions, missing velocities, zero sigmas."""
+    lone, batched = im.IntegrityMonitor(2.0), im.IntegrityMonitor(2.0)
+    key, other = IntruderKey(1, AddressSource.ES1090), IntruderKey(2, AddressSource.ES1090)
+    t, e, n = 0.0, 0.0, 0.0
+    for k, (dt, jump_e, jump_n, frozen, no_velocity, latency, sigma) in enumerate(steps):
+        t += dt
+        if not frozen:
+            e, n = e + ve * dt + jump_e, n + vn * dt + jump_n
+        v = (math.nan, math.nan) if no_velocity else (ve, vn)
+        a = lone.observe([key], [t], [t + latency], np.array([e]), np.array([n]), [v], [sigma])
+        b = batched.observe([key, other], [t, t], [t + latency, t], np.array([e, 5e4 + k]), np.array([n, 0.0]),
+                            [v, (0.0, 0.0)], [sigma, 30.0])
+        assert bool(a[0]) == bool(b[0])
+        assert lone.status(key) == batched.status(key)
+        p = np.repeat(np.eye(6)[None], 1, axis=0)
+        np.testing.assert_array_equal(lone.widen([key], p.copy()), batched.widen([key], p.copy()))
