@@ -175,6 +175,17 @@ def _child_env() -> dict:
     return env
 
 
+def proc_memory_mb(pid: int) -> tuple[float, float]:
+    """(VmRSS, VmHWM) of a process in MB, from /proc/PID/status."""
+    fields = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM"):
+                fields[key] = int(value.split()[0]) / 1024.0
+    return fields["VmRSS"], fields["VmHWM"]
+
+
 class Onboard:
     """`avionics run` as a child on loopback (MAVLink udpin on a free port, zenoh on another or off), and a UDP
     socket that talks to it as the autopilot would."""
@@ -207,13 +218,8 @@ class Onboard:
 
     def memory_mb(self) -> tuple[float, float]:
         """(VmRSS, VmHWM) of the child in MB."""
-        fields = {}
-        with open(f"/proc/{self.proc.pid}/status") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key in ("VmRSS", "VmHWM"):
-                    fields[key] = int(value.split()[0]) / 1024.0
-        return round(fields["VmRSS"], 1), round(fields["VmHWM"], 1)
+        rss, hwm = proc_memory_mb(self.proc.pid)
+        return round(rss, 1), round(hwm, 1)
 
     def stop(self) -> dict:
         """SIGTERM (a clean shutdown); its counters."""

@@ -35,7 +35,7 @@ import numpy as np
 
 from avionics import __version__
 from avionics_eval import bench as b
-from avionics_eval.capacity_bench import Onboard
+from avionics_eval.capacity_bench import Onboard, proc_memory_mb
 
 CHUNK_S = 5  # traffic generated this many seconds at a time (whole seconds: bench._traffic's windows then tile)
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
@@ -43,16 +43,11 @@ CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
 def sample(pid: int, t_s: float) -> dict:
     """One sample of the child: seconds since the traffic started, VmRSS and VmHWM in MB, CPU seconds."""
-    fields = {}
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            key, _, value = line.partition(":")
-            if key in ("VmRSS", "VmHWM"):
-                fields[key] = int(value.split()[0]) / 1024.0
+    rss, hwm = proc_memory_mb(pid)
     with open(f"/proc/{pid}/stat") as f:
         stat = f.read()
     utime, stime = (int(x) for x in stat[stat.rindex(")") + 2:].split()[11:13])  # fields 14 and 15 of proc(5)
-    return {"t_s": round(t_s, 3), "rss_mb": round(fields["VmRSS"], 2), "hwm_mb": round(fields["VmHWM"], 2),
+    return {"t_s": round(t_s, 3), "rss_mb": round(rss, 2), "hwm_mb": round(hwm, 2),
             "cpu_s": round((utime + stime) / CLOCK_TICKS, 2)}
 
 
