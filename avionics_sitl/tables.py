@@ -135,12 +135,10 @@ def _read_csv(path: Path, progress: bool | None) -> tuple[list[str], dict[str, l
 
 
 def _read_parquet(path: Path, progress: bool | None) -> tuple[list[str], dict[str, list]]:
-    try:
-        import pyarrow as pa
-        import pyarrow.compute as pc
-        import pyarrow.parquet as pq
-    except ImportError:
-        raise ValueError("reading Parquet needs pyarrow: pip install pyarrow") from None
+    import pyarrow as pa  # a dependency (also the zenoh traffic batch's); lazily, as only Parquet needs it
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
     try:
         parquet = pq.ParquetFile(path)
     except (pa.ArrowException, OSError) as e:

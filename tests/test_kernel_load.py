@@ -57,7 +57,7 @@ def autopilot():
         if done.is_set():
             break
         s.sendto(data, ("127.0.0.1", port))
-        time.sleep(0.01)
+        time.sleep(0.01)  # pacing the autopilot's traffic, not a synchronisation (the test waits on `done`)
 
 threading.Thread(target=autopilot, daemon=True).start()
 try:
