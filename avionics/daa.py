@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 from avionics.config import Config
 from avionics.core.faults import FaultLog
@@ -52,7 +52,7 @@ class DaaResult:
 
     time_s: float
     changes: tuple[Advisory, ...]  # advisories whose level, RA sense or strength changed (announce these)
-    assessed: tuple[Advisory, ...]  # the advisory of every intruder assessed in this step
+    assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (each built when read)
     active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
     callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active
     unavailable_reason: str | None  # no_ownship | no_pressure_altitude | fault | shutdown; None: DAA available
@@ -78,7 +78,6 @@ class Daa:
         self.config = config
         self.counters = counters if counters is not None else Counter()
         self._core = core if core is not None else DaaCore(config, self.counters)
-        self._active: dict[IntruderKey, Advisory] = {}
         self._availability = Every(1.0 / config.advisory.assessment_hz)
         self._unavailable: str | None = STARTUP  # the availability last reported (None: available)
         self._fault_detail = ""
@@ -95,7 +94,7 @@ class Daa:
         """One step of the core at now_s with the inputs received since the last one. tracks / status: include
         the track states and the status (the output ports ask for them at their own rates)."""
         core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline.py)
-        return self._result(now_s, tuple(core_result.changes), tuple(core_result.assessed), sources, tracks, status,
+        return self._result(now_s, tuple(core_result.changes), core_result.assessed, sources, tracks, status,
                             bands=core_result.bands)
 
     def shutdown(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> DaaResult:
@@ -111,11 +110,6 @@ class Daa:
 
     # -- the result ------------------------------------------------------------------------------------------
     def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None) -> DaaResult:
-        for advisory in assessed + changes:
-            if advisory.level is AdvisoryLevel.NONE:
-                self._active.pop(advisory.intruder, None)
-            else:
-                self._active[advisory.intruder] = advisory
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
             changed = self._check_availability(now_s)
@@ -127,9 +121,10 @@ class Daa:
             self._fault("output", exc)
         level = self._core.level
         record = self._core.tracker.tracks.get
-        keys = {a.intruder for a in changes} | set(self._active)
+        active = self._core.active
+        keys = {a.intruder for a in changes} | set(active)
         return DaaResult(
-            time_s=now_s, changes=changes, assessed=assessed, active=MappingProxyType(dict(self._active)),
+            time_s=now_s, changes=changes, assessed=assessed, active=MappingProxyType(dict(active)),
             callsigns=MappingProxyType({k: (r.callsign if (r := record(k)) is not None else None) for k in keys}),
             unavailable_reason=self._unavailable if self._unavailable != STARTUP else "no_ownship",
             availability_changed=changed, fault_detail=self._fault_detail,
@@ -200,13 +195,12 @@ class Daa:
         except Exception as exc:  # noqa: BLE001  (the IMM mode outputs are for displays: left out)
             self._fault("modes", exc)
             modes = [None] * len(keys)
-        advisories = core.advisories()
         max_coast_s = self.config.tracking.max_coast_s
         out = []
         for i, key in enumerate(keys):
             record = core.tracker.tracks[key]
             out.append(TrackView.of(record, xs[i], ps[i], float(lats[i]), float(lons[i]),
-                                    record.altitude_valid(now_s, max_coast_s), advisories.get(key), modes[i],
+                                    record.altitude_valid(now_s, max_coast_s), core.advisory(key), modes[i],
                                     key in sources.spoof_suspected))
         return tuple(out)
 
@@ -215,7 +209,7 @@ class Daa:
         DaaResult.status; a query: the core does not step)."""
         core = self._core
         own = core.ownship.state_at(now_s)
-        advisories = core.advisories().values()
+        advisories = core.active.values()
         pressure_intruders = [str(k) for k, t in core.tracker.tracks.items() if t.datum is AltitudeDatum.PRESSURE]
         unavailable = self._unavailable_reason(now_s, own)
         # The cross-check's verdict (tracking/baro_check.py), or the decoder's when it rejected our last
@@ -252,7 +246,7 @@ class Daa:
             "ownship_valid": own is not None,
             "pressure_altitude_available": own is not None and own.pressure_altitude_m is not None,
             "pressure_fault": pressure_fault,  # stuck | jump | implausible | None (docs/altitude.md)
-            "datum_mismatch_intruders": sorted(str(a.intruder) for a in advisories if a.datum_mismatch),
+            "datum_mismatch_intruders": sorted(str(k) for k in core.datum_mismatch_keys()),
             "sensitivity_level": core.level.sl if core.level else None,
             "tracks": len(core.tracker.tracks),
             "advisories": {lvl.name: sum(a.level is lvl for a in advisories) for lvl in (AdvisoryLevel.TA,

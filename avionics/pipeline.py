@@ -24,15 +24,17 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter
-from dataclasses import dataclass, field, replace
+from collections import Counter, deque
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from operator import attrgetter
 from types import SimpleNamespace
 from typing import Iterable
 
 import numpy as np
 
 from avionics.advisory.alerting import Encounter
-from avionics.advisory.logic import AdvisoryState
+from avionics.advisory.logic import AdvisoryStates
 from avionics.advisory.resolution import Threat
 from avionics.advisory.tables import SensitivityLevel
 from avionics.compose import Components, build_components
@@ -48,6 +50,7 @@ from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
 
 
+KEY_ORDER = attrgetter("address", "source")  # IntruderKey's own order, as one C-built tuple per key
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
 FAULT = "fault"  # the reason of an advisory whose intruder failed in a stage (docs/zenoh.md, Advisory reasons)
 
@@ -58,14 +61,72 @@ log = logging.getLogger("avionics.pipeline")
 class StepResult:
     time_s: float
     changes: list[Advisory]  # advisories whose level, RA sense or RA strength changed in this step
-    assessed: list[Advisory]  # the advisory of every intruder assessed in this step
+    assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (built when read)
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance, once a second
 
 
-@dataclass
-class _Assessment:
-    advisory: Advisory
-    state: AdvisoryState = field(default_factory=AdvisoryState)
+class _Rows:
+    """One assessment's arrays, from which the advisory of an intruder that is not alerting, and was not, is
+    built only when something asks for it (issue 13, item 2): most intruders are in that state at every step, and
+    building an `Advisory` costs more than assessing the intruder. An alerting or changed intruder's advisory is
+    built at once (`DaaCore._built`); both ways give the same record."""
+
+    __slots__ = ("now_s", "keys", "sl", "geometry", "mod_tau", "has_alt", "datums", "mismatch", "pc_ta", "pc_ra",
+                 "pc", "within_age", "integrity", "stale", "alerts", "alert_names", "own_levels")
+
+    def __init__(self, now_s, keys, level, ev, stale, alerts, alert_names, own_levels):
+        self.now_s, self.keys, self.sl = now_s, keys, level.sl
+        self.geometry, self.has_alt, self.mismatch = ev.geometry, ev.has_alt, ev.mismatch
+        self.mod_tau = {AdvisoryLevel.TA: ev.geometry.mod_tau(level.ta_dmod_m)}  # the RA's added when one is
+        self.datums = [t.datum for t in ev.tracks]  # a track's datum and integrity may change after this step
+        self.integrity = [t.integrity.label for t in ev.tracks]
+        self.pc_ta, self.pc_ra = ev.pc_ta, ev.pc_ra if level.ra_tau_s is not None else None
+        self.pc, self.within_age = ev.pc, ev.within_age
+        self.stale, self.alerts, self.alert_names, self.own_levels = stale, alerts, alert_names, own_levels
+
+    def advisory(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE, reason: str | None = None,
+                 ra: dict | None = None) -> Advisory:
+        """Row i's advisory at level; reason None: that of an intruder at NONE (stale, diverging or clear)."""
+        g, has_alt, pc, alert = self.geometry, self.has_alt[i], self.pc, int(self.alerts[i])
+        if reason is None:
+            reason = "stale" if self.stale[i] else "diverging" if g.s_dot_v[i] > 0.0 else "clear"
+        return Advisory(
+            intruder=self.keys[i], level=level, time_s=self.now_s, reason=reason, sensitivity_level=self.sl,
+            range_m=float(g.range_m[i]), closure_rate_mps=float(g.closure_rate_mps[i]),
+            t_cpa_s=float(g.t_cpa_s[i]), hmd_m=float(g.hmd_m[i]), vmd_m=float(g.vmd_m[i]) if has_alt else None,
+            range_tau_s=float(g.range_tau_s[i]),
+            mod_tau_s=float(self.mod_tau.get(level, self.mod_tau[AdvisoryLevel.TA])[i]),
+            vertical_tau_s=float(g.vertical_tau_s[i]) if has_alt else math.inf,
+            altitude_datum=self.datums[i] if has_alt else None, datum_mismatch=bool(self.mismatch[i]),
+            pc_ta=float(self.pc_ta[i]), pc_ra=float(self.pc_ra[i]) if self.pc_ra is not None else None,
+            pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]), t_pc_max_s=float(pc["t_pc_max_s"][i]),
+            pc_within=_finite_or_none(pc["pc_within"][i]), pc_within_age_s=_finite_or_none(self.within_age[i]),
+            integrity=self.integrity[i],
+            **(dict(alert_level=alert, alert_name=self.alert_names[alert]) if self.own_levels else {}),
+            **(ra or {}),
+        )
+
+
+def _advisory_of(entry) -> Advisory:
+    """An intruder's latest advisory: built already, or (rows, i) of a `_Rows` to build it from."""
+    return entry if type(entry) is Advisory else entry[0].advisory(entry[1])
+
+
+class Assessed(Sequence):
+    """The advisories of a step's assessed intruders, each built when read (`_Rows`)."""
+
+    __slots__ = ("_entries",)
+
+    def __init__(self, entries: list):
+        self._entries = entries
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [_advisory_of(e) for e in self._entries[i]]
+        return _advisory_of(self._entries[i])
 
 
 @dataclass
@@ -94,7 +155,7 @@ class DaaCore:
         self._alert_names = self.alerter.names()
         self.bands = parts.bands  # a DO-365 alerter's guidance bands (advisory/bands.py); None: none
         self._bands_slot: int | None = None  # the second of the last bands computed
-        self._bands_traffic: tuple = (math.nan, [], np.empty((0, 3)), np.empty((0, 3)))  # at the last full tick
+        self._bands_traffic: dict[IntruderKey, tuple] = {}  # key -> (time, position, velocity) for _guidance
         self.hysteresis = parts.hysteresis  # a DO-365 alerter's M of N and persistence (DAIDALUS HysteresisData)
         self.gate = parts.gate  # advisory.criterion and advisory.persistence
         self.conflict = parts.conflict  # conflict.prefilter and conflict.method
@@ -102,9 +163,14 @@ class DaaCore:
         self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
         self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
         self.identity = IdentityResolver(config.tracking, self.counters)  # one aircraft, one track (identity.py)
-        self.assessments: dict[IntruderKey, _Assessment] = {}
+        self.states = AdvisoryStates()  # every assessed intruder's advisory state, in arrays (advisory/logic.py)
+        self._latest: dict[IntruderKey, object] = {}  # its latest advisory: an Advisory or (_Rows, row)
+        self.active: dict[IntruderKey, Advisory] = {}  # the latest advisory of every intruder at TA or RA
+        self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
         self.level: SensitivityLevel | None = None
-        self._last_full_assessment_s = -math.inf
+        self._last_tick_s = -math.inf  # the last assessment tick (assessment_hz): a re-assessment pass starts
+        self._pass: deque[IntruderKey] = deque()  # the pass's intruders not re-assessed yet (_slice)
+        self._pass_size = 0
         self._last_ownship: OwnshipState | None = None
         self.faults: dict[IntruderKey, Fault] = {}  # intruders in the failed state (track dropped)
         self.step_fault: Fault | None = None  # the last step failed outside the per-intruder boundaries
@@ -228,30 +294,49 @@ class DaaCore:
             self._ingest(item, reports)
         self._ingest_reports(now_s, reports, dirty, changes)
         period = 1.0 / self.config.advisory.assessment_hz
-        full = now_s - self._last_full_assessment_s >= period - TIME_EPSILON_S
-        if full:
-            self._last_full_assessment_s = now_s
+        tick = now_s - self._last_tick_s >= period - TIME_EPSILON_S
+        if tick:
+            self._last_tick_s = now_s
             for key in self.tracker.prune(now_s):
-                self._ra_threats.pop(key, None)
-                self.gate.forget(key)
-                self.hysteresis.forget(key)
-                self.conflict.forget(key)
-                gone = self.assessments.pop(key, None)
-                if gone is not None and gone.state.level is not AdvisoryLevel.NONE:
-                    changes.append(_with_level(gone.advisory, now_s, AdvisoryLevel.NONE, "deleted"))
+                gone = self._latest.get(key)
+                if gone is not None and self.states.level_of(key) is not AdvisoryLevel.NONE:
+                    changes.append(_with_level(_advisory_of(gone), now_s, AdvisoryLevel.NONE, "deleted"))
+                self._forget(key)
             self._expire_faults(now_s)
-            keys = sorted(self.tracker.tracks)
-        else:
-            keys = sorted(k for k in dirty if k in self.tracker.tracks)
-        assessed = self._assess(now_s, keys, changes, dirty) if keys else []
-        if full and self.step_fault is not None:  # a whole assessment went through again
+        periodic = self._slice(now_s, period, tick)
+        keys = sorted((k for k in dirty.union(periodic) if k in self.tracker.tracks), key=KEY_ORDER)
+        assessed = self._assess(now_s, keys, changes, dirty, periodic) if keys else []
+        if tick and self.step_fault is not None:  # an assessment went through again
             log.warning("t=%.2f the DAA step works again after %d failed step(s)", now_s, self.step_fault.count)
             self.step_fault = None
-        return StepResult(now_s, changes, assessed, self._guidance(now_s) if full else None)
+        return StepResult(now_s, changes, Assessed(assessed), self._guidance(now_s) if tick else None)
+
+    def _slice(self, now_s: float, period_s: float, tick: bool) -> set[IntruderKey]:
+        """The intruders to re-assess in this step (issue 13, item 3). Every assessment tick starts a pass over
+        every track; the pass is spread over the steps in slices of at most advisory.assessment_slice intruders,
+        more when that would not finish it within half a period (so a step never makes a fresh report wait
+        behind a whole pass, and every intruder is still re-assessed at assessment_hz). Intruders still left at
+        the next tick are re-assessed in that step (counted: `assessment.pass_overrun`). A step on the tick
+        with no more tracks than the slice re-assesses them all, as a full pass."""
+        take = set()
+        if tick:
+            if self._pass:
+                self.counters["assessment.pass_overrun"] += 1
+                take.update(self._pass)
+            self._pass = deque(sorted(self.tracker.tracks, key=KEY_ORDER))
+            self._pass_size = len(self._pass)
+        if not self._pass:
+            return take
+        spread_s = 0.5 * period_s
+        due = math.ceil(self._pass_size * min(1.0, (now_s - self._last_tick_s) / spread_s) - TIME_EPSILON_S)
+        n = max(due - (self._pass_size - len(self._pass)), min(self.config.advisory.assessment_slice, len(self._pass)))
+        take.update(self._pass.popleft() for _ in range(min(n, len(self._pass))))
+        return take
 
     def _guidance(self, now_s: float):
-        """The guidance bands (a DO-365 alerter's) on the first full assessment of each second, as DAIDALUS is
-        run at 1 Hz: every intruder with an altitude, at its datum-matched relative altitude, with its alert
+        """The guidance bands (a DO-365 alerter's) on the first assessment tick of each second, as DAIDALUS is
+        run at 1 Hz: every intruder with an altitude re-assessed within the last period, at its datum-matched
+        altitude (carried to now along its velocity when its slice came before this step), with its alert
         level. A fault here is counted and logged; it never stops the advisories."""
         slot = math.floor(now_s + 1e-6)
         if self.bands is None or slot == self._bands_slot:
@@ -261,10 +346,13 @@ class DaaCore:
             own = self.ownship.state_at(now_s)
             if own is None:
                 return None
-            t, keys, pos, vel = self._bands_traffic
-            if t != now_s:  # no intruder assessed at this tick
-                keys, pos, vel = [], np.empty((0, 3)), np.empty((0, 3))
-            levels = [self.assessments[k].advisory.alert()[0] if k in self.assessments else NONE for k in keys]
+            period = 1.0 / self.config.advisory.assessment_hz
+            keys = sorted(k for k, (t, _, _) in self._bands_traffic.items() if now_s - t <= period - TIME_EPSILON_S)
+            pos, vel = np.empty((len(keys), 3)), np.empty((len(keys), 3))
+            for i, k in enumerate(keys):
+                t, pos[i], vel[i] = self._bands_traffic[k]
+                pos[i] += vel[i] * (now_s - t)
+            levels = [int(self.states.alert[r]) if (r := self.states.row(k)) is not None else NONE for k in keys]
             bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels)
             return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
         except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
@@ -284,7 +372,9 @@ class DaaCore:
         return float(own.x[2]), False
 
     def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
-                updated: set[IntruderKey] = frozenset()) -> list[Advisory]:
+                updated: set[IntruderKey] = frozenset(), periodic: set[IntruderKey] = frozenset()) -> list:
+        """Assess keys (those updated by a report in this step, and this step's slice of the re-assessment pass,
+        `periodic`); their latest advisories (`_latest` entries), the changes appended to changes."""
         try:
             own = self.ownship.state_at(now_s)
         except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
@@ -304,40 +394,40 @@ class DaaCore:
 
         # Stage boundaries (module docstring): an intruder that fails a stage is out of `keys` from there on
         # (prediction, conflict) or in `failed` (the advisory logic, whose arrays keep every row).
-        full = len(keys) == len(self.tracker.tracks) and now_s == self._last_full_assessment_s
         keys, xs, ps = self._predicted(now_s, keys, changes)
-        ev = self._evaluated(now_s, keys, xs, ps, own, level, ra_allowed, full, changes) if keys else None
+        ev = self._evaluated(now_s, keys, xs, ps, own, level, ra_allowed, periodic, changes) if keys else None
         if ev is None:
             return []
-        keys, xs, tracks, has_alt, mismatch = ev.keys, ev.xs, ev.tracks, ev.has_alt, ev.mismatch
-        geometry, pc_ta, pc_ra, pc = ev.geometry, ev.pc_ta, ev.pc_ra, ev.pc
-        if full and self.bands is not None:  # the traffic of the guidance bands (_guidance)
-            pos = np.column_stack([xs[:, :2], own.x[2] + geometry.sz_m])[has_alt]
-            self._bands_traffic = (now_s, [k for k, h in zip(keys, has_alt) if h], pos, xs[has_alt, 3:6])
-        within_age = ev.within_age
-        self.counters["assessment.datum_mismatch"] += int(mismatch.sum())
+        keys, xs, has_alt, geometry = ev.keys, ev.xs, ev.has_alt, ev.geometry
+        if self.bands is not None:  # the traffic of the guidance bands (_guidance)
+            pos = np.column_stack([xs[:, :2], own.x[2] + geometry.sz_m])
+            for i in np.flatnonzero(has_alt):
+                self._bands_traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6])
+            for i in np.flatnonzero(~has_alt):
+                self._bands_traffic.pop(keys[i], None)
+        self.counters["assessment.datum_mismatch"] += int(ev.mismatch.sum())
         failed: set[IntruderKey] = set()
         candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
-
+        live = np.array([i for i, k in enumerate(keys) if k not in failed], np.intp) if failed else \
+            np.arange(len(keys))
+        alerts = np.where(stale, NONE, candidates)
+        rows = self.states.rows([keys[i] for i in live])
+        previous_level = self.states.level[rows].astype(int)
+        previous_alert = self.states.alert[rows].astype(int)
         ta_hold_s = self.alerter.level(int(AdvisoryLevel.TA)).min_duration_s  # TCAS II: a TA stays 8 s
-        states = []
-        for i, key in enumerate(keys):
-            states.append(None)
-            if key in failed:
-                continue
-            try:
-                entry = self.assessments.get(key)
-                state = entry.state if entry else AdvisoryState()
-                alert = NONE if stale[i] else int(candidates[i])
-                candidate = AdvisoryLevel(self.alerter.advisory_of(alert))
-                state.next(now_s, candidate, ta_hold_s, force=bool(stale[i]))
-                states[i] = (state, candidate, entry.advisory if entry else None, alert)
-                if state.level is AdvisoryLevel.RA:
-                    self._ra_threats[key] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
-                else:
-                    self._ra_threats.pop(key, None)
-            except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory logic)
-                self._fail(now_s, key, "advisory", exc, changes, failed)
+        self.states.next(rows, now_s, self._advisory_level[alerts[live]], ta_hold_s, force=stale[live])
+        levels = self.states.level[rows].astype(int)
+        own_levels = self.alerter.own_levels
+        self.states.alert[rows] = alerts[live] if own_levels else levels
+        self.states.mismatch[rows] = ev.mismatch[live]
+        ra_rows = live[levels == int(AdvisoryLevel.RA)]
+        if self._ra_threats:  # an assessed intruder no longer at RA is no longer an RA threat
+            assessed = set(keys)
+            for key in [k for k in self._ra_threats if k in assessed and self.states.level_of(k) is not
+                        AdvisoryLevel.RA]:
+                del self._ra_threats[key]
+        for i in ra_rows:
+            self._ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
         try:
             resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
                                                  level.alim_m or 0.0, inhibits, float(own.x[2]))
@@ -346,70 +436,72 @@ class DaaCore:
             for key in sorted(self._ra_threats):
                 self._fail(now_s, key, "resolution", exc, changes, failed)
             resolution, blocked = None, ""
-        # modified tau at the RA's DMOD only when an intruder is at RA (the others read the TA's)
-        ra_tau = level.ra_dmod_m and any(s is not None and s[0].level is AdvisoryLevel.RA for s in states)
-        mod_tau = {AdvisoryLevel.RA: geometry.mod_tau(level.ra_dmod_m) if ra_tau else None,
-                   AdvisoryLevel.TA: geometry.mod_tau(level.ta_dmod_m)}
-        mod_tau[AdvisoryLevel.NONE] = mod_tau[AdvisoryLevel.TA]
+        step = _Rows(now_s, keys, level, ev, stale, alerts, self._alert_names, own_levels)
+        if len(ra_rows):  # modified tau at the RA's DMOD only when an intruder is at RA (the others read the TA's)
+            step.mod_tau[AdvisoryLevel.RA] = geometry.mod_tau(level.ra_dmod_m)
+        # an intruder alerting now or before (or with a DO-365 alert level) gets its advisory built now; the
+        # others (most of them) are (step, row) until something reads them
+        eager = (levels != NONE) | (previous_level != NONE)
+        if own_levels:
+            eager |= (alerts[live] != NONE) | (previous_alert != NONE)
         out = []
-        for i, key in enumerate(keys):
-            if key in failed:
+        for j, i in enumerate(live):
+            key = keys[i]
+            if key in failed:  # the resolution failed for its RA
+                continue
+            if not eager[j]:
+                self._latest[key] = entry = (step, i)
+                out.append(entry)
                 continue
             try:
-                advisory = self._advisory(now_s, i, key, states[i], level, geometry, mod_tau, continued, stale,
-                                          has_alt, tracks, mismatch, pc_ta, pc_ra, pc, within_age, resolution, blocked)
+                advisory = self._built(step, i, key, levels[j], candidates[i], stale[i], continued[i], level,
+                                       resolution, blocked)
             except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory)
                 self._fail(now_s, key, "advisory", exc, changes, failed)
                 continue
-            previous = states[i][2]
-            self.assessments[key] = _Assessment(advisory, states[i][0])
-            if key in self.faults:  # it failed before; its new track was assessed: it is back
-                fault = self.faults.pop(key)
-                self.counters["fault.recovered"] += 1
-                log.warning("t=%.2f intruder %s assessed again after its %s fault", now_s, key, fault.stage)
+            previous = self._latest.get(key)
+            previous = _advisory_of(previous) if previous is not None else None
+            self._remember(key, advisory)
             if previous is None and advisory.level is not AdvisoryLevel.NONE or \
                     previous is not None and previous.ra_key() != advisory.ra_key():
                 changes.append(advisory)
             out.append(advisory)
+        if self.faults:
+            for key in [k for k in keys if k in self.faults and k in self._latest]:
+                fault = self.faults.pop(key)  # it failed before; its new track was assessed: it is back
+                self.counters["fault.recovered"] += 1
+                log.warning("t=%.2f intruder %s assessed again after its %s fault", now_s, key, fault.stage)
         return out
 
-    def _advisory(self, now_s, i, key, state_entry, level, geometry, mod_tau, continued, stale, has_alt, tracks,
-                  mismatch, pc_ta, pc_ra, pc, within_age, resolution, blocked) -> Advisory:
-        """Intruder i's advisory from the step's arrays (the advisory logic's last part, per intruder)."""
-        state, candidate, previous, alert = state_entry
-        if blocked and state.level is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
-            state.level = AdvisoryLevel.TA
-        threat = self._ra_threats.get(key) if state.level is AdvisoryLevel.RA else None
-        dmod = level.ra_dmod_m if state.level is AdvisoryLevel.RA else level.ta_dmod_m
-        return Advisory(
-            intruder=key, level=state.level, time_s=now_s,
-            reason=(blocked if blocked and key in self._ra_threats else
-                    resolution.reason if threat is not None and resolution.reason else
-                    "closing" if threat is not None and continued[i] else
-                    self._reason(state.level, candidate, stale[i], geometry.s_dot_v[i], geometry.range_m[i], dmod)),
-            sensitivity_level=level.sl,
-            range_m=float(geometry.range_m[i]), closure_rate_mps=float(geometry.closure_rate_mps[i]),
-            t_cpa_s=float(geometry.t_cpa_s[i]), hmd_m=float(geometry.hmd_m[i]),
-            vmd_m=float(geometry.vmd_m[i]) if has_alt[i] else None,
-            range_tau_s=float(geometry.range_tau_s[i]), mod_tau_s=float(mod_tau[state.level][i]),
-            vertical_tau_s=float(geometry.vertical_tau_s[i]) if has_alt[i] else math.inf,
-            altitude_datum=tracks[i].datum if has_alt[i] else None, datum_mismatch=bool(mismatch[i]),
-            pc_ta=float(pc_ta[i]), pc_ra=float(pc_ra[i]) if level.ra_tau_s is not None else None,
-            pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]),
-            t_pc_max_s=float(pc["t_pc_max_s"][i]), pc_within=_finite_or_none(pc["pc_within"][i]),
-            pc_within_age_s=_finite_or_none(within_age[i]), integrity=tracks[i].integrity.label,
-            **(dict(alert_level=alert, alert_name=self._alert_names[alert]) if self.alerter.own_levels else {}),
-            **(_ra_fields(resolution, threat) if threat is not None and resolution else {}),
-        )
+    def _built(self, step: _Rows, i, key, level_number, candidate_alert, stale, continued, level, resolution,
+               blocked) -> Advisory:
+        """Intruder i's advisory from the step's arrays, with its level's reason and its RA."""
+        state = AdvisoryLevel(int(level_number))
+        if blocked and state is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
+            state = AdvisoryLevel.TA
+            self.states.level[self.states.row(key)] = int(state)
+        threat = self._ra_threats.get(key) if state is AdvisoryLevel.RA else None
+        if blocked and key in self._ra_threats:
+            reason = blocked
+        elif threat is not None and resolution.reason:
+            reason = resolution.reason
+        elif threat is not None and continued:
+            reason = "closing"
+        else:
+            candidate = AdvisoryLevel(self.alerter.advisory_of(NONE if stale else int(candidate_alert)))
+            dmod = level.ra_dmod_m if state is AdvisoryLevel.RA else level.ta_dmod_m
+            reason = self._reason(state, candidate, stale, step.geometry.s_dot_v[i], step.geometry.range_m[i], dmod)
+        return step.advisory(i, state, reason, _ra_fields(resolution, threat) if threat is not None and resolution
+                             else None)
 
-    def _conflict_probabilities(self, now_s, keys, xs, ps, own, geometry, level, has_alt, margin, full):
+    def _conflict_probabilities(self, now_s, keys, xs, ps, own, geometry, level, has_alt, margin, periodic):
         """Pc of the TA and RA volumes at the predicted CPA (advisory/gating.py), for gating; and the conflict
         stage's probabilities of the [conflict] zone (conflict/assess.py: now, max over the lookahead and
         its time, within the lookahead) for the outputs, under Hwang's scheduling conditions."""
         rel_x = xs - own.x
         rel_x[:, 2] = geometry.sz_m  # the datum-matched relative altitude
         rel_p = ps + own.p
-        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin, own.x[3:5], full)
+        zone = self._zone_probabilities(now_s, keys, rel_x, rel_p, has_alt, margin, own.x[3:5], periodic)
         # a datum mismatch widens the vertical uncertainty: the margin is added as a 1-sigma term
         rel_p[:, 2, 2] += margin**2
         t = geometry.t_cpa_s
@@ -423,13 +515,22 @@ class DaaCore:
         pc_ra = pc[1] * has_alt if level.ra_tau_s is not None else np.zeros(len(keys))
         return pc[0], pc_ra, zone
 
-    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin, own_velocity, full) -> dict:
-        """The conflict stage runs on the full-assessment ticks only (its scheduler then decides which pairs
-        are due); an assessment between ticks, for a fresh report, reuses the intruder's last values. full: this
-        is a full assessment (decided before any intruder failed, so that one retried alone runs the stage too)."""
-        if full:
+    def _zone_probabilities(self, now_s, keys, rel_x, rel_p, has_alt, margin, own_velocity, periodic) -> dict:
+        """The conflict stage runs for the intruders of the re-assessment pass (its scheduler then decides which
+        pairs are due); an assessment between them, for a fresh report, reuses the intruder's last values."""
+        if not periodic:
+            return self.conflict.last(keys)
+        due = np.array([k in periodic for k in keys], bool)
+        if due.all():
             return self.conflict.assess(now_s, keys, rel_x, rel_p, has_alt, margin, own_vel=own_velocity)
-        return self.conflict.last(keys)
+        zone = self.conflict.last(keys)
+        i = np.flatnonzero(due)
+        if len(i):
+            fresh = self.conflict.assess(now_s, [keys[j] for j in i], rel_x[i], rel_p[i], has_alt[i], margin[i],
+                                         own_vel=own_velocity)
+            for name, values in zone.items():
+                values[i] = fresh[name]
+        return zone
 
     @staticmethod
     def _reason(level: AdvisoryLevel, candidate: AdvisoryLevel, stale: bool, s_dot_v: float, range_m: float,
@@ -442,19 +543,26 @@ class DaaCore:
             return "diverging" if s_dot_v > 0.0 else "clear"
         return "range" if range_m <= dmod_m else "tau"
 
-    def _drop_all(self, now_s: float, keys: list[IntruderKey], reason: str, changes: list[Advisory]):
-        """Without ownship there is no relative geometry: every advisory ends, with the reason."""
-        out = []
+    def _drop_all(self, now_s: float, keys: list[IntruderKey], reason: str, changes: list[Advisory]) -> list:
+        """Without ownship there is no relative geometry: every advisory ends, with the reason. The latest
+        advisories of keys (`_latest` entries)."""
         for key in keys:
             self._ra_threats.pop(key, None)
-            entry = self.assessments.get(key)
-            if entry is None:
-                continue
-            if entry.state.next(now_s, AdvisoryLevel.NONE, 0.0, force=True):
-                entry.advisory = _with_level(entry.advisory, now_s, AdvisoryLevel.NONE, reason)
-                changes.append(entry.advisory)
-            out.append(entry.advisory)
-        return out
+        keys = [k for k in keys if k in self._latest]
+        ended = self.states.end(self.states.rows(keys))
+        for i in np.flatnonzero(ended):
+            key = keys[i]
+            advisory = _with_level(_advisory_of(self._latest[key]), now_s, AdvisoryLevel.NONE, reason)
+            self._remember(key, advisory)
+            changes.append(advisory)
+        return [self._latest[k] for k in keys]
+
+    def _remember(self, key: IntruderKey, advisory: Advisory) -> None:
+        self._latest[key] = advisory
+        if advisory.level is AdvisoryLevel.NONE:
+            self.active.pop(key, None)
+        else:
+            self.active[key] = advisory
 
     # -- stage boundaries ------------------------------------------------------------------------------------
     def _contained(self, stage: str, now_s: float, keys: list[IntruderKey], changes: list[Advisory], run,
@@ -498,11 +606,12 @@ class DaaCore:
             rows, xs, ps = rows[finite], xs[finite], ps[finite]
         return [keys[i] for i in rows], xs, ps
 
-    def _evaluated(self, now_s, keys, xs, ps, own, level, ra_allowed, full, changes) -> SimpleNamespace | None:
+    def _evaluated(self, now_s, keys, xs, ps, own, level, ra_allowed, periodic, changes) -> SimpleNamespace | None:
         """The conflict stage (geometry, detection, probabilities, the criterion) for the intruders whose
         numbers go through it finite; None when none does."""
         def run(rows):
-            return self._evaluate(now_s, [keys[i] for i in rows], xs[rows], ps[rows], own, level, ra_allowed, full)
+            return self._evaluate(now_s, [keys[i] for i in rows], xs[rows], ps[rows], own, level, ra_allowed,
+                                  periodic)
 
         rows, ev = self._contained("conflict", now_s, keys, changes, run)
         if ev is not None and not ev.finite.all():
@@ -513,7 +622,7 @@ class DaaCore:
             ev = run(rows) if len(rows) else None  # raises again only if the rest fails together: the step fails
         return ev
 
-    def _evaluate(self, now_s, keys, xs, ps, own, level, ra_allowed, full) -> SimpleNamespace:
+    def _evaluate(self, now_s, keys, xs, ps, own, level, ra_allowed, periodic) -> SimpleNamespace:
         cfg = self.config
         tracks = [self.tracker.tracks[k] for k in keys]
         own_alt = np.empty(len(keys))
@@ -531,7 +640,7 @@ class DaaCore:
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
-                                                        full)
+                                                        periodic)
         within_age = self.conflict.within_age(now_s, keys)
         candidates = self.gate.admit(candidates, pc_ta, pc_ra, geometry, level, has_alt, ra_allowed)
         # ADS-B integrity (docs/tracking.md, "Integrity monitor"): a degraded track inside DMOD and ZTHR by its last
@@ -562,8 +671,8 @@ class DaaCore:
         def run(rows):
             ks = [keys[i] for i in rows]
             cands = self.gate.persist(ks, candidates[rows], ev.pc_ta[rows], ev.pc_ra[rows], updated)
-            previous = np.array([int(e.state.level) if (e := self.assessments.get(k)) is not None else NONE
-                                 for k in ks], int)
+            states = self.states.rows(ks)  # before reading the arrays: allocating may grow them
+            previous = self.states.level[states].astype(int)
             # the levels' continuations: RA threats kept although the RA tests no longer hold (alerting.py)
             encounter = ev.encounter if len(rows) == len(keys) else ev.encounter.take(rows)
             cands, continued = self.alerter.hold(encounter, level, previous, cands,
@@ -601,8 +710,8 @@ class DaaCore:
         fault = self.faults.get(key)
         error = f"{type(exc).__name__}: {exc}"
         if fault is None:
-            entry = self.assessments.get(key)
-            advisory = (_with_level(entry.advisory, now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
+            entry = self._latest.get(key)
+            advisory = (_with_level(_advisory_of(entry), now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
                         else _blank_advisory(key, now_s, FAULT, self.level.sl if self.level else 0))
             changes.append(advisory)
             self.faults[key] = Fault(stage, now_s, now_s, error)
@@ -617,11 +726,18 @@ class DaaCore:
     def _drop_track(self, key: IntruderKey) -> None:
         """Forget an intruder in every stage: its next report starts a new track."""
         self.tracker.drop(key)
+        self._forget(key)
+
+    def _forget(self, key: IntruderKey) -> None:
+        """Forget an intruder's assessments in every stage after tracking (its track is gone)."""
         self._ra_threats.pop(key, None)
         self.gate.forget(key)
         self.hysteresis.forget(key)
         self.conflict.forget(key)
-        self.assessments.pop(key, None)
+        self.states.forget(key)
+        self._latest.pop(key, None)
+        self.active.pop(key, None)
+        self._bands_traffic.pop(key, None)
 
     def _expire_faults(self, now_s: float) -> None:
         """A failed intruder not heard of again (no track) for tracking.delete_after_s is gone."""
@@ -642,10 +758,10 @@ class DaaCore:
         else:
             self.step_fault.last_s, self.step_fault.count = now_s, self.step_fault.count + 1
         try:
-            self._drop_all(now_s, sorted(self.assessments), FAULT, changes)
+            self._drop_all(now_s, sorted(self._latest), FAULT, changes)
         except Exception:  # noqa: BLE001
             log.exception("ending the advisories after a failed step failed too")
-        return StepResult(now_s, changes, [])
+        return StepResult(now_s, changes, Assessed([]))
 
     # -- views for the shell -------------------------------------------------------------------------------
     def predict_tracks(self, keys: list[IntruderKey], now_s: float):
@@ -656,11 +772,18 @@ class DaaCore:
     def end_all(self, now_s: float, reason: str) -> list[Advisory]:
         """End every active advisory now with reason (e.g. "shutdown"); the ended ones, for announcing."""
         changes: list[Advisory] = []
-        self._drop_all(now_s, sorted(self.assessments), reason, changes)
+        self._drop_all(now_s, sorted(self._latest), reason, changes)
         return changes
 
-    def advisories(self) -> dict[IntruderKey, Advisory]:
-        return {k: a.advisory for k, a in self.assessments.items()}
+    def advisory(self, key: IntruderKey) -> Advisory | None:
+        """An intruder's latest advisory (built now if the step left it as arrays); None: never assessed."""
+        entry = self._latest.get(key)
+        return None if entry is None else _advisory_of(entry)
+
+    def datum_mismatch_keys(self) -> list[IntruderKey]:
+        """The intruders whose latest assessment compared altitudes across datums."""
+        states = self.states
+        return [k for k in self._latest if states.mismatch[states.row(k)]]
 
     def ownship_state(self) -> OwnshipState | None:
         return self._last_ownship

@@ -302,7 +302,7 @@ def test_node_shutdown_ends_active_advisories_with_reason_shutdown():
     config = load_config()
     node = Harness(config)
     _fly(node, head_on_events(start_s=0.0, end_s=67.0), 67.0)
-    assert [a.level for a in node.core.advisories().values()] == [AdvisoryLevel.RA]
+    assert [a.level for a in node.core.active.values()] == [AdvisoryLevel.RA]
     ended = node.shutdown(67.0).changes
     assert [(str(a.intruder), a.level, a.reason) for a in ended] == [("1090es-A10001", AdvisoryLevel.NONE, "shutdown")]
     kinds = [(m.get_type(), getattr(m, "threat_level", getattr(m, "level", None))) for m in node.mavlink_out]

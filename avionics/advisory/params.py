@@ -14,6 +14,7 @@ PERSISTENCE = ("none", "m-of-n", "binomial")
 @dataclass(frozen=True)
 class AdvisoryConfig:
     assessment_hz: float = 10.0
+    assessment_slice: int = 128  # re-assessments per step beyond fresh reports, while the pass keeps its pace
     ta_min_duration_s: float = 8.0  # TCAS II: a TA stays at least 8 s
     ra_enabled: bool = True
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
@@ -31,6 +32,8 @@ class AdvisoryConfig:
     def validate(self) -> None:
         a = self
         require_positive("advisory", a, ("assessment_hz",))
+        if not isinstance(a.assessment_slice, int) or a.assessment_slice < 1:
+            raise ConfigError("advisory.assessment_slice: must be a whole number >= 1")
         if a.criterion not in CRITERIA:
             raise ConfigError(f"advisory.criterion: {a.criterion!r} is not tcas, tcas+pc or pc")
         if a.persistence not in PERSISTENCE:
