@@ -16,6 +16,7 @@ from avionics import cli as flight
 ERRORS = flight.ERRORS + (  # the table of avionics.cli plus the errors of demo (exit codes in README)
     ("avionics_sitl.encounters", "ScenarioError", 2, ""),
     ("avionics_eval.demo", "OnboardError", 1, ""),
+    ("avionics_eval.evaluation.runner", "EvaluationError", 2, ""),
 )
 
 
@@ -51,6 +52,12 @@ def cmd_bench(args) -> int:
 
     print(json.dumps(bench([int(n) for n in (args.intruders or "10,100,1000").split(",")], args.seconds), indent=1))
     return 0
+
+
+def cmd_evaluate(args) -> int:
+    from avionics_eval.evaluation.cli import evaluate_command
+
+    return evaluate_command(args)
 
 
 def _positive(text: str) -> float:
@@ -93,6 +100,13 @@ def add_commands(sub) -> None:
     p.add_argument("--max-trials", type=int, default=16, metavar="K",
                    help="--capacity: trials per intruder count at most (then the capacity is a lower bound)")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("evaluate", help="a seeded encounter set through the alerting profiles on Dask, to Parquet, "
+                                        "and its safety metrics (docs/evaluation.md)")
+    from avionics_eval.evaluation.cli import add_arguments
+
+    add_arguments(p)
+    p.set_defaults(func=cmd_evaluate)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,56 @@
+"""`avionics evaluate`: run a set (runner.py) or report on one (metrics.py). Kept apart from avionics_eval/cli.py
+so that its arguments live beside the code they drive."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+DEFAULT_PROFILES = "tcas2,daidalus-tcas3d,do365"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--encounters", type=int, default=1000, metavar="N", help="encounters 0..N-1 of the set")
+    p.add_argument("--seed", type=int, default=1, help="the set's seed: encounter i is drawn from (seed, i) alone")
+    p.add_argument("--profiles", default=DEFAULT_PROFILES,
+                   help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
+    p.add_argument("--out", help="results: a directory of Parquet partitions (created; resumed when it exists)")
+    p.add_argument("--scheduler", default="local",
+                   help="local[:N] (a LocalCluster of N processes on 127.0.0.1; default N = cores), synchronous "
+                        "(in-process) or tcp://HOST:PORT (an existing dask scheduler)")
+    p.add_argument("--partition-size", type=int, default=100, metavar="K", help="encounters per Parquet partition")
+    p.add_argument("--max-partitions", type=int, metavar="K",
+                   help="stop after K more partitions (the rest on a later run of the same command)")
+    p.add_argument("--progress", action="store_true", default=None,
+                   help="a progress bar on stderr (default: when stderr is a terminal)")
+    p.add_argument("--report", nargs="+", metavar="RESULTS",
+                   help="instead of running: the metrics of these results directories as a Markdown table "
+                        "(and JSON with --json)")
+    p.add_argument("--plots", metavar="DIR", help="--report: also draw the plots into DIR")
+    p.add_argument("--json", action="store_true", help="--report: print the metrics as JSON")
+
+
+def evaluate_command(args) -> int:
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    if args.report:
+        from avionics_eval.evaluation.metrics import load, markdown, metrics, plot
+
+        table = load(args.report)
+        result = metrics(table)
+        print(json.dumps(result, indent=1) if args.json else markdown(result))
+        if args.plots:
+            for path in plot(table, result, args.plots):
+                print(f"avionics evaluate: wrote {path}", file=sys.stderr)
+        return 0
+    if not args.out:
+        raise EvaluationError("--out is required to run a set (or --report RESULTS to report on one)")
+    if args.encounters < 1 or args.partition_size < 1:
+        raise EvaluationError("--encounters and --partition-size must be at least 1")
+    from avionics_eval.evaluation.runner import run
+
+    profiles = tuple(p.strip() for p in args.profiles.split(",") if p.strip())
+    summary = run(args.encounters, args.seed, profiles, args.out, scheduler=args.scheduler,
+                  partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress)
+    print(json.dumps(summary, indent=1))
+    return 0

@@ -1,0 +1,244 @@
+"""One encounter through the onboard core, open and closed loop: `evaluate(encounter, profile, seed) -> record`.
+
+Pure: the record (a flat dict of scalars, RECORD_SCHEMA) depends only on the encounter, the alerting profile and
+the seed, which draws the ADS-B noise and the pilot's delay. Nothing is shared between calls but the parsed
+configuration, which is read-only.
+
+The core (avionics.daa.Daa) is stepped once a second, the TCAS II surveillance and logic cycle (and DAIDALUS's,
+the do365 alerter's `period_s`): each step gets ownship's fix and pressure altitude and the intruder's ADS-B
+reports received since the last step (1 Hz, through avionics_sitl.impairments.DEFAULT: noise, quantisation,
+0.2-0.5 s latency, 5 % lost), stamped on receipt as the MAVLink path stamps them (tslc 0). Ownship flies the RAs
+it gets with the SITL response model (avionics_sitl.response.RaResponder, fed the DAA_ADVISORY the MAVLink port
+would send), integrated every 0.1 s; its delay is drawn per encounter around the profile's standard delay.
+
+NMAC: horizontal separation < 500 ft and vertical separation < 100 ft at the same time (Kochenderfer et al.,
+ATC-344/345 and the 2010 JGCD paper; Kuchar and Drumm, Lincoln Laboratory Journal 16(2), 2007), on the 0.1 s
+truth grid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from functools import cache
+
+import numpy as np
+import pyarrow as pa
+
+from avionics.advisory.tables import load_profile
+from avionics.config import load_config
+from avionics.core.geodesy import LocalTangentPlane
+from avionics.core.types import (
+    AddressSource,
+    AdvisoryLevel,
+    AltitudeDatum,
+    IntruderKey,
+    IntruderReport,
+    OwnshipFix,
+    OwnshipPressure,
+)
+from avionics.core.units import FPM, FT, KT
+from avionics.daa import Daa
+from avionics.io.encode import daa_advisory
+from avionics_eval.evaluation.generator import DT_S, DURATION_S, T_CPA_S, Encounter
+from avionics_sitl.impairments import DEFAULT
+from avionics_sitl.response import RaResponder
+from avionics_sitl.trajectory import KinematicState
+
+NMAC_HORIZONTAL_M = 500 * FT
+NMAC_VERTICAL_M = 100 * FT
+STEP_S = 1.0  # the core's logic cycle
+DELAY_SPREAD = 0.4  # pilot delay uniform in standard x [1 - this, 1 + this] (docs/evaluation.md)
+PLANE = LocalTangentPlane(47.4, 8.5)  # where the encounters are flown (any mid-latitude point)
+KEY = IntruderKey(0xC0FFEE, AddressSource.ES1090)
+STRENGTH_RANK = {"preventive": 0, "level_off": 1, "corrective": 2, "increase": 3}
+SUBSTEPS = round(STEP_S / DT_S)
+# The [conflict] zone's probabilities (pc_now, pc_max, pc_within) are outputs for displays: advisories under
+# the default criterion (tcas) never read them, so their Monte Carlo and 60 s curve are cut (a third of a tcas2
+# encounter's cost; tests/test_evaluation.py checks the records are unchanged).
+EVALUATION_OVERRIDES = ("zenoh.enabled=false", "conflict.within_samples=0", "conflict.lookahead_s=1.0")
+
+RECORD_SCHEMA = pa.schema([
+    ("seed", pa.int64()), ("index", pa.int64()), ("profile", pa.string()),
+    # the drawn geometry
+    ("layer", pa.int8()), ("alt_ft", pa.float64()), ("hmd_drawn_ft", pa.float64()), ("vmd_drawn_ft", pa.float64()),
+    ("rel_heading_deg", pa.float64()), ("own_speed_kt", pa.float64()), ("int_speed_kt", pa.float64()),
+    ("own_vrate_fpm", pa.float64()), ("int_vrate_fpm", pa.float64()),
+    ("own_manoeuvres", pa.int8()), ("int_manoeuvres", pa.int8()),
+    # truth without ownship flying RAs (unequipped) and with (equipped, closed loop)
+    ("t_cpa_s", pa.float64()), ("hmd_ft", pa.float64()), ("vmd_unequipped_ft", pa.float64()),
+    ("vmd_equipped_ft", pa.float64()), ("min_vsep_within_nmac_hmd_equipped_ft", pa.float64()),
+    ("nmac_unequipped", pa.bool_()), ("nmac_equipped", pa.bool_()), ("induced_nmac", pa.bool_()),
+    # alerts
+    ("alerted", pa.bool_()), ("first_alert_s", pa.float64()), ("alert_lead_s", pa.float64()),
+    ("alert_duration_s", pa.float64()),
+    ("ra", pa.bool_()), ("first_ra_s", pa.float64()), ("ra_lead_s", pa.float64()), ("ra_duration_s", pa.float64()),
+    ("ra_sl", pa.int8()), ("ra_words", pa.string()), ("ra_episodes", pa.int16()),
+    ("ra_reversals", pa.int16()), ("ra_strengthenings", pa.int16()),
+    ("response_delay_s", pa.float64()), ("late_ra", pa.bool_()), ("outside_protection", pa.bool_()),
+    ("nuisance_ra", pa.bool_()),
+])
+
+
+@cache
+def _setup(profile: str):
+    """The parsed configuration and profile (read-only) and the first level row of each sensitivity level."""
+    config = load_config(overrides=[*EVALUATION_OVERRIDES, f'advisory.profile="{profile}"'])
+    levels = {}
+    for level in load_profile(profile).levels:
+        levels.setdefault(level.sl, level)
+    return config, levels
+
+
+def _reports(encounter: Encounter, t, intruder, rng) -> dict[int, list[IntruderReport]]:
+    """The intruder's ADS-B reports (1 Hz at a random phase on the truth grid) by the step that receives them."""
+    impair = DEFAULT.with_seed(int(rng.integers(2**63)))
+    phase = int(rng.integers(SUBSTEPS))
+    idx = np.arange(phase, len(t), SUBSTEPS)
+    lat, lon = PLANE.to_geodetic(intruder[idx, 0], intruder[idx, 1])
+    by_step: dict[int, list] = {}
+    for j, k in enumerate(idx):
+        x = intruder[k]
+        rep = impair.impair(KinematicState(float(t[k]), float(lat[j]), float(lon[j]), float(x[2]), float(x[3]),
+                                           float(x[4]), float(x[5])))
+        if rep is None:
+            continue
+        received = float(t[k]) + rep.latency_s
+        s = rep.state
+        by_step.setdefault(math.ceil(received / STEP_S - 1e-9), []).append(IntruderReport(
+            KEY, received, received, s.lat_deg, s.lon_deg, s.alt_msl_m, AltitudeDatum.PRESSURE,
+            (s.vel_east_mps, s.vel_north_mps), s.vel_up_mps))
+    return by_step
+
+
+def _fly(responder, own, t, offsets, rates, j0, j1) -> None:
+    """Ownship's response on the truth grid from index j0 to j1 inclusive."""
+    for j in range(j0, j1 + 1):
+        state = responder.fly(KinematicState(float(t[j]), 0.0, 0.0, float(own[j, 2]), 0.0, 0.0, float(own[j, 5])))
+        offsets[j] = responder.offset_m
+        rates[j] = state.vel_up_mps - own[j, 5]
+
+
+def evaluate(encounter: Encounter, profile: str, seed) -> dict:
+    """The record of one encounter flown with one alerting profile; seed (an int or a sequence of ints) draws the
+    ADS-B noise and the pilot's delay. Use the same seed for every profile: the profiles then see the same reports
+    (common random numbers), and their differences are the logic's."""
+    config, levels = _setup(profile)
+    rng = np.random.default_rng(seed)
+    t, own, intruder = encounter.truth()
+    by_step = _reports(encounter, t, intruder, rng)
+    daa = Daa(config)
+    standard = daa.response_model
+    delay = standard.delay_s * rng.uniform(1 - DELAY_SPREAD, 1 + DELAY_SPREAD)
+    own_lat, own_lon = PLANE.to_geodetic(own[::SUBSTEPS, 0], own[::SUBSTEPS, 1])
+    offsets, rates = np.zeros(len(t)), np.zeros(len(t))
+    responder, flown_to = None, -1
+    changes = []
+    for k in range(int(DURATION_S / STEP_S) + 1):
+        j = k * SUBSTEPS
+        if responder is not None:
+            _fly(responder, own, t, offsets, rates, flown_to + 1, j)
+            flown_to = j
+        alt, vup = float(own[j, 2] + offsets[j]), float(own[j, 5] + rates[j])
+        now = float(t[j])
+        inputs = [OwnshipFix(now, float(own_lat[k]), float(own_lon[k]), alt, alt, (float(own[j, 4]),
+                                                                                   float(own[j, 3]), -vup)),
+                  OwnshipPressure(now, alt), *by_step.get(k, ())]
+        for change in daa.step(now, inputs).changes:
+            changes.append(change)
+            if responder is None and change.level is AdvisoryLevel.RA:
+                responder = RaResponder(replace(standard, delay_s=delay))
+                responder.fly(KinematicState(now, 0.0, 0.0, float(own[j, 2]), 0.0, 0.0, float(own[j, 5])))
+                flown_to = j
+            if responder is not None:
+                responder.receive(daa_advisory(change), now)
+    if responder is not None:
+        _fly(responder, own, t, offsets, rates, flown_to + 1, len(t) - 1)
+    return _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels)
+
+
+def _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels) -> dict:
+    dh = np.hypot(intruder[:, 0] - own[:, 0], intruder[:, 1] - own[:, 1])
+    dz = intruder[:, 2] - own[:, 2]
+    dz_flown = dz - offsets
+    k = int(np.argmin(dh))
+    near = dh < NMAC_HORIZONTAL_M
+    nmac_u = bool(np.any(near & (np.abs(dz) < NMAC_VERTICAL_M)))
+    nmac_e = bool(np.any(near & (np.abs(dz_flown) < NMAC_VERTICAL_M)))
+    t_cpa = float(t[k])
+    alert_on, ra_on = _durations(changes)
+    alerts = [c for c in changes if c.level is not AdvisoryLevel.NONE]
+    ras = [c for c in changes if c.level is AdvisoryLevel.RA]
+    first_alert = alerts[0].time_s if alerts else None  # None (null in Parquet): no alert
+    first_ra = ras[0].time_s if ras else None
+    reversals, strengthenings, episodes = _ra_sequence(changes)
+    level = levels.get(ras[0].sensitivity_level) if ras else None
+    protection_hmd = level.ra_hmd_m or level.ra_dmod_m if level is not None and level.ra_dmod_m else None
+    outside = level is not None and protection_hmd is not None and level.alim_m is not None and (
+        dh[k] > protection_hmd or abs(dz[k]) > level.alim_m)
+    # An RA is late when it leaves less time than the standard response needs to reach its rate.
+    needed = standard.delay_s + standard.rate_mps / standard.accel_mps2
+    own0, int0 = encounter.own, encounter.intruder
+    return {
+        "seed": encounter.seed, "index": encounter.index, "profile": profile,
+        "layer": encounter.layer, "alt_ft": own0.alt_m / FT, "hmd_drawn_ft": encounter.hmd_m / FT,
+        "vmd_drawn_ft": encounter.vmd_m / FT, "rel_heading_deg": encounter.rel_heading_deg,
+        "own_speed_kt": own0.speed_mps / KT, "int_speed_kt": int0.speed_mps / KT,
+        "own_vrate_fpm": own0.vrate_mps / FPM, "int_vrate_fpm": int0.vrate_mps / FPM,
+        "own_manoeuvres": _manoeuvre_count(own0), "int_manoeuvres": _manoeuvre_count(int0),
+        "t_cpa_s": t_cpa, "hmd_ft": float(dh[k]) / FT, "vmd_unequipped_ft": abs(float(dz[k])) / FT,
+        "vmd_equipped_ft": abs(float(dz_flown[k])) / FT,
+        "min_vsep_within_nmac_hmd_equipped_ft": float(np.abs(dz_flown[near]).min()) / FT if near.any() else None,
+        "nmac_unequipped": nmac_u, "nmac_equipped": nmac_e, "induced_nmac": nmac_e and not nmac_u,
+        "alerted": bool(alerts), "first_alert_s": first_alert, "alert_lead_s": _lead(t_cpa, first_alert),
+        "alert_duration_s": alert_on,
+        "ra": bool(ras), "first_ra_s": first_ra, "ra_lead_s": _lead(t_cpa, first_ra), "ra_duration_s": ra_on,
+        "ra_sl": ras[0].sensitivity_level if ras else None,
+        "ra_words": "|".join(c.ra_words or "" for c in ras), "ra_episodes": episodes,
+        "ra_reversals": reversals, "ra_strengthenings": strengthenings,
+        "response_delay_s": float(delay), "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
+        "outside_protection": bool(outside), "nuisance_ra": bool(ras) and bool(outside),
+    }
+
+
+def _lead(t_cpa: float, first: float | None) -> float | None:
+    return None if first is None else t_cpa - first
+
+
+def _manoeuvre_count(a) -> int:
+    return int(a.turn_dps != 0.0) + int(a.accel_mps2 != 0.0) + int(a.vrate_before_mps is not None)
+
+
+def _durations(changes) -> tuple[float, float]:
+    """Seconds with an alert (TA or RA) and with an RA; one still on at the end counts to DURATION_S."""
+    alert = ra = 0.0
+    level, since = AdvisoryLevel.NONE, 0.0
+    for c in [*changes, None]:
+        now = DURATION_S if c is None else c.time_s
+        alert += (now - since) if level is not AdvisoryLevel.NONE else 0.0
+        ra += (now - since) if level is AdvisoryLevel.RA else 0.0
+        if c is not None:
+            level, since = c.level, now
+    return alert, ra
+
+
+def _ra_sequence(changes) -> tuple[int, int, int]:
+    """(reversals, strengthenings, RA episodes): a reversal is a sense change within an RA; a strengthening keeps
+    the sense and raises the strength (preventive < level off < corrective < increase)."""
+    reversals = strengthenings = episodes = 0
+    previous = None
+    for c in changes:
+        if c.level is not AdvisoryLevel.RA:
+            previous = None
+            continue
+        if previous is None:
+            episodes += 1
+        elif c.ra_sense != previous.ra_sense:
+            reversals += 1
+        elif STRENGTH_RANK.get(c.ra_strength, 0) > STRENGTH_RANK.get(previous.ra_strength, 0):
+            strengthenings += 1
+        previous = c
+    return reversals, strengthenings, episodes
+
+
+__all__ = ["NMAC_HORIZONTAL_M", "NMAC_VERTICAL_M", "RECORD_SCHEMA", "T_CPA_S", "evaluate"]
