@@ -78,6 +78,8 @@ def _prepare(out: Path, seed: int, size: int, profiles: tuple[str, ...]) -> None
             raise EvaluationError(f"{out} holds another set ({found}); this run is {manifest}: use another --out")
     else:
         path.write_text(json.dumps(manifest) + "\n")
+    for stale in out.glob(".part-*.tmp"):  # left by a killed run (one run per directory at a time)
+        stale.unlink()
 
 
 def _synchronous(pending, seed, profiles, done):
