@@ -8,7 +8,11 @@ the ownship, every filter carried along when it moves), so the geometry holds an
 
 The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
 Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
-intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too.
+intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too. That re-assessment
+pass is spread over the steps after each tick in slices (`_slice`, advisory.assessment_slice), so that a fresh
+report never waits behind a whole pass. The advisory state is held in arrays (advisory/logic.py), and an
+`Advisory` is built at once only for an intruder that alerts, alerted or changed; the others' are built from
+the step's arrays when read (`_Rows`).
 
 Fault containment (docs/architecture.md, "Failure states"): the stages are vectorised over intruders, so one
 intruder's bad numbers (a NaN state, a covariance that is not positive definite) can make a whole call raise.
@@ -27,6 +31,7 @@ import math
 from collections import Counter, deque
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from operator import attrgetter
 from types import SimpleNamespace
 from typing import Iterable
@@ -105,6 +110,10 @@ class _Rows:
             **(dict(alert_level=alert, alert_name=self.alert_names[alert]) if self.own_levels else {}),
             **(ra or {}),
         )
+
+
+def _no_advisory() -> None:
+    return None
 
 
 def _advisory_of(entry) -> Advisory:
@@ -779,6 +788,14 @@ class DaaCore:
         """An intruder's latest advisory (built now if the step left it as arrays); None: never assessed."""
         entry = self._latest.get(key)
         return None if entry is None else _advisory_of(entry)
+
+    def advisory_reader(self, key: IntruderKey):
+        """(level, a callable returning the intruder's latest advisory as of now, built when called): for views
+        that most readers never open (track publication)."""
+        entry = self._latest.get(key)
+        if entry is None:
+            return AdvisoryLevel.NONE, _no_advisory
+        return self.states.level_of(key), partial(_advisory_of, entry)
 
     def datum_mismatch_keys(self) -> list[IntruderKey]:
         """The intruders whose latest assessment compared altitudes across datums."""

@@ -159,7 +159,7 @@ class MavlinkOut:
         if self._rebroadcast_now and result.tracks is not None and not result.final:
             self._rebroadcast_now = False
             # alerting intruders first, then the most recently heard
-            tracks = sorted(result.tracks, key=lambda t: (-(int(t.advisory.level) if t.advisory else 0),
+            tracks = sorted(result.tracks, key=lambda t: (-int(t.advisory_level),
                                                           -t.last_report_s))
             for track in tracks[:REBROADCAST_MAX]:
                 self._send_as(encode.adsb_vehicle(track, now), self._rebroadcast_component)

@@ -219,8 +219,10 @@ class ConflictAssessor:
         for idx in np.flatnonzero(reuse):
             for k, v in self._cache[keys[idx]].items():
                 out[k][idx] = v
+        cache = self._cache
         for idx in np.flatnonzero(~keep):  # Pc 0 now; computed at once when the pre-filter next lets it pass
-            self.forget(keys[idx])
+            if keys[idx] in cache:  # a pair is cached, scheduled and timed together (below): else none of these
+                self.forget(keys[idx])
         if compute.any():
             i = np.flatnonzero(compute)
             self.scheduler.record(now_s, [keys[j] for j in i], out["pc_max"][i],

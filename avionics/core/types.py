@@ -3,8 +3,10 @@ edges and local ENU metres inside. Altitudes always say which datum they are in.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum, IntEnum
+from functools import partial
 
 
 class AltitudeDatum(str, Enum):
@@ -179,19 +181,34 @@ class TrackView:
     p: object  # numpy (6, 6)
     integrity: str  # "ok" | "degraded:<mode>"
     integrity_fault_m: float | None
-    advisory: Advisory | None  # its latest assessment
+    advisory_level: AdvisoryLevel  # its latest assessment's level (NONE: never assessed)
+    advisory_of: Callable[[], Advisory | None]  # its latest assessment, built when asked (`advisory`)
     modes: dict | None  # the IMM tracker's mode outputs (None for the CV filter)
     spoof_suspected: bool
 
+    @property
+    def advisory(self) -> Advisory | None:
+        """Its latest assessment (a quiet intruder's is built from its step's arrays only when read)."""
+        return self.advisory_of()
+
     @classmethod
-    def of(cls, record, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool, advisory: Advisory | None = None,
-           modes: dict | None = None, spoof_suspected: bool = False) -> "TrackView":
-        """The view of a tracker's record (tracking/record.py) with its predicted state; x and p made read-only."""
+    def of(cls, record, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool,
+           advisory: Advisory | Callable[[], Advisory | None] | None = None, modes: dict | None = None,
+           spoof_suspected: bool = False, advisory_level: AdvisoryLevel | None = None) -> "TrackView":
+        """The view of a tracker's record (tracking/record.py) with its predicted state; x and p made read-only.
+        advisory: an Advisory, or a callable building it (then advisory_level is its level)."""
         x.flags.writeable = False
         p.flags.writeable = False
         integrity = record.integrity
+        if not callable(advisory):
+            advisory_level = advisory.level if advisory is not None else AdvisoryLevel.NONE
+            advisory = partial(_same, advisory)
         return cls(key=record.key, callsign=record.callsign, squawk=record.squawk, emitter_type=record.emitter_type,
                    simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
                    datum=record.datum, altitude_valid=altitude_valid, lat_deg=lat_deg, lon_deg=lon_deg, x=x, p=p,
                    integrity=integrity.label, integrity_fault_m=integrity.fault_m if integrity.degraded else None,
-                   advisory=advisory, modes=modes, spoof_suspected=spoof_suspected)
+                   advisory_level=advisory_level, advisory_of=advisory, modes=modes, spoof_suspected=spoof_suspected)
+
+
+def _same(value):
+    return value

@@ -65,8 +65,8 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
     alt_ok = np.fromiter((t.altitude_valid for t in tracks), bool, n)
     last = np.fromiter((t.last_report_s for t in tracks), float, n)
     keys = [t.key for t in tracks]
-    advisories = [t.advisory for t in tracks]
     modes = [t.modes for t in tracks]
+    advisories = [t.advisory for t in tracks]
     cols = {
         "intruder": pa.array([str(k) for k in keys], pa.string()),
         "address": pa.array(np.fromiter((k.address for k in keys), np.int32, n)),
@@ -90,7 +90,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "vertical_rate_mps": pa.array(vu, mask=~alt_ok),
         "position_sigma_m": pa.array(np.sqrt(np.maximum(p[:, 0, 0] + p[:, 1, 1], 0.0))),
         "velocity_sigma_mps": pa.array(np.sqrt(np.maximum(p[:, 3, 3] + p[:, 4, 4], 0.0))),
-        "advisory": pa.array([a.level.name if a else "NONE" for a in advisories], pa.string()),
+        "advisory": pa.array([t.advisory_level.name for t in tracks], pa.string()),
         "integrity": pa.array([t.integrity for t in tracks], pa.string()),
         "integrity_fault_m": pa.array(_finite(t.integrity_fault_m for t in tracks), f64),
     }
