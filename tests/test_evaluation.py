@@ -49,13 +49,14 @@ def test_the_truth_has_the_drawn_miss_at_its_closest_approach(seed, index):
     k_cpa = round(gen.T_CPA_S / gen.DT_S)
     assert horizontal[k_cpa] == pytest.approx(e.hmd_m, abs=1e-6)
     assert intruder[k_cpa, 2] - own[k_cpa, 2] == pytest.approx(e.vmd_m, abs=1e-6)
-    assert 0 <= e.hmd_m <= gen.HMD_MAX_FT * FT and abs(e.vmd_m) <= gen.VMD_MAX_FT * FT
-    low, high = gen.LAYERS_FT[e.layer - 1]
+    m = gen.DEFAULT_MODEL
+    assert 0 <= e.hmd_m <= m.hmd_max_ft * FT and abs(e.vmd_m) <= m.vmd_max_ft * FT
+    low, high = m.layers_ft[e.layer - 1]
     assert low * FT <= own[k_cpa, 2] <= high * FT
     for x in (own, intruder):
-        assert x[:, 2].min() >= gen.MIN_AGL_FT * FT
+        assert x[:, 2].min() >= m.min_agl_ft * FT
         speed = np.hypot(x[:, 3], x[:, 4])
-        assert gen.SPEED_BOUNDS_KT[0] * KT <= speed.min() and speed.max() <= gen.SPEED_BOUNDS_KT[1] * KT
+        assert m.speed_bounds_kt[0] * KT <= speed.min() and speed.max() <= m.speed_bounds_kt[1] * KT
         # positions are the integral of the velocities (trapezoid on the grid)
         assert np.allclose(np.diff(x[:, 0]), 0.5 * (x[1:, 3] + x[:-1, 3]) * gen.DT_S, atol=1e-9)
 
@@ -126,7 +127,7 @@ def test_the_cut_conflict_zone_outputs_change_no_record(monkeypatch):
 
     setup = ev._setup.__wrapped__
 
-    def flight_defaults(profile):
+    def flight_defaults(profile, overrides=()):
         return load_config(overrides=["zenoh.enabled=false", f'advisory.profile="{profile}"']), setup(profile)[1]
 
     monkeypatch.setattr(ev, "_setup", flight_defaults)
@@ -162,3 +163,21 @@ def test_metrics_count_per_profile():
     assert result["a"]["late_ra_rate"][0] == pytest.approx(1 / 4)
     table = markdown(result)
     assert "| risk ratio | 0.2500 [" in table and table.count("\n") == len(table.splitlines()) - 1
+
+
+def test_the_nuisance_study_truth_ra_volume_by_hand():
+    """avionics_eval.reports.nuisance on the evaluation's encounters: SL 4 (RA DMOD 0.35 nm, ZTHR 600 ft, RA HMD
+    0.57 nm). A level head-on passing 0 ft horizontally enters the RA volume when 500 ft apart vertically, not
+    at 700 ft (> ZTHR) nor passing 0.6 nm (> RA HMD) apart."""
+    from avionics.advisory.tables import load_profile
+    from avionics.core.units import NM
+    from avionics_eval.reports import nuisance
+
+    level = next(lvl for lvl in load_profile("tcas2").levels if lvl.sl == 4)
+    assert nuisance._truth_enters_ra_volume(_level_head_on(0.0, 500.0), level)
+    assert not nuisance._truth_enters_ra_volume(_level_head_on(0.0, 700.0), level)
+    assert not nuisance._truth_enters_ra_volume(_level_head_on(0.6 * NM / FT, 0.0), level)
+    assert nuisance._truth_enters_ra_volume(_level_head_on(0.5 * NM / FT, 0.0), level)
+    e = gen.generate(1, 3, nuisance.model(level))
+    assert e.own.alt_m == pytest.approx(nuisance.ALTITUDE_FT * FT) and e.own.vrate_mps == 0.0
+    assert e.hmd_m <= 2 * level.ra_hmd_m and abs(e.vmd_m) <= 900 * FT

@@ -81,9 +81,9 @@ RECORD_SCHEMA = pa.schema([
 
 
 @cache
-def _setup(profile: str):
+def _setup(profile: str, overrides: tuple[str, ...] = ()):
     """The parsed configuration and profile (read-only) and the first level row of each sensitivity level."""
-    config = load_config(overrides=[*EVALUATION_OVERRIDES, f'advisory.profile="{profile}"'])
+    config = load_config(overrides=[*EVALUATION_OVERRIDES, f'advisory.profile="{profile}"', *overrides])
     levels = {}
     for level in load_profile(profile).levels:
         levels.setdefault(level.sl, level)
@@ -119,11 +119,12 @@ def _fly(responder, own, t, offsets, rates, j0, j1) -> None:
         rates[j] = state.vel_up_mps - own[j, 5]
 
 
-def evaluate(encounter: Encounter, profile: str, seed) -> dict:
+def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...] = ()) -> dict:
     """The record of one encounter flown with one alerting profile; seed (an int or a sequence of ints) draws the
     ADS-B noise and the pilot's delay. Use the same seed for every profile: the profiles then see the same reports
-    (common random numbers), and their differences are the logic's."""
-    config, levels = _setup(profile)
+    (common random numbers), and their differences are the logic's. overrides: more configuration key=value
+    (e.g. advisory.criterion), for studies of a profile's variants."""
+    config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
     by_step = _reports(encounter, t, intruder, rng)

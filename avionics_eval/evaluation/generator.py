@@ -27,21 +27,36 @@ T_CPA_S = 80.0  # time of CPA from the start: longer than DO-365's 75 s early al
 AFTER_CPA_S = 15.0  # flown past the CPA: an RA's effect and its end are seen
 DURATION_S = T_CPA_S + AFTER_CPA_S
 
-# Altitude layers (ft above ground) of the MIT LL encounter models (ATC-344/345); ground at 0 ft MSL here.
-LAYERS_FT = ((500.0, 1200.0), (1200.0, 3000.0), (3000.0, 5000.0), (5000.0, 12500.0))
-SPEED_KT = (60.0, 250.0)  # ground speed; 250 kt: the speed limit below 10,000 ft MSL (14 CFR 91.117)
-HMD_MAX_FT = 4000.0  # HMD at CPA uniform in [0, this]: covers DO-365's 4000 ft well-clear DTHR
-VMD_MAX_FT = 1000.0  # VMD at CPA uniform in [-this, this]
-MIN_CLOSURE_MPS = 10.0  # slower relative motion is redrawn: no encounter develops in T_CPA_S
-P_LEVEL = 0.5  # an aircraft flies level at the CPA with this probability ...
-VRATE_FPM = (500.0, 2000.0)  # ... else climbs or descends at a rate uniform in this range
-P_TURN, TURN_DPS = 0.25, (1.0, 3.0)  # a turn (standard rate: 3 deg/s) of 10-30 s somewhere in the encounter
-P_ACCEL, ACCEL_KT_S = 0.25, (0.5, 1.5)  # a speed change of 10-30 s
-P_VCHANGE = 0.25  # the vertical rate before some time differs (a level-off or the start of a climb/descent)
-MANOEUVRE_S = (10.0, 30.0)
-MIN_AGL_FT = 200.0  # trajectories lower than this are redrawn
-SPEED_BOUNDS_KT = (40.0, 300.0)  # a speed change leaving these is redrawn
 MANOEUVRE_TRIES = 5  # manoeuvre draws per geometry, then the geometry is drawn again
+
+
+@dataclass(frozen=True)
+class Model:
+    """The distributions (docs/evaluation.md, "The encounter model"); the defaults are the evaluation's model.
+    Feet, knots, fpm and degrees as named."""
+
+    # Altitude layers (ft above ground) of the MIT LL uncorrelated model (ATC-345); ground at 0 ft MSL here.
+    layers_ft: tuple[tuple[float, float], ...] = ((500.0, 1200.0), (1200.0, 3000.0), (3000.0, 5000.0),
+                                                  (5000.0, 12500.0))
+    own_speed_kt: tuple[float, float] = (60.0, 250.0)  # 250 kt: the limit below 10,000 ft MSL (14 CFR 91.117)
+    int_speed_kt: tuple[float, float] = (60.0, 250.0)
+    hmd_max_ft: float = 4000.0  # HMD at CPA uniform in [0, this]: covers DO-365's 4000 ft well-clear DTHR
+    vmd_max_ft: float = 1000.0  # VMD at CPA uniform in [-this, this]
+    min_closure_mps: float = 10.0  # slower relative motion is redrawn: no encounter develops in T_CPA_S
+    own_p_level: float = 0.5  # an aircraft flies level at the CPA with this probability ...
+    int_p_level: float = 0.5
+    vrate_fpm: tuple[float, float] = (500.0, 2000.0)  # ... else climbs or descends at a rate uniform in this
+    p_turn: float = 0.25  # a turn (standard rate: 3 deg/s) of manoeuvre_s somewhere in the encounter
+    turn_dps: tuple[float, float] = (1.0, 3.0)
+    p_accel: float = 0.25  # a speed change
+    accel_kt_s: tuple[float, float] = (0.5, 1.5)
+    p_vchange: float = 0.25  # the vertical rate before some time differs (a level-off, a start of climb/descent)
+    manoeuvre_s: tuple[float, float] = (10.0, 30.0)
+    min_agl_ft: float = 200.0  # trajectories lower than this are redrawn
+    speed_bounds_kt: tuple[float, float] = (40.0, 300.0)  # a speed change leaving these is redrawn
+
+
+DEFAULT_MODEL = Model()
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,7 +110,7 @@ class Encounter:
 
     seed: int
     index: int
-    layer: int  # 1-4, LAYERS_FT
+    layer: int  # 1-based, Model.layers_ft
     hmd_m: float
     vmd_m: float  # intruder above ownship at the CPA when positive
     rel_heading_deg: float
@@ -112,72 +127,74 @@ def _uniform_magnitude(rng, bounds) -> float:
     return float(rng.choice((-1.0, 1.0)) * rng.uniform(*bounds))
 
 
-def _vrate(rng) -> float:
-    return 0.0 if rng.random() < P_LEVEL else _uniform_magnitude(rng, VRATE_FPM) * FPM
+def _vrate(rng, m: Model, p_level: float) -> float:
+    return 0.0 if rng.random() < p_level else _uniform_magnitude(rng, m.vrate_fpm) * FPM
 
 
-def _window(rng) -> tuple[float, float]:
-    start = rng.uniform(0.0, DURATION_S - MANOEUVRE_S[0])
-    return start, start + rng.uniform(*MANOEUVRE_S)
+def _window(rng, m: Model) -> tuple[float, float]:
+    start = rng.uniform(0.0, DURATION_S - m.manoeuvre_s[0])
+    return start, start + rng.uniform(*m.manoeuvre_s)
 
 
-def _manoeuvres(rng, base: Aircraft) -> Aircraft:
+def _manoeuvres(rng, m: Model, base: Aircraft, p_level: float) -> Aircraft:
     """base with a random turn, speed change and vertical-rate change (each with its probability)."""
     fields = {}
-    if rng.random() < P_TURN:
-        start, end = _window(rng)
-        fields.update(turn_dps=_uniform_magnitude(rng, TURN_DPS), turn_start_s=start, turn_end_s=end)
-    if rng.random() < P_ACCEL:
-        start, end = _window(rng)
-        fields.update(accel_mps2=_uniform_magnitude(rng, ACCEL_KT_S) * KT, accel_start_s=start, accel_end_s=end)
-    if rng.random() < P_VCHANGE:
-        fields.update(vrate_before_mps=_vrate(rng), vchange_s=rng.uniform(0.0, T_CPA_S))
+    if rng.random() < m.p_turn:
+        start, end = _window(rng, m)
+        fields.update(turn_dps=_uniform_magnitude(rng, m.turn_dps), turn_start_s=start, turn_end_s=end)
+    if rng.random() < m.p_accel:
+        start, end = _window(rng, m)
+        fields.update(accel_mps2=_uniform_magnitude(rng, m.accel_kt_s) * KT, accel_start_s=start, accel_end_s=end)
+    if rng.random() < m.p_vchange:
+        fields.update(vrate_before_mps=_vrate(rng, m, p_level), vchange_s=rng.uniform(0.0, T_CPA_S))
     return replace(base, **fields)
 
 
-def _acceptable(own: Aircraft, intruder: Aircraft, hmd_m: float, t: np.ndarray) -> bool:
+def _acceptable(m: Model, own: Aircraft, intruder: Aircraft, hmd_m: float, t: np.ndarray) -> bool:
     o, i = own.sample(t), intruder.sample(t)
     horizontal = np.hypot(i[:, 0] - o[:, 0], i[:, 1] - o[:, 1])
+    low, high = m.speed_bounds_kt
     for x in (o, i):
         speed = np.hypot(x[:, 3], x[:, 4])
-        if x[:, 2].min() < MIN_AGL_FT * FT or speed.min() < SPEED_BOUNDS_KT[0] * KT or \
-                speed.max() > SPEED_BOUNDS_KT[1] * KT:
+        if x[:, 2].min() < m.min_agl_ft * FT or speed.min() < low * KT or speed.max() > high * KT:
             return False
     return bool(horizontal.min() >= hmd_m - 0.5)  # nowhere closer than the drawn HMD (0.5 m: the grid)
 
 
-def generate(seed: int, index: int) -> Encounter:
+def generate(seed: int, index: int, model: Model = DEFAULT_MODEL) -> Encounter:
     """Encounter `index` of set `seed`: its own generator, seeded by (seed, index), so any encounter can be made
     on any worker in any order. Draws are rejected (and made again from the same stream) until the encounter
     meets the conditions of _acceptable: the set is the model conditioned on them."""
     rng = np.random.default_rng([seed, index])
     t = grid()
     while True:
-        found = _draw(rng, seed, index, t)
+        found = _draw(rng, model, seed, index, t)
         if found is not None:
             return found
 
 
-def _draw(rng, seed: int, index: int, t: np.ndarray) -> Encounter | None:
-    layer = int(rng.integers(len(LAYERS_FT)))
-    alt_m = rng.uniform(*LAYERS_FT[layer]) * FT
+def _draw(rng, m: Model, seed: int, index: int, t: np.ndarray) -> Encounter | None:
+    layer = int(rng.integers(len(m.layers_ft)))
+    alt_m = rng.uniform(*m.layers_ft[layer]) * FT
     own_heading = rng.uniform(0.0, 2 * math.pi)
     rel_heading = rng.uniform(0.0, 2 * math.pi)
-    own_speed, int_speed = (rng.uniform(*SPEED_KT) * KT for _ in range(2))
+    own_speed = rng.uniform(*m.own_speed_kt) * KT
+    int_speed = rng.uniform(*m.int_speed_kt) * KT
     int_heading = (own_heading + rel_heading) % (2 * math.pi)
     v_rel = int_speed * np.array([math.sin(int_heading), math.cos(int_heading)]) \
         - own_speed * np.array([math.sin(own_heading), math.cos(own_heading)])
-    if np.hypot(*v_rel) < MIN_CLOSURE_MPS:  # the relative velocity sets the HMD's direction: none here
+    if np.hypot(*v_rel) < m.min_closure_mps:  # the relative velocity sets the HMD's direction: none here
         return None
-    hmd_m = rng.uniform(0.0, HMD_MAX_FT) * FT
-    vmd_m = rng.uniform(-VMD_MAX_FT, VMD_MAX_FT) * FT
+    hmd_m = rng.uniform(0.0, m.hmd_max_ft) * FT
+    vmd_m = rng.uniform(-m.vmd_max_ft, m.vmd_max_ft) * FT
     side = np.array([-v_rel[1], v_rel[0]]) / np.hypot(*v_rel) * rng.choice((-1.0, 1.0))
-    own = Aircraft(0.0, 0.0, alt_m, own_heading, own_speed, _vrate(rng))
+    own = Aircraft(0.0, 0.0, alt_m, own_heading, own_speed, _vrate(rng, m, m.own_p_level))
     intruder = Aircraft(float(hmd_m * side[0]), float(hmd_m * side[1]), alt_m + vmd_m, int_heading, int_speed,
-                        _vrate(rng))
+                        _vrate(rng, m, m.int_p_level))
     for _ in range(MANOEUVRE_TRIES):
-        own_m, intruder_m = _manoeuvres(rng, own), _manoeuvres(rng, intruder)
-        if _acceptable(own_m, intruder_m, hmd_m, t):
+        own_m = _manoeuvres(rng, m, own, m.own_p_level)
+        intruder_m = _manoeuvres(rng, m, intruder, m.int_p_level)
+        if _acceptable(m, own_m, intruder_m, hmd_m, t):
             return Encounter(seed, index, layer + 1, float(hmd_m), float(vmd_m), math.degrees(rel_heading), own_m,
                              intruder_m)
     return None
