@@ -166,6 +166,7 @@ def plot(table: pa.Table, result: dict, out_dir) -> list[Path]:
     rr = np.array([result[p]["risk_ratio"] for p in profiles])
     ax2.errorbar(x, rr[:, 0], yerr=[rr[:, 0] - rr[:, 1], rr[:, 2] - rr[:, 0]], fmt="o", capsize=6)
     ax2.set_xticks(x, profiles)
+    ax2.set_xlim(-0.5, len(profiles) - 0.5)
     ax2.set_ylabel("risk ratio (95 % CI, matched pairs)")
     ax2.axhline(1.0, color="grey", lw=0.8, ls="--")
     fig.tight_layout()
