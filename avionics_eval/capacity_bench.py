@@ -67,6 +67,8 @@ BRACKET = 1.15
 WARMUP_S = 1.5
 MIN_RATE_PER_INTRUDER_HZ = 1.0 / 16  # below this a count is reported as not sustained at all (capacity 0)
 SINGLE_SECONDS = 3.0  # simulated seconds of the one-report-alone run
+REASSESSMENT_STEP_S = 0.0125  # the re-assessment run: a step every 12.5 ms (8 per assessment period) ...
+REASSESSMENT_S = 4.0  # ... for this long
 STARTUP_TIMEOUT_S = 30.0
 FILTERPY_STEPS = 400  # tracking_bench.bench_filterpy: best of 5 runs of this many IMMEstimator steps
 TRACKER_CYCLES = 10  # tracking_bench.bench_tracker: cycles of one report per track, best of 5
@@ -161,6 +163,39 @@ def single_report(n: int, zenoh: bool) -> dict:
     finally:
         b._close(bus)
     return {"single_report_us_p50": round(float(np.median(lat)) * 1e6, 1), "single_reports": len(lat)}
+
+
+def reassessment(n: int, zenoh: bool) -> dict:
+    """The re-assessment pass alone (issue 13 items 2 and 3): N tracks established by WARMUP_S of the bench's
+    traffic, then no more reports, steps every REASSESSMENT_STEP_S (ownship at 5 Hz) for REASSESSMENT_S: the
+    slices of the passes. `reassessment_us_per_intruder` is the CPU time of the steps that re-assessed someone over
+    the number of re-assessments (prediction, geometry, TCAS tests, Pc, conflict stage, state, outputs);
+    `slice_step_us_p50/p99` those steps' times."""
+    _config, _counters, loop, mavlink, scanner, bus, _sent, events = b._setup(n, WARMUP_S + REASSESSMENT_S,
+                                                                              b._free_port(), zenoh)
+    own = [(t, data) for t, data, is_report in events if not is_report and t >= WARMUP_S]
+    steps, assessed = [], []
+    try:
+        for t, data, _is_report in events:
+            if t < WARMUP_S:
+                loop.last = loop.step(b.Batch(t, mavlink.decode(scanner.feed(data, end_of_datagram=True), t)))
+        for k in range(round(REASSESSMENT_S / REASSESSMENT_STEP_S)):
+            t = WARMUP_S + k * REASSESSMENT_STEP_S
+            msgs = []
+            while own and own[0][0] <= t:
+                msgs += scanner.feed(own.pop(0)[1], end_of_datagram=True)
+            t0 = time.process_time()
+            loop.last = loop.step(b.Batch(t, mavlink.decode(msgs, t)))
+            if len(loop.last.assessed):
+                steps.append(time.process_time() - t0)
+                assessed.append(len(loop.last.assessed))
+    finally:
+        b._close(bus)
+    us = np.array(steps) * 1e6
+    return {"reassessment_us_per_intruder": round(float(us.sum() / max(sum(assessed), 1)), 2),
+            "slice_step_us_p50": round(float(np.percentile(us, 50)), 1),
+            "slice_step_us_p99": round(float(np.percentile(us, 99)), 1),
+            "reassessments": int(sum(assessed))}
 
 
 # --- the real process: start-up and memory ------------------------------------------------------------------
@@ -296,6 +331,7 @@ def capacity_bench(intruder_counts: list[int], trial_s: float = 20.0, zenoh: boo
         for n in intruder_counts:
             row = capacity(n, trial_s, zenoh, max_bisections, max_trials, log)
             row.update(single_report(n, zenoh))
+            row.update(reassessment(n, zenoh))
             per_track = tracking_bench.bench_tracker(n, TRACKER_CYCLES)
             row["tracker_update_us_per_track"] = round(per_track, 2)
             row["tracker_vs_filterpy"] = round(reference / per_track, 1)

@@ -289,7 +289,7 @@ def test_assessor_refreshes_the_monte_carlo_within_probability_on_the_slow_perio
 
 
 def test_assessor_bounds_the_monte_carlo_cost_and_refreshes_the_stalest_pairs_first():
-    cfg = ConflictConfig(within_samples=50, within_max_pairs_per_s=4.0, schedule_period_s=1.0)
+    cfg = ConflictConfig(within_samples=50, within_max_pairs_per_s=4.0, within_burst_pairs=4, schedule_period_s=1.0)
     a = build_conflict_assessor(cfg)
     keys = [f"k{i}" for i in range(10)]
     rel_x = np.tile([3000.0, 0.0, 0.0, -100.0, 0.0, 0.0], (10, 1))
@@ -320,6 +320,27 @@ def test_assessor_budget_below_one_pair_per_second_and_the_monte_carlo_off():
     assert np.isnan(o["pc_within"][0]) and np.isnan(off.within_age(0.5, ["a"])[0])  # no value, no age
 
 
+def test_one_call_runs_at_most_a_burst_of_the_monte_carlo_and_frequent_calls_reach_the_budget():
+    """conflict.within_burst_pairs: after a long idle (a full bucket) one call refreshes at most the burst; called
+    at 10 Hz, as the pipeline calls it at least, the stage still refreshes within_max_pairs_per_s pairs a second
+    (the oracle: the budget's own arithmetic, 20 pairs over 1 s at 20 per second, every pair once)."""
+    rel_x = np.tile([3000.0, 0.0, 0.0, -100.0, 0.0, 0.0], (40, 1))
+    rel_p = np.broadcast_to(np.diag([1800.0, 1800.0, 128.0, 8.0, 8.0, 2.0]), (40, 6, 6))
+    keys = [f"k{i}" for i in range(40)]
+    a = build_conflict_assessor(ConflictConfig(within_samples=20, within_max_pairs_per_s=20.0, within_burst_pairs=2,
+                                               schedule_period_s=1.0))
+    a.assess(0.0, keys, rel_x, rel_p)
+    assert (a.within_age(0.0, keys) == 0.0).sum() == 2  # a full bucket is two pairs, not a second's twenty
+    refreshed = set()
+    for k in range(1, 11):  # 10 Hz for one second
+        t = 100.0 + 0.1 * k
+        a.assess(t, keys, rel_x, rel_p)
+        fresh = {key for key, age in zip(keys, a.within_age(t, keys)) if age == 0.0}
+        assert len(fresh) <= 2
+        refreshed |= fresh
+    assert len(refreshed) == 20  # 20 per second: the budget
+
+
 @pytest.mark.parametrize("override, message", [
     ("conflict.method=nope", "conflict.method"),
     ("conflict.prefilter=nope", "conflict.prefilter"),
@@ -330,6 +351,7 @@ def test_assessor_budget_below_one_pair_per_second_and_the_monte_carlo_off():
     ("conflict.schedule_threshold=1.5", "probability"),
     ("conflict.prefilter_alpha=0.5", "alpha"),
     ("conflict.within_max_pairs_per_s=0", "within_max_pairs_per_s"),
+    ("conflict.within_burst_pairs=0", "within_burst_pairs"),
 ])
 def test_conflict_config_validation(override, message):
     from avionics.config import ConfigError, load_config

@@ -35,8 +35,11 @@ prediction.imm_predict and prediction.pc_curve directly with the tracker's per-m
 scheduling.Prefilter object) get zeros without computation ('filtered'), pairs not due keep their last values
 ('computed' False). The Monte Carlo pc_within, the stage's one costly output, is recomputed at most every schedule_period_s (pairs on
 the fast schedule refresh their Pc now and max at the fast rate and keep pc_within between) and for at most
-within_max_pairs_per_s pairs per second, the stalest first (a token bucket holding one second's worth): its
-cost stays bounded when many pairs converge at once, and each pair's value is then refreshed less often.
+within_max_pairs_per_s pairs per second, the stalest first (a token bucket holding one second's worth, at most
+within_burst_pairs): its cost stays bounded when many pairs converge at once, and each pair's value is then
+refreshed less often; no one call runs more than within_burst_pairs of it, so that the step that makes it does
+not hold a fresh report behind tens of milliseconds of Monte Carlo (issue 13: the p99 at 1 Hz fell from 54-132
+ms to 7-8 ms at 100 intruders with the Monte Carlo off, docs/performance.md).
 """
 
 from __future__ import annotations
@@ -150,7 +153,8 @@ class ConflictAssessor:
         self.scheduler = ConflictScheduler(c.schedule_period_s, c.schedule_fast_period_s, c.schedule_threshold)
         self._cache: dict = {}
         self._within_s: dict = {}  # when each pair's pc_within was last computed
-        self._within_capacity = max(c.within_max_pairs_per_s, 1.0)  # one second's worth, and at least one pair
+        # a second's worth at most, never more than a burst (so one step's Monte Carlo stays a few ms), at least one
+        self._within_capacity = max(min(c.within_max_pairs_per_s, float(c.within_burst_pairs)), 1.0)
         self._within_tokens = self._within_capacity
         self._within_last_s: float | None = None
         self._rng = np.random.default_rng(c.seed)
@@ -171,9 +175,9 @@ class ConflictAssessor:
         the pre-filter)."""
         return np.array([now_s - self._within_s.get(k, np.nan) for k in keys], float)
 
-    def _within_due(self, now_s: float, keys) -> np.ndarray:
-        """Which of these pairs get a fresh pc_within now: due by schedule_period_s, within the token bucket,
-        never-computed and stalest first."""
+    def _within_due(self, now_s: float, keys, eligible: np.ndarray) -> np.ndarray:
+        """Which of these pairs (those eligible: not pre-filtered) get a fresh pc_within now: due by
+        schedule_period_s, within the token bucket, never-computed and stalest first."""
         c = self.config
         within = np.zeros(len(keys), bool)
         if c.within_samples == 0:
@@ -183,8 +187,8 @@ class ConflictAssessor:
                                       (now_s - self._within_last_s) * c.within_max_pairs_per_s)
         self._within_last_s = now_s
         last = np.array([self._within_s.get(k, -np.inf) for k in keys], float)
-        due = np.flatnonzero(now_s - last + TIME_EPSILON_S >= c.schedule_period_s)
-        take = due[np.argsort(last[due], kind="stable")][:int(self._within_tokens)]
+        due = np.flatnonzero(eligible & (now_s - last + TIME_EPSILON_S >= c.schedule_period_s))
+        take = due[np.argsort(last[due], kind="stable")][:int(self._within_tokens + 1e-9)]  # a whole token despite float time steps
         self._within_tokens -= take.size
         within[take] = True
         return within
@@ -199,12 +203,15 @@ class ConflictAssessor:
         keep = self.prefilter.keep(rel_x, rel_p, has_alt, margin, own_vel)
         due = self.scheduler.due(now_s, keys, modes)
         stale = np.array([k not in self._cache for k in keys], bool)
-        compute = keep & (due | stale)
+        # a pair whose pc_within is due gets its turn at any call, not only with its Pc's schedule (so that the
+        # bucket's small bursts add up to the budget), and its Pc is recomputed with it
+        within_all = self._within_due(now_s, keys, keep)
+        compute = keep & (due | stale | within_all)
         out = {k: np.zeros(n) for k in KEYS}
         out["t_pc_max_s"][:] = 0.0
         if compute.any():
             i = np.flatnonzero(compute)
-            within = self._within_due(now_s, [keys[j] for j in i])
+            within = within_all[i]
             res = conflict_probabilities(rel_x[i], rel_p[i], self.config, method=self.method, has_alt=has_alt[i],
                                          z_margin_m=margin[i], rng=self._rng, within=within)
             for j, idx in enumerate(i):

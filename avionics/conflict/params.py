@@ -28,6 +28,8 @@ class ConflictConfig:
     # At most this many pairs' within-probabilities per second (token bucket, stalest first): the Monte Carlo
     # costs ~2 ms per pair, and its cost must stay bounded however much traffic converges at once.
     within_max_pairs_per_s: float = 50.0
+    # ... and at most this many in one call (the bucket's size): one step never runs more than a few ms of it
+    within_burst_pairs: int = 2
     seed: int = 0  # Monte Carlo seed (reproducible runs)
     prefilter: str = "min_distance"  # min_distance | hwang | none (Hwang condition 2)
     prefilter_alpha: float = 1.5  # test safety distance alpha R (Hwang: 1.5)
@@ -55,6 +57,8 @@ class ConflictConfig:
             raise ConfigError("conflict.mc_samples must be >= 1 and conflict.within_samples >= 0")
         if not c.within_max_pairs_per_s > 0:
             raise ConfigError("conflict.within_max_pairs_per_s must be > 0")
+        if not isinstance(c.within_burst_pairs, int) or c.within_burst_pairs < 1:
+            raise ConfigError("conflict.within_burst_pairs must be a whole number >= 1")
         if c.prefilter_alpha < 1.0:
             raise ConfigError("conflict.prefilter_alpha: must be >= 1 (Hwang's alpha)")
         if c.schedule_fast_period_s > c.schedule_period_s:
