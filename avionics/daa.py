@@ -46,6 +46,29 @@ class SourceStatus:
 NO_SOURCE_STATUS = SourceStatus()
 
 
+class _Callsigns(Mapping):
+    """The callsigns of the intruders of a result's changes and active advisories (None: not known), read from
+    their track records when asked: the ports ask for a few of them at each step, not for every active one."""
+
+    __slots__ = ("_changed", "_active", "_record")
+
+    def __init__(self, changed: set, active: Mapping, record):
+        self._changed, self._active, self._record = changed, active, record
+
+    def __getitem__(self, key):
+        if key not in self._changed and key not in self._active:
+            raise KeyError(key)
+        r = self._record(key)
+        return r.callsign if r is not None else None
+
+    def __iter__(self):
+        yield from self._active
+        yield from (k for k in self._changed if k not in self._active)
+
+    def __len__(self) -> int:
+        return len(self._active) + sum(k not in self._active for k in self._changed)
+
+
 @dataclass(frozen=True, slots=True)
 class DaaResult:
     """Everything a shell needs of one step. Read-only: mappings are views of copies, tuples are tuples."""
@@ -54,7 +77,7 @@ class DaaResult:
     changes: tuple[Advisory, ...]  # advisories whose level, RA sense or strength changed (announce these)
     assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (each built when read)
     active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
-    callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active
+    callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active (read when asked)
     unavailable_reason: str | None  # no_ownship | no_pressure_altitude | fault | shutdown; None: DAA available
     availability_changed: bool  # announce it (STATUSTEXT, log)
     fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault
@@ -121,11 +144,10 @@ class Daa:
             self._fault("output", exc)
         level = self._core.level
         record = self._core.tracker.tracks.get
-        active = self._core.active
-        keys = {a.intruder for a in changes} | set(active)
+        active = self._core.active_view()
         return DaaResult(
-            time_s=now_s, changes=changes, assessed=assessed, active=MappingProxyType(dict(active)),
-            callsigns=MappingProxyType({k: (r.callsign if (r := record(k)) is not None else None) for k in keys}),
+            time_s=now_s, changes=changes, assessed=assessed, active=active,
+            callsigns=_Callsigns({a.intruder for a in changes}, active, record),
             unavailable_reason=self._unavailable if self._unavailable != STARTUP else "no_ownship",
             availability_changed=changed, fault_detail=self._fault_detail,
             sensitivity_level=level.sl if level else None, tracks=track_views,

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 from operator import attrgetter
-from types import SimpleNamespace
+from types import MappingProxyType, SimpleNamespace
 from typing import Iterable
 
 import numpy as np
@@ -175,6 +175,7 @@ class DaaCore:
         self.states = AdvisoryStates()  # every assessed intruder's advisory state, in arrays (advisory/logic.py)
         self._latest: dict[IntruderKey, object] = {}  # its latest advisory: an Advisory or (_Rows, row)
         self.active: dict[IntruderKey, Advisory] = {}  # the latest advisory of every intruder at TA or RA
+        self._active_view: MappingProxyType | None = None  # a read-only copy of it, made again after a change
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
         self.level: SensitivityLevel | None = None
         self._last_tick_s = -math.inf  # the last assessment tick (assessment_hz): a re-assessment pass starts
@@ -569,9 +570,18 @@ class DaaCore:
     def _remember(self, key: IntruderKey, advisory: Advisory) -> None:
         self._latest[key] = advisory
         if advisory.level is AdvisoryLevel.NONE:
-            self.active.pop(key, None)
+            if self.active.pop(key, None) is not None:
+                self._active_view = None
         else:
             self.active[key] = advisory
+            self._active_view = None
+
+    def active_view(self) -> MappingProxyType:
+        """A read-only copy of `active`, shared by the results until it changes (a step's results are not
+        copied for every step when nothing changed)."""
+        if self._active_view is None:
+            self._active_view = MappingProxyType(dict(self.active))
+        return self._active_view
 
     # -- stage boundaries ------------------------------------------------------------------------------------
     def _contained(self, stage: str, now_s: float, keys: list[IntruderKey], changes: list[Advisory], run,
@@ -745,7 +755,8 @@ class DaaCore:
         self.conflict.forget(key)
         self.states.forget(key)
         self._latest.pop(key, None)
-        self.active.pop(key, None)
+        if self.active.pop(key, None) is not None:
+            self._active_view = None
         self._bands_traffic.pop(key, None)
 
     def _expire_faults(self, now_s: float) -> None:

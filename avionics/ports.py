@@ -56,16 +56,20 @@ class AdvisoryRefresh:
     def __init__(self, period_s: float):
         self.period_s = period_s
         self._due: dict = {}  # intruder -> next refresh time
+        self._earliest = math.inf  # no refresh is due before this (the steps between cost nothing)
 
     def due(self, result: DaaResult) -> list[Advisory]:
         """Call after announcing result.changes (see changed()): the active advisories to repeat now."""
         now = result.time_s
+        if now < self._earliest:
+            return []
         out = []
         for key, due in list(self._due.items()):
             advisory = result.active.get(key)
             if now >= due and advisory is not None:
                 out.append(advisory)
                 self._due[key] = now + self.period_s
+        self._earliest = min(self._due.values(), default=math.inf)
         return out
 
     def changed(self, advisory: Advisory, now_s: float) -> None:
@@ -73,9 +77,11 @@ class AdvisoryRefresh:
             self._due.pop(advisory.intruder, None)
         else:
             self._due[advisory.intruder] = now_s + self.period_s
+            self._earliest = min(self._earliest, now_s + self.period_s)
 
     def clear(self) -> None:
         self._due.clear()
+        self._earliest = math.inf
 
 
 CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
@@ -103,6 +109,7 @@ class MavlinkOut:
         self._rebroadcast_now = False
         self._callsigns: dict = {}  # intruder -> (the last callsign known, when it was last an intruder of a result)
         self._next_prune_s = 0.0
+        self._next_sweep_s = 0.0
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
 
@@ -113,9 +120,14 @@ class MavlinkOut:
     def _remember_callsigns(self, result: DaaResult) -> None:
         """Callsigns outlive the track that had them (a restarted or failed track's new record has none until a
         report brings it; receivers send it only now and then): kept CALLSIGN_MEMORY_S after the intruder was
-        last in a result."""
+        last in a result (every intruder of the result once a second, the changed ones at once)."""
         now = result.time_s
-        for key, callsign in result.callsigns.items():
+        if now >= self._next_sweep_s:
+            self._next_sweep_s = now + 1.0
+            seen = result.callsigns.items()
+        else:
+            seen = ((a.intruder, result.callsigns.get(a.intruder)) for a in result.changes)
+        for key, callsign in seen:
             if callsign:
                 self._callsigns[key] = (callsign, now)
             elif key in self._callsigns:
