@@ -29,7 +29,7 @@ class ConflictConfig:
     # costs ~2 ms per pair, and its cost must stay bounded however much traffic converges at once.
     within_max_pairs_per_s: float = 50.0
     # ... and at most this many in one call (the bucket's size): one step never runs more than a few ms of it
-    within_burst_pairs: int = 2
+    within_burst_pairs: int = 1
     seed: int = 0  # Monte Carlo seed (reproducible runs)
     prefilter: str = "min_distance"  # min_distance | hwang | none (Hwang condition 2)
     prefilter_alpha: float = 1.5  # test safety distance alpha R (Hwang: 1.5)
