@@ -72,11 +72,80 @@ def disk_case(draw):
 @example([(np.array([0.5, 0.0]), np.zeros((2, 2)), 0.5)])  # a point mass exactly on the boundary
 @example([(np.zeros(2), np.eye(2) * 1e-30, 1e-14)])
 @example([(np.array([3e5, 0.0]), np.eye(2) * 1e12, 1e5)])
+@example([(np.array([0.0, 0.0]), np.eye(2), 0.0), (np.array([0.0, 0.0]), np.eye(2), 0.0),
+          (np.array([11.0, 0.0]), np.array([[1.07861331e-13, -2.95475680e-13], [-2.95475680e-13, 9.02138669e-13]]),
+           11.0)])  # on the boundary, sigma/R ~ 1e-7: kernel and reference were 1.07e-9 apart (both off)
 def test_pc_exact_kernel_equals_reference(cases):
     mean = np.array([c[0] for c in cases])
     cov = np.array([c[1] for c in cases])
     r = np.array([c[2] for c in cases])
     same_probabilities(prob.pc_exact(mean, cov, r), prob.pc_exact_reference(mean, cov, r))
+
+
+def pc_mpmath(mean, cov, radius, dps=36):
+    """P(|m + e| <= R), e ~ N(0, P), by mpmath at dps digits, independently of pc_exact's method: polar coordinates
+    about the disk's centre, the radial integral along each ray in closed form (a Gaussian in rho times rho), the
+    angle by mpmath.quad with break points across the narrow wedge where the mass is. The inputs are taken as the
+    exact binary values they are (the symmetric part of P)."""
+    import mpmath as mp
+
+    with mp.workdps(dps):
+        mx, my, r = mp.mpf(float(mean[0])), mp.mpf(float(mean[1])), mp.mpf(float(radius))
+        a, d = mp.mpf(float(cov[0][0])), mp.mpf(float(cov[1][1]))
+        b = (mp.mpf(float(cov[0][1])) + mp.mpf(float(cov[1][0]))) / 2
+        det = a * d - b * b
+
+        def ray(th):  # integral over rho in [0, R] of rho N2(rho (cos th, sin th); m, P), times 2 pi sqrt(det)
+            ux, uy = mp.cos(th), mp.sin(th)
+            big_a = (d * ux * ux - 2 * b * ux * uy + a * uy * uy) / det  # u' P^-1 u
+            rho0 = (d * ux * mx - b * (ux * my + uy * mx) + a * uy * my) / det / big_a  # nearest point to m
+            across = ux * my - uy * mx  # the mean's offset from the ray's line, and the variance across it:
+            var_across = a * uy * uy - 2 * b * ux * uy + d * ux * ux  # m' P^-1 m - B^2/A without cancellation
+            k = mp.sqrt(big_a / 2)
+            radial = ((mp.exp(-(k * rho0) ** 2) - mp.exp(-(k * (r - rho0)) ** 2)) / big_a
+                      + rho0 * mp.sqrt(mp.pi / (2 * big_a)) * (mp.erf(k * (r - rho0)) + mp.erf(k * rho0)))
+            return mp.exp(-across * across / (2 * var_across)) * radial
+
+        rm = mp.hypot(mx, my)
+        th0 = mp.atan2(my, mx) if rm > 0 else mp.mpf(0)
+        points = {th0 - mp.pi, th0 + mp.pi}
+        disc = mp.sqrt(((a - d) / 2) ** 2 + b * b)
+        for lam in ((a + d) / 2 + disc, det / ((a + d) / 2 + disc)):  # both sigmas, as angles seen from the centre
+            if rm > 0 and mp.sqrt(lam) / rm < 0.05:
+                points.update(th0 + k * mp.sqrt(lam) / rm for k in (-40, -12, -6, -3, -1, 0, 1, 3, 6, 12, 40))
+        return mp.quad(ray, sorted(points)) / (2 * mp.pi * mp.sqrt(det))
+
+
+def boundary_cases():
+    """The mean on the circle R = 11 m (to the last bit of its coordinates), sigma/R 1e-9 to 1e-3, axis ratios 1 to
+    1e8, three orientations (one with the minor axis along the boundary normal: the chord's square-root end inside
+    the Gaussian), each met by every sigma and every ratio; and hypothesis' case."""
+    r = 11.0
+    turns = [(0.3, 1.1), (math.pi / 2, 0.0), (1.2, 2.5)]  # (covariance angle, mean's direction)
+    cases = []
+    for i, sigma_over_r in enumerate([1e-9, 1e-6, 1e-3]):
+        for j, ratio in enumerate([1.0, 1e4, 1e8]):
+            angle, phi = turns[(i - j) % 3]
+            cases.append((r * np.array([math.cos(phi), math.sin(phi)]), covariance(sigma_over_r * r, ratio, angle), r))
+    cases.append((np.array([11.0, 0.0]), np.array([[1.07861331e-13, -2.95475680e-13],
+                                                    [-2.95475680e-13, 9.02138669e-13]]), 11.0))
+    return cases
+
+
+def test_pc_exact_on_the_boundary_agrees_with_mpmath():
+    """On the boundary Pc is 0.5 minus a curvature term ~ var_tangential / (R sigma_normal), from 1e-8 to 0.36
+    here: kernel and reference to 1e-12 of a 36-digit integration (they leave out the 3.2e-14 beyond 7.5 sigma).
+    Before the thin path both were up to 0.48 off here (sigma/R 1e-9, ratio 1e8, minor axis along the normal),
+    1.7e-7 (ratio 1e4), 5e-9 (isotropic), and 1.0e-10 (kernel), 4.5e-10 (reference) on hypothesis' case."""
+    pytest.importorskip("mpmath")
+    cases = boundary_cases()
+    mean = np.array([c[0] for c in cases])
+    cov = np.array([c[1] for c in cases])
+    r = np.array([c[2] for c in cases])
+    want = np.array([float(pc_mpmath(*c)) for c in cases])
+    assert want.min() < 0.2  # not a vacuous grid: the curvature term is far from negligible on some
+    for got in (prob.pc_exact(mean, cov, r), prob.pc_exact_reference(mean, cov, r)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
 
 
 def test_pc_exact_kernel_non_finite_inputs_and_shapes():

@@ -3,9 +3,10 @@
 Each kernel is the numpy reference beside it written as a loop over pairs, with the same formulas in the same
 order (the equations cited are the reference's):
 
-  pc_exact_pairs        probability.pc_exact_reference / _exact_general / _gl_panels: the disk probability of a
-                        2-D Gaussian, 1D Gauss-Legendre along the minor principal axis with the major axis in
-                        closed form (Baek & Bang eq 24 over the disk), N pairs
+  pc_exact_pairs        probability.pc_exact_reference / _exact_general / _gl_panels (and _exact_thin /
+                        _thin_panels, _line_mass, disk_margin for a Gaussian narrow across the disk): the disk
+                        probability of a 2-D Gaussian, 1D Gauss-Legendre along the minor principal axis with the
+                        major axis in closed form (Baek & Bang eq 24 over the disk), N pairs
   pc_at_cpa_pairs       pc_at_cpa.pc_at_cpa_reference: straight-line propagation to the CPA time with the white-
                         acceleration term, the disk (as above) and the vertical slab, every volume in one call
   pc_curve_cv_pairs     assess.conflict_probabilities' curve: prediction.cv_relative_prediction (closed form CV)
@@ -36,6 +37,9 @@ GAUSS_CORE = 3.0  # = probability.GAUSS_CORE
 TAU_WIDTH_FEW_NODES = 0.5  # = probability.TAU_WIDTH_FEW_NODES
 TAU_SPLIT = 1.0  # = probability.TAU_SPLIT
 SPAN_16, SPAN_24 = 4.0, 6.5  # = probability.GL_RULES: 16 nodes up to 4 sigmas, 24 up to 6.5, 32 beyond
+THIN = 1e-3  # = probability.THIN
+EDGE_NEAR = 2.0  # = probability.EDGE_NEAR
+SPLIT = 134217729.0  # = probability._SPLIT (Veltkamp)
 
 
 def _gl_table():
@@ -84,6 +88,173 @@ def interval_mass(lo, hi, mean, sigma):
     if hi >= lo:
         return 1.0 if (lo <= mean and mean <= hi) else 0.0
     return 0.0
+
+
+@kernel("float64(float64, float64, float64)")
+def prod_err(x, y, p):
+    """probability._prod_err: x y - p exactly, p = fl(x y) (Dekker)."""
+    c = SPLIT * x
+    xh = c - (c - x)
+    xl = x - xh
+    c = SPLIT * y
+    yh = c - (c - y)
+    yl = y - yh
+    return ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
+
+
+@kernel("float64(float64, float64, float64, float64)")
+def diff_of_products(a, b, c, d):
+    """probability._diff_of_products: a b - c d to ~1 ulp of the result."""
+    p = a * b
+    q = c * d
+    out = (p - q) + (prod_err(a, b, p) - prod_err(c, d, q))
+    return out if np.isfinite(out) else p - q
+
+
+@kernel("float64(float64, float64, float64)")
+def disk_margin(mx, my, r):
+    """probability.disk_margin for one pair: D = R^2 - |m|^2 to ~1 ulp of D."""
+    pr = r * r
+    px = mx * mx
+    py = my * my
+    s1 = pr - px
+    bb = s1 - pr
+    e1 = (pr - (s1 - bb)) + (-px - bb)
+    s2 = s1 - py
+    bb = s2 - s1
+    e2 = (s1 - (s2 - bb)) + (-py - bb)
+    out = s2 + (((e1 + e2) + prod_err(r, r, pr)) - (prod_err(mx, mx, px) + prod_err(my, my, py)))
+    return out if np.isfinite(out) else pr - px - py
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64, float64)")
+def thin_a1(p, q, mu, mv, s_b, e_m, dm):
+    """probability._thin_args' a1 = (h - |m_v|)/s_b = (D - 2|m_u| p - p^2) / ((h + |m_v|) s_b),
+    h = sqrt(q (e_m + p))."""
+    h = math.sqrt(max(q * (e_m + p), 0.0))
+    den = (h + mv) * s_b
+    return (dm - p * (2.0 * mu + p)) / den if den > 0.0 else 0.0
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64)")
+def thin_a2(p, q, mv, s_b, e_m, dm):
+    """probability._thin_args' a2 = -(h + |m_v|)/s_b."""
+    h = math.sqrt(max(q * (e_m + p), 0.0))
+    return -(h + mv) / s_b
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64, float64, float64, float64, float64, int64, "
+        "boolean)")
+def thin_panel(a, b, s_a, s_b, mu, mv, e_p, e_m, dm, z_e, rule, sqrt_map):
+    """probability._thin_panels for one panel: Gauss-Legendre (rule 0, 1, 2: 16, 24, 32 nodes) of phi(z) bracket
+    over z in [a, b], in z or (sqrt_map) in s = sqrt(z_e - z), R - u = s_a s^2."""
+    if sqrt_map:
+        s_lo = math.sqrt(z_e - b)
+        s_hi = math.sqrt(z_e - a)
+        half = 0.5 * (s_hi - s_lo)
+    else:
+        s_lo = 0.0
+        half = 0.5 * (b - a)
+    acc = 0.0
+    for j in range(GL_NODES[rule]):
+        x = 1.0 + GL_X[rule, j]
+        if sqrt_map:
+            s = s_lo + half * x
+            z = z_e - s * s
+            q = s_a * (s * s)
+            p = e_p - q
+            jac = 2.0 * s
+        else:
+            z = a + half * x
+            p = s_a * z
+            q = e_p - p
+            jac = 1.0
+        h = math.sqrt(max(q * (e_m + p), 0.0))
+        den = (h + mv) * s_b
+        a1 = (dm - p * (2.0 * mu + p)) / den if den > 0.0 else 0.0
+        a2 = -(h + mv) / s_b
+        acc += math.exp(-0.5 * z * z) * (ndtr(a1) - ndtr(a2)) * jac * GL_W[rule, j]
+    return acc * half / SQRT_2PI
+
+
+@kernel("float64(float64, float64, float64, float64, float64, float64)")
+def exact_thin(m_u, m_v, s_a, s_b, r, dm):
+    """probability._exact_thin for one pair (0 < s_a < THIN R): in the Gaussian's coordinate z = (u - m_u)/s_a with
+    every distance to the circle from the margin D; break points at z = +-3, the top of the chord and the zone ends
+    h = |m_v| +- 7.5 s_b; closed-form masses outside the zones, Gauss-Legendre in z or in sqrt(z_e - z) inside."""
+    mu = abs(m_u)
+    mv = abs(m_v)
+    e_m = r + mu
+    e_p = (dm + mv * mv) / e_m
+    z_e = e_p / s_a
+    if not z_e > -K_SIGMA:  # beyond the chord's end, or NaN (as the reference's empty window)
+        return 0.0
+    z_hi = min(K_SIGMA, z_e)
+    kb = K_SIGMA * s_b
+    knots = np.empty(9)
+    knots[0] = -K_SIGMA
+    knots[1] = -GAUSS_CORE
+    knots[2] = GAUSS_CORE
+    knots[3] = -mu / s_a
+    k = 4
+    for j in range(2):  # h = |m_v| + kb, h = ||m_v| - kb|
+        delta = dm - kb * (2.0 * mv + kb) if j == 0 else dm + kb * (2.0 * mv - kb)
+        u2 = delta + mu * mu
+        if u2 > 0.0:
+            uh = math.sqrt(u2)
+            knots[k] = delta / (uh + mu) / s_a
+            knots[k + 1] = -(uh + mu) / s_a
+        else:
+            knots[k] = -K_SIGMA
+            knots[k + 1] = -K_SIGMA
+        k += 2
+    for i in range(1, 8):
+        knots[i] = min(max(knots[i], -K_SIGMA), z_hi)
+    for i in range(2, 8):
+        v = knots[i]
+        j = i - 1
+        while j >= 1 and knots[j] > v:
+            knots[j + 1] = knots[j]
+            j -= 1
+        knots[j + 1] = v
+    knots[8] = z_hi
+    total = 0.0
+    zone = 0.0
+    for i in range(8):
+        a = knots[i]
+        b = knots[i + 1]
+        if not b - a > 0.0:
+            continue
+        zm = 0.5 * (a + b)
+        pm = s_a * zm
+        a1 = thin_a1(pm, e_p - pm, mu, mv, s_b, e_m, dm)
+        a2 = thin_a2(pm, e_p - pm, mv, s_b, e_m, dm)
+        act1 = abs(a1) < K_SIGMA
+        act2 = a2 > -K_SIGMA
+        if act1 or act2:
+            pa = s_a * a
+            pb = s_a * b
+            span = b - a
+            if act1:
+                span = max(span, abs(thin_a1(pb, e_p - pb, mu, mv, s_b, e_m, dm)
+                                     - thin_a1(pa, e_p - pa, mu, mv, s_b, e_m, dm)))
+            if act2:
+                span = max(span, abs(thin_a2(pb, e_p - pb, mv, s_b, e_m, dm) - thin_a2(pa, e_p - pa, mv, s_b, e_m, dm)))
+            edge = z_e - b < EDGE_NEAR * (b - a)
+            if edge or span > SPAN_24:
+                rule = 2
+            elif span > SPAN_16:
+                rule = 1
+            else:
+                rule = 0
+            zone += thin_panel(a, b, s_a, s_b, mu, mv, e_p, e_m, dm, z_e, rule, edge)
+        elif a1 >= K_SIGMA:
+            if a > 0.0:
+                total += ndtr(-a) - ndtr(-b)
+            else:
+                total += ndtr(b) - ndtr(a)
+    total += zone
+    return min(max(total, 0.0), 1.0)
 
 
 @kernel("float64(float64, float64)")
@@ -238,12 +409,16 @@ def disk_pc(mx, my, c00, c01, c10, c11, r):
     half_tr = 0.5 * (c00 + c11)
     disc = math.hypot(0.5 * (c00 - c11), b)
     lam_b = half_tr + disc
-    det = max(c00 * c11 - b * b, 0.0)
+    skew = 0.5 * (c01 - c10)
+    det = max(diff_of_products(c00, c11, c01, c10) - skew * skew, 0.0)  # of the exact symmetric part
     lam_a = det / lam_b if lam_b > 0.0 else 0.0
     lam_a = min(lam_a, lam_b)
     theta = 0.5 * math.atan2(2.0 * b, c00 - c11)  # direction of the major axis
     c = math.cos(theta)
     s = math.sin(theta)
+    if b == 0.0 and c00 < c11:  # the major axis along y exactly (probability.principal_frame)
+        c = 0.0
+        s = 1.0
     m_u = mx * -s + my * c
     m_v = mx * c + my * s
     s_a = np.sqrt(lam_a)
@@ -252,13 +427,22 @@ def disk_pc(mx, my, c00, c01, c10, c11, r):
         return np.nan
     if not r > 0.0:
         return 0.0
-    if s_a == 0.0:  # all the mass on the line u = m_u (or a point when s_b = 0 too)
-        if abs(m_u) <= r:
-            h = math.sqrt(max(r * r - m_u * m_u, 0.0))
-            return interval_mass(-h, h, m_v, s_b)
-        return 0.0
-    if s_a > 0.0:
+    if s_a > 0.0 and s_a >= THIN * r:
         return exact_general(m_u, m_v, s_a, s_b, r)
+    dm = disk_margin(mx, my, r)  # the line and the thin paths only
+    if s_a == 0.0:  # all the mass on the line u = m_u (or a point when s_b = 0 too): probability._line_mass
+        mv = abs(m_v)
+        w2 = dm + mv * mv
+        if not w2 >= 0.0:
+            return 0.0
+        if not s_b > 0.0:
+            return 1.0 if dm >= 0.0 else 0.0
+        h = math.sqrt(w2)
+        den = (h + mv) * s_b
+        a1 = dm / den if den > 0.0 else 0.0
+        return max(ndtr(a1) - ndtr(-(h + mv) / s_b), 0.0)
+    if s_a > 0.0:
+        return exact_thin(m_u, m_v, s_a, s_b, r, dm)
     return 0.0
 
 

@@ -14,7 +14,10 @@ Methods (one interface, `conflict_probability`, every array over N pairs):
 
 exact       1D integral along the minor principal axis of P with the other axis in closed form, Gauss-Legendre
             on panels placed where the integrand has structure (see `pc_exact`); agrees with scipy dblquad to
-            better than 1e-12 over covariance axis ratios up to 1000:1 and R from 0.01 to 100 sigma.
+            better than 1e-12 over covariance axis ratios up to 1000:1 and R from 0.01 to 100 sigma, and with a
+            50-digit mpmath integration to 1e-13 with the mean on the boundary, sigma/R from 1e-9 to 1e-3 and axis
+            ratios to 1e8 (tests/test_kernels_conflict.py): where the Gaussian is narrow across the disk every
+            distance to the circle comes from D = R^2 - |m|^2 computed to the last bit (`disk_margin`).
 one_block   Hwang & Seah (2008) as given by Baek & Bang eqs 25-28: whiten (Cholesky, eqs 25-26), rotate to the
             axes of the (now elliptic) zone, integrate over the circumscribing rectangle: a product of two 1D
             Gaussian CDF differences (eq 27-28). An upper bound.
@@ -60,6 +63,8 @@ TAU_WIDTH_FEW_NODES = 0.5  # 16 nodes only on panels at most this wide in tau (o
 TAU_SPLIT = 1.0  # zone panels wider than this in tau (of 2) are integrated as two halves
 CHUNK = 1024  # pairs per block in pc_exact
 GAUSS_CORE = 3.0  # extra break points at m_u +- 3 s_a
+THIN = 1e-3  # s_a below THIN R: the thin path (_exact_thin), integrated in the Gaussian's own coordinate
+EDGE_NEAR = 2.0  # thin path: a zone panel within EDGE_NEAR widths of the chord's end u = R is integrated in sqrt
 
 ndtr = special.ndtr
 
@@ -80,22 +85,69 @@ def _as_pairs(mean, cov, radius):
     return mean, cov, radius
 
 
+_SPLIT = 134217729.0  # 2^27 + 1: Veltkamp's split of a double into two 26-bit halves
+
+
+def _prod_err(x, y, p):
+    """x y - p exactly, p = fl(x y) (Dekker's product: no fused multiply-add needed)."""
+    c = _SPLIT * x
+    xh = c - (c - x)
+    xl = x - xh
+    c = _SPLIT * y
+    yh = c - (c - y)
+    yl = y - yh
+    return ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
+
+
+def _diff_of_products(a, b, c, d):
+    """a b - c d to ~1 ulp of the result however much the two products cancel (the determinant of a covariance
+    with axis ratio 1e8 is 1e-16 of a d); the plain difference where the split overflows (|x| > 1e300)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        p, q = a * b, c * d
+        out = (p - q) + (_prod_err(a, b, p) - _prod_err(c, d, q))
+        return np.where(np.isfinite(out), out, p - q)
+
+
+def disk_margin(mean, radius):
+    """D = R^2 - |m|^2 for every pair, to ~1 ulp of D itself (Dekker's products and exact two-sums): how far the
+    mean is inside the disk. Pc is as sensitive to the mean's distance to the circle as the Gaussian is narrow across
+    it, and a mean on the boundary with sigma ~1e-7 R turns a rounding of |m| (1e-16 R) into 1e-9 of Pc; the
+    paths that need it (the line and the thin paths of pc_exact) take this distance from D, never from |m| - R or
+    from the rotated mean."""
+    mx, my, r = mean[:, 0], mean[:, 1], radius
+    with np.errstate(over="ignore", invalid="ignore"):
+        pr, px, py = r * r, mx * mx, my * my
+        s1 = pr - px  # two-sum: s1 + e1 = pr - px exactly
+        bb = s1 - pr
+        e1 = (pr - (s1 - bb)) + (-px - bb)
+        s2 = s1 - py
+        bb = s2 - s1
+        e2 = (s1 - (s2 - bb)) + (-py - bb)
+        out = s2 + (((e1 + e2) + _prod_err(r, r, pr)) - (_prod_err(mx, mx, px) + _prod_err(my, my, py)))
+        return np.where(np.isfinite(out), out, pr - px - py)
+
+
 def principal_frame(mean, cov):
     """Principal axes of each 2x2 covariance: (m_u, m_v, s_a, s_b, e_a, e_b) with s_a <= s_b the sigmas
     along the minor (e_a) and major (e_b) axes, and m_u, m_v the mean in that frame. Closed form; the small
-    eigenvalue is det / large one, so it stays accurate for axis ratios far beyond 1000:1."""
+    eigenvalue is det / large one, det from Dekker's exact products, so it stays accurate to ~1e-16 for axis ratios
+    up to 1e8 and beyond (the plain a d - b^2 loses all of it at 1e8), and it is the determinant of the exact symmetric
+    part (a d - c01 c10 - ((c01 - c10)/2)^2), not of the rounded average b, whose last bit is 1e-8 of s_a at 1e8."""
     a = cov[:, 0, 0]
     d = cov[:, 1, 1]
     b = 0.5 * (cov[:, 0, 1] + cov[:, 1, 0])
     half_tr = 0.5 * (a + d)
     disc = np.hypot(0.5 * (a - d), b)
     lam_b = half_tr + disc
-    det = np.maximum(a * d - b * b, 0.0)
+    skew = 0.5 * (cov[:, 0, 1] - cov[:, 1, 0])  # exact for a nearly symmetric cov (R @ D @ R.T is, to an ulp)
+    det = np.maximum(_diff_of_products(a, d, cov[:, 0, 1], cov[:, 1, 0]) - skew * skew, 0.0)  # of the symmetric part
     with np.errstate(divide="ignore", invalid="ignore"):
         lam_a = np.where(lam_b > 0.0, det / np.where(lam_b > 0.0, lam_b, 1.0), 0.0)
     lam_a = np.minimum(lam_a, lam_b)
     theta = 0.5 * np.arctan2(2.0 * b, a - d)  # direction of the major axis
     c, s = np.cos(theta), np.sin(theta)
+    axis_y = (b == 0.0) & (a < d)  # the major axis along y: exactly, not cos(pi/2) = 6e-17 (a tilt a line feels)
+    c, s = np.where(axis_y, 0.0, c), np.where(axis_y, 1.0, s)
     e_b = np.stack([c, s], axis=-1)
     e_a = np.stack([-s, c], axis=-1)
     m_u = np.einsum("ij,ij->i", mean, e_a)
@@ -169,6 +221,14 @@ def pc_exact_reference(mean, cov, radius) -> np.ndarray:
     bracket never varies faster than the Gaussian factor except near u = +-R, exactly where the zone panels
     put the break points, so no adaptive refinement is needed: cost is fixed per pair (plus 16-32 nodes per
     zone panel, typically 1-3). Degenerate covariances are exact too: s_a = 0 (a line) and P = 0 (a point).
+
+    That holds while s_a >= THIN R. A Gaussian narrower across the disk is integrated by `_exact_thin`, in its own
+    coordinate: Pc moves by ~0.4 / s_a per metre of the mean's distance to the circle, and the tau grid, the rotated
+    mean and the circle all carry 1e-16 R of rounding in absolute position (a mean on the boundary with s_a = 1e-7 R
+    came out 1e-9 off, and the compiled kernel, whose sin/cos differ from numpy's by an ulp, disagreed with this
+    reference by as much); below s_a ~ 1e-13 R tau cannot even resolve the window. The thin path, the line case
+    and the principal frame's determinant take every cancelling difference from exact products (disk_margin,
+    _diff_of_products), so they are good to ~1e-16 of the Gaussian's own scale.
     """
     mean, cov, radius = _as_pairs(mean, cov, radius)
     n = mean.shape[0]
@@ -180,21 +240,159 @@ def pc_exact_reference(mean, cov, radius) -> np.ndarray:
     finite = np.isfinite(m_u) & np.isfinite(m_v) & np.isfinite(s_a) & np.isfinite(s_b) & np.isfinite(r)
     ok = finite & (r > 0.0)
     line = ok & (s_a == 0.0)  # all the mass on the line u = m_u (or a point when s_b = 0 too)
-    gen = ok & (s_a > 0.0)
+    gen = ok & (s_a > 0.0) & (s_a >= THIN * r)
+    thin = ok & (s_a > 0.0) & (s_a < THIN * r)
+    dm = disk_margin(mean, r) if (line | thin).any() else None  # the line and the thin paths only
 
     if line.any():
         i = np.flatnonzero(line)
-        inside = np.abs(m_u[i]) <= r[i]
-        h = np.sqrt(np.maximum(r[i] ** 2 - m_u[i] ** 2, 0.0))
-        out[i] = np.where(inside, _interval_mass(-h, h, m_v[i], s_b[i]), 0.0)
+        out[i] = _line_mass(m_v[i], s_b[i], dm[i])
 
-    if gen.any():
-        idx = np.flatnonzero(gen)
+    for sel, path in ((gen, _exact_general), (thin, _exact_thin)):
+        idx = np.flatnonzero(sel)
         for k in range(0, idx.size, CHUNK):  # blocks that keep the temporaries in cache (2-3x faster)
             i = idx[k:k + CHUNK]
-            out[i] = _exact_general(m_u[i], m_v[i], s_a[i], s_b[i], r[i])
+            args = (m_u[i], m_v[i], s_a[i], s_b[i], r[i])
+            with np.errstate(over="ignore"):  # a knot's z far beyond the window (tiny s_a): +-inf, then clipped
+                out[i] = path(*args) if path is _exact_general else path(*args, dm[i])
     out[~finite] = np.nan
     return out
+
+
+def _line_mass(m_v, s_b, dm):
+    """All the mass on the line u = m_u: P(|v| <= h) for v ~ N(m_v, s_b^2), h = sqrt(R^2 - m_u^2), with the
+    near-zero end h - |m_v| = D / (h + |m_v|) from the accurate margin D (a point, s_b = 0: inside iff D >= 0)."""
+    mv = np.abs(m_v)
+    w2 = dm + mv * mv  # R^2 - m_u^2
+    h = np.sqrt(np.maximum(w2, 0.0))
+    den = (h + mv) * s_b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a1 = np.where(den > 0.0, dm / np.where(den > 0.0, den, 1.0), 0.0)
+        a2 = -(h + mv) / np.where(s_b > 0.0, s_b, 1.0)
+    mass = np.maximum(ndtr(a1) - ndtr(a2), 0.0)
+    return np.where(w2 >= 0.0, np.where(s_b > 0.0, mass, (dm >= 0.0).astype(float)), 0.0)
+
+
+def _col(x):
+    return x[:, None]
+
+
+def _thin_args(p, q, mu, mv, s_b, e_m, dm):
+    """The bracket's arguments at offsets p from the mean along u (q = R - |m_u| - p, the distance to the chord's end
+    given as computed by the caller): a1 = (h - |m_v|)/s_b = (D - 2|m_u| p - p^2) / ((h + |m_v|) s_b), no digits lost
+    when h ~ |m_v| however far the disk is; a2 = -(h + |m_v|)/s_b."""
+    h = np.sqrt(np.maximum(q * (e_m + p), 0.0))
+    den = (h + mv) * s_b
+    g = dm - p * (2.0 * mu + p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a1 = np.where(den > 0.0, g / np.where(den > 0.0, den, 1.0), 0.0)
+    return a1, -(h + mv) / s_b
+
+
+def _gl_nodes(span):
+    """Gauss-Legendre points by the sigmas a panel spans (GL_RULES)."""
+    return np.where(span <= GL_RULES[0][0], GL_RULES[0][1], np.where(span <= GL_RULES[1][0], GL_RULES[1][1],
+                                                                     GL_RULES[2][1]))
+
+
+def _exact_thin(m_u, m_v, s_a, s_b, r, dm):
+    """The Gaussian narrow across the disk (s_a < THIN R): the same integral as _exact_general, in the Gaussian's own
+    coordinate z = (u - m_u)/s_a instead of the circle's tau. With s_a below ~1e-13 R the tau grid cannot even place
+    the window (tau carries 1e-16 R in u), and above it every absolute position (the rotated mean, the circle) holds
+    1e-16 R, which is 1e-16 R / s_a of the Gaussian: a mean on the boundary with s_a = 1e-7 R was 1e-9 off. Here no
+    quantity is absolute: u = |m_u| + p (by symmetry m_u, m_v >= 0), the chord's end is at p = e_p = R - |m_u| =
+    (D + m_v^2) / (R + |m_u|) and the upper chord edge relative to the mean is h - |m_v| = (D - 2|m_u| p - p^2) /
+    (h + |m_v|), all from the margin D = R^2 - |m|^2 (disk_margin). The window z in [-7.5, min(7.5, e_p/s_a)] (the
+    far end, R/s_a > 1000 away, never in it) is split at z = +-3, at the top of the chord (u = 0) and where h =
+    |m_v| +- 7.5 s_b (the zone ends: u^2 = D + m_u^2 - (h^2 - m_v^2), the root near the mean as a quotient); panels
+    outside the zones are closed-form Gaussian masses, zone panels Gauss-Legendre in z, or in s = sqrt(z_e - z) when
+    the chord's end z_e is near (h ~ sqrt(z_e - z) is analytic in s)."""
+    n = m_u.shape[0]
+    mu, mv = np.abs(m_u), np.abs(m_v)
+    e_m = r + mu
+    e_p = (dm + mv * mv) / e_m
+    z_e = e_p / s_a
+    z_hi = np.minimum(K_SIGMA, z_e)
+    empty = ~(z_hi > -K_SIGMA)
+    z_hi = np.where(empty, -K_SIGMA, z_hi)
+    kb = K_SIGMA * s_b
+    cand = np.empty((n, 7))
+    cand[:, 0] = -GAUSS_CORE
+    cand[:, 1] = GAUSS_CORE
+    cand[:, 2] = -mu / s_a
+    k = 3
+    for delta in (dm - kb * (2.0 * mv + kb), dm + kb * (2.0 * mv - kb)):  # h = |m_v| + kb, h = ||m_v| - kb|
+        u2 = delta + mu * mu  # R^2 - h^2: the roots u = +-sqrt(u2)
+        root = u2 > 0.0
+        uh = np.sqrt(np.where(root, u2, 0.0))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            cand[:, k] = np.where(root, delta / np.where(root, uh + mu, 1.0) / s_a, -K_SIGMA)  # uh - mu, stably
+            cand[:, k + 1] = np.where(root, -(uh + mu) / s_a, -K_SIGMA)
+        k += 2
+    cand = np.minimum(np.maximum(cand, -K_SIGMA), z_hi[:, None])
+    knots = np.empty((n, 9))
+    knots[:, 0] = -K_SIGMA
+    knots[:, 1:8] = np.sort(cand, axis=1)
+    knots[:, 8] = z_hi
+    za, zb = knots[:, :-1], knots[:, 1:]  # 8 panels, some of zero width
+    width = zb - za
+    zm = 0.5 * (za + zb)
+    pm = _col(s_a) * zm
+    a1, a2 = _thin_args(pm, _col(e_p) - pm, _col(mu), _col(mv), _col(s_b), _col(e_m), _col(dm))
+    act1 = np.abs(a1) < K_SIGMA
+    act2 = a2 > -K_SIGMA
+    in_zone = (act1 | act2) & (width > 0.0)
+    inside = (a1 >= K_SIGMA) & ~act2 & (width > 0.0)
+    upper = za > 0.0  # the Gaussian mass of a panel, taken in the tail where it is small
+    mass = np.where(upper, ndtr(-za) - ndtr(-zb), ndtr(zb) - ndtr(za))
+    total = np.where(inside, mass, 0.0).sum(axis=1)
+
+    pi_, pj = np.nonzero(in_zone)
+    if pi_.size:
+        a, b = za[pi_, pj], zb[pi_, pj]
+        sap, sbp, mup, mvp = s_a[pi_], s_b[pi_], mu[pi_], mv[pi_]
+        epp, emp, dmp, zep = e_p[pi_], e_m[pi_], dm[pi_], z_e[pi_]
+        # the span in sigmas of the Gaussian and of each varying bracket term (monotone on a panel: u = 0 is a knot)
+        pa, pb = sap * a, sap * b
+        a1a, a2a = _thin_args(pa, epp - pa, mup, mvp, sbp, emp, dmp)
+        a1b, a2b = _thin_args(pb, epp - pb, mup, mvp, sbp, emp, dmp)
+        span = np.maximum(b - a, np.maximum(np.where(act1[pi_, pj], np.abs(a1b - a1a), 0.0),
+                                            np.where(act2[pi_, pj], np.abs(a2b - a2a), 0.0)))
+        edge = zep - b < EDGE_NEAR * (b - a)
+        nodes = np.where(edge, GL_RULES[-1][1], _gl_nodes(span))
+        vals = np.empty(pi_.size)
+        for _, nn in GL_RULES:
+            for sq in (False, True):
+                sel = np.flatnonzero((nodes == nn) & (edge == sq))
+                if sel.size:
+                    vals[sel] = _thin_panels(a[sel], b[sel], sap[sel], sbp[sel], mup[sel], mvp[sel], epp[sel],
+                                             emp[sel], dmp[sel], zep[sel], nn, sq)
+        total += np.bincount(pi_, weights=vals, minlength=n)
+    total = np.where(empty, 0.0, total)
+    return np.clip(total, 0.0, 1.0)
+
+
+def _thin_panels(a, b, s_a, s_b, mu, mv, e_p, e_m, dm, z_e, nodes, sqrt_map):
+    """Gauss-Legendre (nodes points) of phi(z) bracket over z in [a, b], one row per panel, in z or (sqrt_map) in
+    s = sqrt(z_e - z), where q = R - u = s_a s^2 exactly."""
+    gx, gw = _GL[nodes]
+    if sqrt_map:
+        s_lo, s_hi = np.sqrt(z_e - b), np.sqrt(z_e - a)
+        half = 0.5 * (s_hi - s_lo)
+        s = _col(s_lo) + _col(half) * (1.0 + gx[None, :])
+        z = _col(z_e) - s * s
+        q = _col(s_a) * (s * s)
+        p = _col(e_p) - q
+        jac = 2.0 * s
+    else:
+        half = 0.5 * (b - a)
+        z = _col(a) + _col(half) * (1.0 + gx[None, :])
+        p = _col(s_a) * z
+        q = _col(e_p) - p
+        jac = 1.0
+    a1, a2 = _thin_args(p, q, _col(mu), _col(mv), _col(s_b), _col(e_m), _col(dm))
+    f = np.exp(-0.5 * z * z) * (ndtr(a1) - ndtr(a2)) * jac
+    return (f @ gw) * half / SQRT_2PI
 
 
 def _exact_general(m_u, m_v, s_a, s_b, r):
