@@ -181,3 +181,23 @@ def test_the_nuisance_study_truth_ra_volume_by_hand():
     e = gen.generate(1, 3, nuisance.model(level))
     assert e.own.alt_m == pytest.approx(nuisance.ALTITUDE_FT * FT) and e.own.vrate_mps == 0.0
     assert e.hmd_m <= 2 * level.ra_hmd_m and abs(e.vmd_m) <= 900 * FT
+
+
+def test_metrics_load_keeps_the_common_encounters(tmp_path):
+    from avionics_eval.evaluation.metrics import load
+    from avionics_eval.evaluation.runner import Partition, write_partition
+
+    def records(profile, n):
+        return pa.Table.from_pylist([{**dict.fromkeys(ev.RECORD_SCHEMA.names), "seed": 1, "index": i,
+                                      "profile": profile} for i in range(n)], schema=ev.RECORD_SCHEMA)
+
+    for name, profile, n in (("a", "p", 5), ("b", "q", 3)):
+        (tmp_path / name).mkdir()
+        write_partition(tmp_path / name, Partition(0, n), records(profile, n))
+    dirs = [tmp_path / "a", tmp_path / "b"]
+    assert load(dirs).num_rows == 8
+    common = load(dirs, common=True)
+    assert sorted(zip(common["profile"].to_pylist(), common["index"].to_pylist())) == \
+        [(p, i) for p in "pq" for i in range(3)]
+    with pytest.raises(ValueError, match="twice"):
+        load([tmp_path / "a", tmp_path / "a"])

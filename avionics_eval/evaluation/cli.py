@@ -27,6 +27,8 @@ def add_arguments(p) -> None:
                    help="instead of running: the metrics of these results directories as a Markdown table "
                         "(and JSON with --json)")
     p.add_argument("--plots", metavar="DIR", help="--report: also draw the plots into DIR")
+    p.add_argument("--common", action="store_true",
+                   help="--report: only the encounters that every profile has (results of unequal length)")
     p.add_argument("--json", action="store_true", help="--report: print the metrics as JSON")
 
 
@@ -36,7 +38,7 @@ def evaluate_command(args) -> int:
     if args.report:
         from avionics_eval.evaluation.metrics import load, markdown, metrics, plot
 
-        table = load(args.report)
+        table = load(args.report, common=args.common)
         result = metrics(table)
         print(json.dumps(result, indent=1) if args.json else markdown(result))
         if args.plots:

@@ -45,15 +45,23 @@ def paired_risk_ratio(a: int, b: int, c: int, z: float = Z95) -> tuple[float, fl
     return rr, rr * math.exp(-z * se), rr * math.exp(z * se)
 
 
-def load(paths) -> pa.Table:
-    """The records of one or more results directories (runner.run), e.g. one per profile group."""
+def load(paths, common: bool = False) -> pa.Table:
+    """The records of one or more results directories (runner.run), e.g. one per profile group. common: only the
+    encounters every profile has (a side-by-side comparison on the same encounters when one set is shorter)."""
     from avionics_eval.evaluation.runner import read
 
     tables = [read(Path(p)) for p in paths]
     table = pa.concat_tables(tables) if len(tables) > 1 else tables[0]
-    keys = set(zip(table["seed"].to_pylist(), table["index"].to_pylist(), table["profile"].to_pylist()))
-    if len(keys) != table.num_rows:
+    encounters = list(zip(table["seed"].to_pylist(), table["index"].to_pylist()))
+    profiles = table["profile"].to_pylist()
+    if len(set(zip(encounters, profiles))) != table.num_rows:
         raise ValueError("the results hold an encounter twice for a profile: give each (set, profile) once")
+    if common:
+        per_profile = {}
+        for encounter, profile in zip(encounters, profiles):
+            per_profile.setdefault(profile, set()).add(encounter)
+        shared = set.intersection(*per_profile.values())
+        table = table.filter(pa.array([e in shared for e in encounters]))
     return table
 
 
