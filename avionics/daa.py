@@ -71,7 +71,9 @@ class _Callsigns(Mapping):
 
 @dataclass(frozen=True, slots=True)
 class DaaResult:
-    """Everything a shell needs of one step. Read-only: mappings are views of copies, tuples are tuples."""
+    """Everything a shell needs of one step. Read-only: `active` is a view of a copy, tuples are tuples;
+    `assessed` builds each advisory when read and `callsigns` reads the track records when asked (the ports
+    read both in the step they get the result)."""
 
     time_s: float
     changes: tuple[Advisory, ...]  # advisories whose level, RA sense or strength changed (announce these)
