@@ -90,7 +90,7 @@ def _setup(profile: str, overrides: tuple[str, ...] = ()):
     return config, levels
 
 
-def _reports(encounter: Encounter, t, intruder, rng) -> dict[int, list[IntruderReport]]:
+def _reports(t, intruder, rng) -> dict[int, list[IntruderReport]]:
     """The intruder's ADS-B reports (1 Hz at a random phase on the truth grid) by the step that receives them."""
     impair = DEFAULT.with_seed(int(rng.integers(2**63)))
     phase = int(rng.integers(SUBSTEPS))
@@ -127,7 +127,7 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
     config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
-    by_step = _reports(encounter, t, intruder, rng)
+    by_step = _reports(t, intruder, rng)
     daa = Daa(config)
     standard = daa.response_model
     delay = standard.delay_s * rng.uniform(1 - DELAY_SPREAD, 1 + DELAY_SPREAD)
