@@ -48,11 +48,12 @@ from avionics_sitl.trajectory import KinematicState
 NMAC_HORIZONTAL_M = 500 * FT
 NMAC_VERTICAL_M = 100 * FT
 STEP_S = 1.0  # the core's logic cycle
+REPORT_PERIOD_S = 1.0  # ADS-B position reports
 DELAY_SPREAD = 0.4  # pilot delay uniform in standard x [1 - this, 1 + this] (docs/evaluation.md)
 PLANE = LocalTangentPlane(47.4, 8.5)  # where the encounters are flown (any mid-latitude point)
 KEY = IntruderKey(0xC0FFEE, AddressSource.ES1090)
 STRENGTH_RANK = {"preventive": 0, "level_off": 1, "corrective": 2, "increase": 3}
-SUBSTEPS = round(STEP_S / DT_S)
+REPORT_SUBSTEPS = round(REPORT_PERIOD_S / DT_S)
 # The [conflict] zone's probabilities (pc_now, pc_max, pc_within) are outputs for displays: advisories under
 # the default criterion (tcas) never read them, so their Monte Carlo and 60 s curve are cut (a third of a tcas2
 # encounter's cost; tests/test_evaluation.py checks the records are unchanged).
@@ -90,11 +91,11 @@ def _setup(profile: str, overrides: tuple[str, ...] = ()):
     return config, levels
 
 
-def _reports(t, intruder, rng) -> dict[int, list[IntruderReport]]:
+def _reports(t, intruder, rng, step_s: float) -> dict[int, list[IntruderReport]]:
     """The intruder's ADS-B reports (1 Hz at a random phase on the truth grid) by the step that receives them."""
     impair = DEFAULT.with_seed(int(rng.integers(2**63)))
-    phase = int(rng.integers(SUBSTEPS))
-    idx = np.arange(phase, len(t), SUBSTEPS)
+    phase = int(rng.integers(REPORT_SUBSTEPS))
+    idx = np.arange(phase, len(t), REPORT_SUBSTEPS)
     lat, lon = PLANE.to_geodetic(intruder[idx, 0], intruder[idx, 1])
     by_step: dict[int, list] = {}
     for j, k in enumerate(idx):
@@ -105,7 +106,7 @@ def _reports(t, intruder, rng) -> dict[int, list[IntruderReport]]:
             continue
         received = float(t[k]) + rep.latency_s
         s = rep.state
-        by_step.setdefault(math.ceil(received / STEP_S - 1e-9), []).append(IntruderReport(
+        by_step.setdefault(math.ceil(received / step_s - 1e-9), []).append(IntruderReport(
             KEY, received, received, s.lat_deg, s.lon_deg, s.alt_msl_m, AltitudeDatum.PRESSURE,
             (s.vel_east_mps, s.vel_north_mps), s.vel_up_mps))
     return by_step
@@ -119,24 +120,27 @@ def _fly(responder, own, t, offsets, rates, j0, j1) -> None:
         rates[j] = state.vel_up_mps - own[j, 5]
 
 
-def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...] = ()) -> dict:
+def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...] = (), *,
+             step_s: float = STEP_S) -> dict:
     """The record of one encounter flown with one alerting profile; seed (an int or a sequence of ints) draws the
     ADS-B noise and the pilot's delay. Use the same seed for every profile: the profiles then see the same reports
     (common random numbers), and their differences are the logic's. overrides: more configuration key=value
-    (e.g. advisory.criterion), for studies of a profile's variants."""
+    (e.g. advisory.criterion), for studies of a profile's variants. step_s: the core's step (and ownship's fix)
+    period, a multiple of DT_S (docs/evaluation.md compares 1 s with 0.1 s)."""
     config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
-    by_step = _reports(t, intruder, rng)
+    substeps = round(step_s / DT_S)
+    by_step = _reports(t, intruder, rng, step_s)
     daa = Daa(config)
     standard = daa.response_model
     delay = standard.delay_s * rng.uniform(1 - DELAY_SPREAD, 1 + DELAY_SPREAD)
-    own_lat, own_lon = PLANE.to_geodetic(own[::SUBSTEPS, 0], own[::SUBSTEPS, 1])
+    own_lat, own_lon = PLANE.to_geodetic(own[::substeps, 0], own[::substeps, 1])
     offsets, rates = np.zeros(len(t)), np.zeros(len(t))
     responder, flown_to = None, -1
     changes = []
-    for k in range(int(DURATION_S / STEP_S) + 1):
-        j = k * SUBSTEPS
+    for k in range(round(DURATION_S / step_s) + 1):
+        j = k * substeps
         if responder is not None:
             _fly(responder, own, t, offsets, rates, flown_to + 1, j)
             flown_to = j
