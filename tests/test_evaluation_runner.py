@@ -16,18 +16,17 @@ import pytest
 
 from avionics_eval.evaluation.runner import EvaluationError, partitions, read, run
 
-# subprocesses and a loopback LocalCluster; one worker builds the in-process reference once for both tests
-pytestmark = [pytest.mark.live, pytest.mark.xdist_group("evaluation")]
+pytestmark = pytest.mark.live  # subprocesses and loopback LocalClusters
 
 N, SEED, PROFILES = 200, 15, ("tcas2",)  # one profile keeps the test near a minute on a busy 2-core machine
 CLI = [sys.executable, "-m", "avionics_eval.cli", "evaluate", "--seed", str(SEED), "--profiles", ",".join(PROFILES)]
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sync") / "results"
-    summary = run(N, SEED, PROFILES, out, scheduler="synchronous", partition_size=25, progress=False)
-    assert summary["complete"] and summary["evaluated_now"] == N
+def _in_process(tmp_path: Path, n: int, partition_size: int):
+    """The reference: the set evaluated in this process (another partition size than the runs compared)."""
+    out = tmp_path / "in-process"
+    summary = run(n, SEED, PROFILES, out, scheduler="synchronous", partition_size=partition_size, progress=False)
+    assert summary["complete"] and summary["evaluated_now"] == n
     return read(out)
 
 
@@ -35,7 +34,8 @@ def _parts(out: Path) -> list[str]:
     return sorted(p.name for p in out.glob("part-*.parquet"))
 
 
-def test_local_cluster_interrupted_and_resumed_equals_in_process(reference, tmp_path):
+def test_local_cluster_interrupted_and_resumed_equals_in_process(tmp_path):
+    reference = _in_process(tmp_path, N, 40)
     out = tmp_path / "results"
     first = subprocess.run([*CLI, "--encounters", str(N), "--out", str(out), "--scheduler", "local:2",
                             "--partition-size", "25", "--max-partitions", "3"], check=False, capture_output=True, text=True,
@@ -55,7 +55,7 @@ def test_local_cluster_interrupted_and_resumed_equals_in_process(reference, tmp_
     assert [r["evaluated_now"] for r in runs] == [75, 125]
 
 
-def test_a_killed_run_is_resumed_without_duplicates(reference, tmp_path):
+def test_a_killed_run_is_resumed_without_duplicates(tmp_path):
     """The process is killed while it writes partitions; the rerun completes the set: no half partition was
     visible and none is evaluated twice. Another partition size than the reference: the records do not depend
     on it."""
@@ -77,7 +77,19 @@ def test_a_killed_run_is_resumed_without_duplicates(reference, tmp_path):
     records = read(out)
     keys = list(zip(records["index"].to_pylist(), records["profile"].to_pylist()))
     assert len(keys) == len(set(keys)) == n * len(PROFILES)
-    assert records.equals(reference.filter(reference["index"].to_numpy() < n))
+    assert records.equals(_in_process(tmp_path, n, 10))
+
+
+def test_an_existing_cluster_by_address_gives_the_same_records(tmp_path):
+    """--scheduler tcp://HOST:PORT: a cluster started elsewhere (here a loopback LocalCluster of one worker)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                      scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}) as cluster:
+        summary = run(10, SEED, PROFILES, tmp_path / "results", scheduler=cluster.scheduler_address,
+                      partition_size=5, progress=False)
+    assert summary["complete"] and summary["evaluated_now"] == 10
+    assert read(tmp_path / "results").equals(_in_process(tmp_path, 10, 3))
 
 
 def test_a_directory_of_another_set_is_refused(tmp_path):
