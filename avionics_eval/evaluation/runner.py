@@ -138,6 +138,8 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
     summary of this invocation (also appended to <out>/_runs.jsonl)."""
     from avionics_sitl.progress import progress_bar
 
+    if not (scheduler in ("synchronous", "local") or scheduler.startswith(("local:", "tcp://"))):
+        raise EvaluationError(f"--scheduler {scheduler!r}: expected local[:N], synchronous or tcp://HOST:PORT")
     out = Path(out)
     _prepare(out, seed, partition_size, profiles)
     todo = [p for p in partitions(n, partition_size) if not (out / p.name).exists()]
