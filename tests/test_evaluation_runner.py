@@ -53,6 +53,8 @@ def test_local_cluster_interrupted_and_resumed_equals_in_process(tmp_path):
     assert records.equals(reference)  # every value, whatever the scheduler and the partitioning
     runs = [json.loads(line) for line in (out / "_runs.jsonl").read_text().splitlines()]
     assert [r["evaluated_now"] for r in runs] == [75, 125]
+    logged = [json.loads(line)["partition"] for line in (out / "_partitions.jsonl").read_text().splitlines()]
+    assert sorted(logged) == _parts(out)  # each partition evaluated once
 
 
 def test_a_killed_run_is_resumed_without_duplicates(tmp_path):

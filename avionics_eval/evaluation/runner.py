@@ -30,6 +30,7 @@ from avionics_eval.evaluation.generator import generate
 MODEL_VERSION = 1  # bump when the generator or the record changes: a resumed run must not mix versions
 MANIFEST = "_manifest.json"  # '_' and '.' names are not read as data by pyarrow's dataset reader
 RUN_LOG = "_runs.jsonl"
+PARTITION_LOG = "_partitions.jsonl"
 WINDOW = 2  # tasks in flight per worker: enough to keep workers busy while the client writes
 
 
@@ -151,6 +152,9 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
 
     def done(part, table, cpu_s):
         write_partition(out, part, table)
+        with open(out / PARTITION_LOG, "a") as fh:  # the cost of an interrupted run is known too
+            fh.write(json.dumps({"partition": part.name, "cpu_s": round(cpu_s, 2),
+                                 "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}) + "\n")
         stats["encounters"] += part.stop - part.start
         stats["cpu_s"] += cpu_s
         if bar is not None:
