@@ -161,6 +161,7 @@ def test_metrics_count_per_profile():
     assert result["a"]["reversal_rate"][0] == pytest.approx(1 / 6)
     assert result["a"]["strengthening_rate"][0] == pytest.approx(2 / 6)
     assert result["a"]["late_ra_rate"][0] == pytest.approx(1 / 4)
+    assert list(metrics(pa.Table.from_pylist(rows), order=("b", "z"))) == ["b", "a"]
     table = markdown(result)
     assert "| risk ratio | 0.2500 [" in table and table.count("\n") == len(table.splitlines()) - 1
 

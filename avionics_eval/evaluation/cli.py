@@ -36,10 +36,16 @@ def evaluate_command(args) -> int:
     from avionics_eval.evaluation.runner import EvaluationError
 
     if args.report:
-        from avionics_eval.evaluation.metrics import load, markdown, metrics, plot
+        from avionics_eval.evaluation.metrics import (
+            load,
+            markdown,
+            metrics,
+            plot,
+            profiles_of,
+        )
 
         table = load(args.report, common=args.common)
-        result = metrics(table)
+        result = metrics(table, profiles_of(args.report))
         print(json.dumps(result, indent=1) if args.json else markdown(result))
         if args.plots:
             for path in plot(table, result, args.plots):

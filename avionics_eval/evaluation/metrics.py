@@ -13,6 +13,7 @@ cohort data). With no equipped NMAC, RR = 0 and the upper bound uses b = 0.5 (a 
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -102,9 +103,22 @@ def profile_metrics(table: pa.Table) -> dict:
     }
 
 
-def metrics(table: pa.Table) -> dict:
-    """{profile: profile_metrics} in the order the profiles first appear."""
-    profiles = list(dict.fromkeys(table["profile"].to_pylist()))
+def profiles_of(paths) -> list[str]:
+    """The profiles of results directories in their --profiles order (runner's manifest), directory by directory."""
+    from avionics_eval.evaluation.runner import MANIFEST
+
+    found = []
+    for path in paths:
+        manifest = Path(path) / MANIFEST
+        if manifest.exists():
+            found += json.loads(manifest.read_text())["profiles"]
+    return list(dict.fromkeys(found))
+
+
+def metrics(table: pa.Table, order=()) -> dict:
+    """{profile: profile_metrics}: the profiles of `order` first, then the others as they appear."""
+    present = set(table["profile"].to_pylist())
+    profiles = list(dict.fromkeys([p for p in order if p in present] + table["profile"].to_pylist()))
     mask = _column(table, "profile")
     return {p: profile_metrics(table.filter(pa.array(mask == p))) for p in profiles}
 
