@@ -223,10 +223,10 @@ class Daa:
         out = []
         for i, key in enumerate(keys):
             record = core.tracker.tracks[key]
-            level, advisory = core.advisory_reader(key)
+            level, advisory, assessment = core.advisory_reader(key)
             out.append(TrackView.of(record, xs[i], ps[i], float(lats[i]), float(lons[i]),
                                     record.altitude_valid(now_s, max_coast_s), advisory, modes[i],
-                                    key in sources.spoof_suspected, level))
+                                    key in sources.spoof_suspected, level, assessment))
         return tuple(out)
 
     def status(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> dict:

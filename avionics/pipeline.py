@@ -89,6 +89,16 @@ class _Rows:
         self.pc, self.within_age = ev.pc, ev.within_age
         self.stale, self.alerts, self.alert_names, self.own_levels = stale, alerts, alert_names, own_levels
 
+    def assessment(self, i: int) -> tuple:
+        """Row i's ASSESSMENT_FIELDS at level NONE, as `advisory(i).assessment()` without building the record (the
+        2 Hz `traffic` publication reads them for every track)."""
+        g, has_alt, pc = self.geometry, self.has_alt[i], self.pc
+        return (float(g.range_m[i]), float(g.t_cpa_s[i]), float(g.hmd_m[i]), float(g.vmd_m[i]) if has_alt else None,
+                float(g.range_tau_s[i]), float(self.mod_tau[AdvisoryLevel.TA][i]), float(self.pc_ta[i]),
+                float(self.pc_ra[i]) if self.pc_ra is not None else None, float(pc["pc_now"][i]),
+                float(pc["pc_max"][i]), float(pc["t_pc_max_s"][i]), _finite_or_none(pc["pc_within"][i]),
+                _finite_or_none(self.within_age[i]))
+
     def advisory(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE, reason: str | None = None,
                  ra: dict | None = None) -> Advisory:
         """Row i's advisory at level; reason None: that of an intruder at NONE (stale, diverging or clear)."""
@@ -801,12 +811,14 @@ class DaaCore:
         return None if entry is None else _advisory_of(entry)
 
     def advisory_reader(self, key: IntruderKey):
-        """(level, a callable returning the intruder's latest advisory as of now, built when called): for views
-        that most readers never open (track publication)."""
+        """(level, a callable returning the intruder's latest advisory as of now, built when called, and its
+        ASSESSMENT_FIELDS): for the track views, whose publications read the level and those fields of every
+        track and the whole advisory of a few."""
         entry = self._latest.get(key)
         if entry is None:
-            return AdvisoryLevel.NONE, _no_advisory
-        return self.states.level_of(key), partial(_advisory_of, entry)
+            return AdvisoryLevel.NONE, _no_advisory, None
+        assessment = entry.assessment() if type(entry) is Advisory else entry[0].assessment(entry[1])
+        return self.states.level_of(key), partial(_advisory_of, entry), assessment
 
     def datum_mismatch_keys(self) -> list[IntruderKey]:
         """The intruders whose latest assessment compared altitudes across datums."""

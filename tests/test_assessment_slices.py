@@ -133,3 +133,40 @@ def test_the_array_state_keeps_a_ta_for_its_minimum_duration(moves):
         assert bool(changed[0]) == (expected != level)
         level = expected
         assert int(states.level[rows[0]]) == level
+
+
+def _same_values(a: tuple, b: tuple) -> bool:
+    return all(x is None and y is None or x is not None and y is not None and
+               (x == y or (math.isnan(x) and math.isnan(y))) for x, y in zip(a, b, strict=True))
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 40))
+def test_a_tracks_assessment_columns_are_its_advisorys_fields(seed, n):
+    """The `traffic` publication reads each track's ASSESSMENT_FIELDS without building its advisory
+    (`_Rows.assessment`): they equal the built advisory's fields, for quiet, alerting, altitude-less and stale
+    intruders alike (random traffic around a hovering ownship, some converging, some without altitude)."""
+    from avionics.core.types import ASSESSMENT_FIELDS
+    from avionics.daa import Daa
+
+    rng = np.random.default_rng(seed)
+    daa = Daa(load_config(overrides=["zenoh.enabled=false"]))
+    pos = rng.uniform(-8e3, 8e3, (n, 2))
+    vel = -pos / rng.uniform(20.0, 200.0, (n, 1))  # converging, some fast
+    alt = rng.choice([None, ALT_M, ALT_M + 150.0, ALT_M + 900.0], n)
+    last_report = rng.uniform(5.0, 20.0, n)  # some go stale before t = 20 s
+    for k in range(41):
+        t = 0.5 * k
+        inputs = _ownship(t)
+        for i in range(n):
+            if k % 2 == 0 and t <= last_report[i]:
+                lat, lon = PLANE.to_geodetic(*(pos[i] + vel[i] * t))
+                key = IntruderKey(0x200000 + i, AddressSource.ES1090)
+                inputs.append(IntruderReport(key, t, t, float(lat), float(lon), alt[i],
+                                             AltitudeDatum.PRESSURE if alt[i] is not None else None,
+                                             (float(vel[i, 0]), float(vel[i, 1])), 0.0 if alt[i] is not None else None))
+        result = daa.step(t, inputs, tracks=True)
+        for track in result.tracks:
+            advisory = track.advisory
+            assert track.advisory_level is advisory.level
+            assert _same_values(track.assessment, tuple(getattr(advisory, f) for f in ASSESSMENT_FIELDS))

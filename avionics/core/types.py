@@ -148,6 +148,10 @@ class Advisory:
         """What a pilot would hear change: level, sense, strength, reversal, the DO-365 alert level."""
         return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.alert_level)
 
+    def assessment(self) -> tuple:
+        """Its ASSESSMENT_FIELDS, in order."""
+        return tuple(getattr(self, name) for name in ASSESSMENT_FIELDS)
+
     def alert(self) -> tuple[int, str]:
         """(alert level, its name): the DO-365 alerter's, or the advisory level's (0 NONE, 1 TA, 2 RA)."""
         if self.alert_level is None:
@@ -158,6 +162,11 @@ class Advisory:
 # An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as
 # "DAA UNAVAILABLE", at warning severity, never as "CLEAR OF CONFLICT".
 UNAVAILABLE_REASONS = ("no_ownship", "fault", "shutdown")
+
+
+# The fields of a track's latest assessment that its publications repeat (zenoh `traffic` and `tracks/`).
+ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s", "mod_tau_s", "pc_ta", "pc_ra", "pc_now",
+                     "pc_max", "t_pc_max_s", "pc_within", "pc_within_age_s")
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,6 +192,7 @@ class TrackView:
     integrity_fault_m: float | None
     advisory_level: AdvisoryLevel  # its latest assessment's level (NONE: never assessed)
     advisory_of: Callable[[], Advisory | None]  # its latest assessment, built when asked (`advisory`)
+    assessment: tuple | None  # that assessment's ASSESSMENT_FIELDS, in order (None: never assessed)
     modes: dict | None  # the IMM tracker's mode outputs (None for the CV filter)
     spoof_suspected: bool
 
@@ -194,20 +204,24 @@ class TrackView:
     @classmethod
     def of(cls, record, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool,
            advisory: Advisory | Callable[[], Advisory | None] | None = None, modes: dict | None = None,
-           spoof_suspected: bool = False, advisory_level: AdvisoryLevel | None = None) -> "TrackView":
+           spoof_suspected: bool = False, advisory_level: AdvisoryLevel | None = None,
+           assessment: tuple | None = None) -> "TrackView":
         """The view of a tracker's record (tracking/record.py) with its predicted state; x and p made read-only.
-        advisory: an Advisory, or a callable building it (then advisory_level is its level)."""
+        advisory: an Advisory, or a callable building it (then advisory_level and assessment are its level and
+        its ASSESSMENT_FIELDS)."""
         x.flags.writeable = False
         p.flags.writeable = False
         integrity = record.integrity
         if not callable(advisory):
             advisory_level = advisory.level if advisory is not None else AdvisoryLevel.NONE
+            assessment = advisory.assessment() if advisory is not None else None
             advisory = partial(_same, advisory)
         return cls(key=record.key, callsign=record.callsign, squawk=record.squawk, emitter_type=record.emitter_type,
                    simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
                    datum=record.datum, altitude_valid=altitude_valid, lat_deg=lat_deg, lon_deg=lon_deg, x=x, p=p,
                    integrity=integrity.label, integrity_fault_m=integrity.fault_m if integrity.degraded else None,
-                   advisory_level=advisory_level, advisory_of=advisory, modes=modes, spoof_suspected=spoof_suspected)
+                   advisory_level=advisory_level, advisory_of=advisory, assessment=assessment, modes=modes,
+                   spoof_suspected=spoof_suspected)
 
 
 def _same(value):

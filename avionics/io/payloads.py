@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from avionics import __version__
-from avionics.core.types import Advisory, AdvisoryLevel, TrackView
+from avionics.core.types import ASSESSMENT_FIELDS, Advisory, TrackView
 
 SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate, conflict probabilities
 
@@ -55,8 +55,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
 
 
 # The latest assessment of a track, repeated in its track message.
-TRACK_ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s", "mod_tau_s", "pc_ta", "pc_ra",
-                           "pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_within_age_s")
+TRACK_ASSESSMENT_FIELDS = ASSESSMENT_FIELDS
 
 
 def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
@@ -64,7 +63,7 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
     filter): filter name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s,
     positive right), vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink
     sender also reported this intruder (its reports are dropped; docs/mavlink.md, "Trusted sources")."""
-    x, p, advisory, altitude_valid = track.x, track.p, track.advisory, track.altitude_valid
+    x, p, altitude_valid = track.x, track.p, track.altitude_valid
     ve, vn, vu = (float(v) for v in x[3:6])
     return {
         "schema": SCHEMA_VERSION,
@@ -92,10 +91,10 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
         "vertical_rate_mps": vu if altitude_valid else None,
         "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
-        "advisory": (advisory.level if advisory else AdvisoryLevel.NONE).name,
+        "advisory": track.advisory_level.name,
         "integrity": track.integrity,  # "ok" | "degraded:<mode>" (docs/tracking.md, "Integrity monitor")
         "integrity_fault_m": track.integrity_fault_m,
-        **{name: getattr(advisory, name) if advisory else None for name in TRACK_ASSESSMENT_FIELDS},
+        **dict(zip(TRACK_ASSESSMENT_FIELDS, track.assessment or (None,) * len(TRACK_ASSESSMENT_FIELDS))),
         **(track.modes or {}),
     }
 

@@ -66,7 +66,6 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
     last = np.fromiter((t.last_report_s for t in tracks), float, n)
     keys = [t.key for t in tracks]
     modes = [t.modes for t in tracks]
-    advisories = [t.advisory for t in tracks]
     cols = {
         "intruder": pa.array([str(k) for k in keys], pa.string()),
         "address": pa.array(np.fromiter((k.address for k in keys), np.int32, n)),
@@ -94,8 +93,8 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "integrity": pa.array([t.integrity for t in tracks], pa.string()),
         "integrity_fault_m": pa.array(_finite(t.integrity_fault_m for t in tracks), f64),
     }
-    for name in TRACK_ASSESSMENT_FIELDS:
-        cols[name] = pa.array(_finite(getattr(a, name) if a else None for a in advisories), f64)
+    for j, name in enumerate(TRACK_ASSESSMENT_FIELDS):
+        cols[name] = pa.array(_finite(t.assessment[j] if t.assessment else None for t in tracks), f64)
     key_names: dict = {}
     first = next((m for m in modes if m), None)
     for name in (k for k in first if k != "model") if first else ():
