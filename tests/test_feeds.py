@@ -8,6 +8,7 @@ import json
 import math
 from collections import Counter
 
+import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
@@ -132,6 +133,26 @@ def test_clock_takes_the_lower_envelope_and_is_never_later_than_receipt():
         assert t <= 100.0 + i + d
     assert clock.offset_s == pytest.approx(offset + 0.05)
     assert clock.align(None, 123.0) == 123.0
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(0.0, 0.9), min_size=2, max_size=60), st.floats(0.05, 1.0))
+def test_clock_keeps_one_receivers_messages_in_order_when_its_envelope_drops(delays, spacing_s):
+    """Messages sent every spacing_s, each read after its own delay (a busy reader: long delays, then short ones,
+    the envelope dropping by more than the spacing): mapped times keep the order the receiver sent them in and
+    never pass their receipt; once the delays stay at their least, the mapping is the envelope's (the slew done).
+    Reads are in order of receipt, as from one socket."""
+    clock = ReceiverClock(window_s=60.0)
+    offset = 1000.0
+    received = np.maximum.accumulate([i * spacing_s + d for i, d in enumerate(delays)])  # one socket: in order
+    out = [clock.align(i * spacing_s - offset, r) for i, r in enumerate(received)]
+    assert all(t <= r for t, r in zip(out, received))
+    # the same receipt can hold several messages (one batch): those may share it, no others may tie or cross
+    assert all(b > a or rb == ra and b == rb for a, b, ra, rb in zip(out, out[1:], received, received[1:]))
+    n, least = len(delays), min(delays)
+    settle = [clock.align((n + k) * spacing_s - offset, (n + k) * spacing_s + least)
+              for k in range(int(2.0 / spacing_s) + 4)]
+    assert settle[-1] == pytest.approx((n + len(settle) - 1) * spacing_s + least, abs=1e-9)
 
 
 def test_clock_window_forgets_old_floors_and_a_step_restarts_it():
