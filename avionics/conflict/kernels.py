@@ -127,6 +127,21 @@ def disk_margin(mx, my, r):
     return out if np.isfinite(out) else pr - px - py
 
 
+@kernel("void(float64[::1], int64, float64, float64)")
+def clip_sort(knots, end, lo, hi):
+    """knots[1:end] clipped to [lo, hi], then sorted in place (insertion sort: ten candidates at most); knots[0]
+    is the window's start and is left as it is."""
+    for i in range(1, end):
+        knots[i] = min(max(knots[i], lo), hi)
+    for i in range(2, end):
+        v = knots[i]
+        j = i - 1
+        while j >= 1 and knots[j] > v:
+            knots[j + 1] = knots[j]
+            j -= 1
+        knots[j + 1] = v
+
+
 @kernel("float64(float64, float64, float64, float64, float64, float64, float64)")
 def thin_a1(p, q, mu, mv, s_b, e_m, dm):
     """probability._thin_args' a1 = (h - |m_v|)/s_b = (D - 2|m_u| p - p^2) / ((h + |m_v|) s_b),
@@ -208,15 +223,7 @@ def exact_thin(m_u, m_v, s_a, s_b, r, dm):
             knots[k] = -K_SIGMA
             knots[k + 1] = -K_SIGMA
         k += 2
-    for i in range(1, 8):
-        knots[i] = min(max(knots[i], -K_SIGMA), z_hi)
-    for i in range(2, 8):
-        v = knots[i]
-        j = i - 1
-        while j >= 1 and knots[j] > v:
-            knots[j + 1] = knots[j]
-            j -= 1
-        knots[j + 1] = v
+    clip_sort(knots, 8, -K_SIGMA, z_hi)
     knots[8] = z_hi
     total = 0.0
     zone = 0.0
@@ -349,15 +356,7 @@ def exact_general(m_u, m_v, s_a, s_b, r):
             k += 2
     knots[9] = tau_of_u(m_u - GAUSS_CORE * s_a, r)
     knots[10] = tau_of_u(m_u + GAUSS_CORE * s_a, r)
-    for i in range(1, 11):  # clip to the window, then sort the ten candidates (insertion sort)
-        knots[i] = min(max(knots[i], t_lo), t_hi)
-    for i in range(2, 11):
-        v = knots[i]
-        j = i - 1
-        while j >= 1 and knots[j] > v:
-            knots[j + 1] = knots[j]
-            j -= 1
-        knots[j + 1] = v
+    clip_sort(knots, 11, t_lo, t_hi)  # the ten candidates in the window, in order
     knots[11] = t_hi
 
     # standardised u of every knot, chained from the window start by exact differences
