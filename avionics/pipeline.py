@@ -48,6 +48,7 @@ from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.frame import FrameChange, TrackingFrame
 from avionics.core.types import (
+    ASSESSMENT_FIELDS,
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.tracking.interface import Tracker
@@ -89,34 +90,29 @@ class _Rows:
         self.pc, self.within_age = ev.pc, ev.within_age
         self.stale, self.alerts, self.alert_names, self.own_levels = stale, alerts, alert_names, own_levels
 
-    def assessment(self, i: int) -> tuple:
-        """Row i's ASSESSMENT_FIELDS at level NONE, as `advisory(i).assessment()` without building the record (the
-        2 Hz `traffic` publication reads them for every track)."""
+    def assessment(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE) -> tuple:
+        """Row i's ASSESSMENT_FIELDS at level, in order: what `advisory` puts in the record, and what the 2 Hz
+        `traffic` publication reads for every track without building one."""
         g, has_alt, pc = self.geometry, self.has_alt[i], self.pc
         return (float(g.range_m[i]), float(g.t_cpa_s[i]), float(g.hmd_m[i]), float(g.vmd_m[i]) if has_alt else None,
-                float(g.range_tau_s[i]), float(self.mod_tau[AdvisoryLevel.TA][i]), float(self.pc_ta[i]),
-                float(self.pc_ra[i]) if self.pc_ra is not None else None, float(pc["pc_now"][i]),
-                float(pc["pc_max"][i]), float(pc["t_pc_max_s"][i]), _finite_or_none(pc["pc_within"][i]),
-                _finite_or_none(self.within_age[i]))
+                float(g.range_tau_s[i]), float(self.mod_tau.get(level, self.mod_tau[AdvisoryLevel.TA])[i]),
+                float(self.pc_ta[i]), float(self.pc_ra[i]) if self.pc_ra is not None else None,
+                float(pc["pc_now"][i]), float(pc["pc_max"][i]), float(pc["t_pc_max_s"][i]),
+                _finite_or_none(pc["pc_within"][i]), _finite_or_none(self.within_age[i]))
 
     def advisory(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE, reason: str | None = None,
                  ra: dict | None = None) -> Advisory:
         """Row i's advisory at level; reason None: that of an intruder at NONE (stale, diverging or clear)."""
-        g, has_alt, pc, alert = self.geometry, self.has_alt[i], self.pc, int(self.alerts[i])
+        g, has_alt, alert = self.geometry, self.has_alt[i], int(self.alerts[i])
         if reason is None:
             reason = "stale" if self.stale[i] else "diverging" if g.s_dot_v[i] > 0.0 else "clear"
         return Advisory(
             intruder=self.keys[i], level=level, time_s=self.now_s, reason=reason, sensitivity_level=self.sl,
-            range_m=float(g.range_m[i]), closure_rate_mps=float(g.closure_rate_mps[i]),
-            t_cpa_s=float(g.t_cpa_s[i]), hmd_m=float(g.hmd_m[i]), vmd_m=float(g.vmd_m[i]) if has_alt else None,
-            range_tau_s=float(g.range_tau_s[i]),
-            mod_tau_s=float(self.mod_tau.get(level, self.mod_tau[AdvisoryLevel.TA])[i]),
+            closure_rate_mps=float(g.closure_rate_mps[i]),
             vertical_tau_s=float(g.vertical_tau_s[i]) if has_alt else math.inf,
             altitude_datum=self.datums[i] if has_alt else None, datum_mismatch=bool(self.mismatch[i]),
-            pc_ta=float(self.pc_ta[i]), pc_ra=float(self.pc_ra[i]) if self.pc_ra is not None else None,
-            pc_now=float(pc["pc_now"][i]), pc_max=float(pc["pc_max"][i]), t_pc_max_s=float(pc["t_pc_max_s"][i]),
-            pc_within=_finite_or_none(pc["pc_within"][i]), pc_within_age_s=_finite_or_none(self.within_age[i]),
             integrity=self.integrity[i],
+            **dict(zip(ASSESSMENT_FIELDS, self.assessment(i, level))),
             **(dict(alert_level=alert, alert_name=self.alert_names[alert]) if self.own_levels else {}),
             **(ra or {}),
         )
