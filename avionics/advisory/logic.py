@@ -33,15 +33,6 @@ class AdvisoryStates:
         self.alert = np.zeros(capacity, np.int16)
         self.mismatch = np.zeros(capacity, bool)
 
-    def __contains__(self, key) -> bool:
-        return key in self._row
-
-    def __len__(self) -> int:
-        return len(self._row)
-
-    def keys(self):
-        return self._row.keys()
-
     def row(self, key) -> int | None:
         return self._row.get(key)
 
