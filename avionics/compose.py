@@ -34,7 +34,8 @@ def build_components(config, counters: Counter) -> Components:
     profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
     return Components(
         profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory, profile),
-        hysteresis=build_hysteresis(profile), bands=build_bands(profile),
+        hysteresis=build_hysteresis(profile),
+        bands=build_bands(profile) if config.advisory.guidance_bands else None,
         gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
         conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
 

@@ -63,6 +63,17 @@ def test_the_alert_rises_preventive_corrective_warning_and_ends(head_on):
     assert any(a.ra_words for a in changes if a.alert()[0] == 3)
 
 
+def test_guidance_bands_off_leaves_the_alerts_and_publishes_no_bands(head_on):
+    """advisory.guidance_bands = false (what the evaluation runs): the same alert changes at the same times, and
+    no result carries bands."""
+    capture = _Capture()
+    config = load_config(overrides=["advisory.profile=do365", "advisory.guidance_bands=false"])
+    replay(load_scenario("head-on"), config, PRESETS["none"], ports=[capture])
+    assert all(r.bands is None for r in capture.results)
+    assert any(r.bands is not None for r in head_on)
+    assert [a for r in capture.results for a in r.changes] == [a for r in head_on for a in r.changes]
+
+
 def test_bands_come_once_a_second_and_the_current_course_is_in_conflict_at_the_warning(head_on):
     bands = [r.bands for r in head_on if r.bands is not None]
     times = [b.time_s for b in bands]

@@ -120,18 +120,22 @@ def test_evaluate_is_pure_and_its_record_fits_the_schema():
     assert table.column_names == list(first)
 
 
-def test_the_cut_conflict_zone_outputs_change_no_record(monkeypatch):
-    """EVALUATION_OVERRIDES cut outputs that advisories do not read: the records equal the flight defaults'."""
-    cut = [ev.evaluate(gen.generate(5, i), "tcas2", (5, i)) for i in range(6)]
+@pytest.mark.parametrize("profile", ["tcas2", "do365"])
+def test_the_cut_display_outputs_change_no_record(monkeypatch, profile):
+    """EVALUATION_OVERRIDES cut outputs that advisories do not read (the conflict zone's probabilities, a DO-365
+    alerter's guidance bands): the records equal the flight defaults'."""
+    cut = [ev.evaluate(gen.generate(5, i), profile, (5, i)) for i in range(6)]
     from avionics.config import load_config
 
     setup = ev._setup.__wrapped__
 
     def flight_defaults(profile, overrides=()):
-        return load_config(overrides=["zenoh.enabled=false", f'advisory.profile="{profile}"']), setup(profile)[1]
+        config = load_config(overrides=["zenoh.enabled=false", f'advisory.profile="{profile}"'])
+        assert config.advisory.guidance_bands and config.conflict.within_samples > 0
+        return config, setup(profile)[1]
 
     monkeypatch.setattr(ev, "_setup", flight_defaults)
-    assert [ev.evaluate(gen.generate(5, i), "tcas2", (5, i)) for i in range(6)] == cut
+    assert [ev.evaluate(gen.generate(5, i), profile, (5, i)) for i in range(6)] == cut
     assert any(r["ra"] for r in cut)  # the comparison covered RAs
 
 

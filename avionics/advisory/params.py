@@ -17,6 +17,7 @@ class AdvisoryConfig:
     assessment_slice: int = 128  # re-assessments per step beyond fresh reports, while the pass keeps its pace
     ta_min_duration_s: float = 8.0  # TCAS II: a TA stays at least 8 s
     ra_enabled: bool = True
+    guidance_bands: bool = True  # a DO-365 alerter's guidance bands; false: its alerts only (they never read them)
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
     profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
     profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")
