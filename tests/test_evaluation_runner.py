@@ -101,3 +101,13 @@ def test_a_directory_of_another_set_is_refused(tmp_path):
     with pytest.raises(EvaluationError, match="--scheduler"):
         run(3, SEED, PROFILES, tmp_path / "other", scheduler="threads", partition_size=1, progress=False)
     assert not (tmp_path / "other").exists()  # refused before anything is written
+
+
+def test_an_unknown_profile_is_refused_before_anything_is_written(tmp_path):
+    """A typo in --profiles is the configuration's clear error, and the directory stays free for the right run."""
+    out = tmp_path / "set"
+    result = subprocess.run([*CLI[:-2], "--profiles", "tcas2,tcas3", "--encounters", "1", "--out", str(out)],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode != 0 and "unknown profile 'tcas3'" in result.stderr
+    assert not out.exists()
+    assert run(1, SEED, PROFILES, out, scheduler="synchronous", progress=False)["complete"]

@@ -93,6 +93,11 @@ def _setup(profile: str, overrides: tuple[str, ...] = ()):
     return config, levels
 
 
+def check_profile(profile: str) -> None:
+    """Raise the configuration's ConfigError when the profile does not load (an unknown name, a bad file)."""
+    _setup(profile)
+
+
 def _reports(t, intruder, rng, step_s: float) -> dict[int, list[IntruderReport]]:
     """The intruder's ADS-B reports (1 Hz at a random phase on the truth grid) by the step that receives them."""
     impair = DEFAULT.with_seed(int(rng.integers(2**63)))
@@ -248,4 +253,4 @@ def _ra_sequence(changes) -> tuple[int, int, int]:
     return reversals, strengthenings, episodes
 
 
-__all__ = ["NMAC_HORIZONTAL_M", "NMAC_VERTICAL_M", "RECORD_SCHEMA", "T_CPA_S", "evaluate"]
+__all__ = ["NMAC_HORIZONTAL_M", "NMAC_VERTICAL_M", "RECORD_SCHEMA", "T_CPA_S", "check_profile", "evaluate"]

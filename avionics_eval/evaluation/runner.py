@@ -24,7 +24,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from avionics_eval.evaluation.evaluate import RECORD_SCHEMA, evaluate
+from avionics_eval.evaluation.evaluate import RECORD_SCHEMA, check_profile, evaluate
 from avionics_eval.evaluation.generator import generate
 
 MODEL_VERSION = 1  # bump when the generator or the record changes: a resumed run must not mix versions
@@ -141,6 +141,8 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
 
     if not (scheduler in ("synchronous", "local") or scheduler.startswith(("local:", "tcp://"))):
         raise EvaluationError(f"--scheduler {scheduler!r}: expected local[:N], synchronous or tcp://HOST:PORT")
+    for profile in profiles:  # a bad name fails here, before a worker starts or a manifest is written
+        check_profile(profile)
     out = Path(out)
     _prepare(out, seed, partition_size, profiles)
     todo = [p for p in partitions(n, partition_size) if not (out / p.name).exists()]
