@@ -112,6 +112,16 @@ def test_a_co_altitude_head_on_is_resolved_by_the_standard_response_by_hand():
     assert record["ra_lead_s"] > d + r / a and not record["late_ra"]
 
 
+def test_a_dont_climb_strengthens_when_ownship_levels_off_under_a_descending_intruder():
+    """Seed 1, encounter 16492 of the 2026-12-03 run: ownship descending 1989 fpm gets DONT CLIMB against an intruder
+    above descending 1500 fpm, then levels off (its own manoeuvre, which DONT CLIMB allows) 18 s before the CPA.
+    The RA held for 37 s and the pair passed 15 ft apart (NMAC); it must strengthen to DESCEND and resolve it
+    (the RA logic's unit tests in test_resolution.py compute the same strengthening by hand)."""
+    record = ev.evaluate(gen.generate(1, 16492), "tcas2", (1, 16492))
+    assert record["nmac_unequipped"] and not record["nmac_equipped"]
+    assert record["ra_words"].split("|")[:2] == ["DONT CLIMB", "DESCEND"] and record["ra_strengthenings"] >= 1
+
+
 def test_evaluate_is_pure_and_its_record_fits_the_schema():
     e = gen.generate(3, 14)
     first = ev.evaluate(e, "tcas2", (3, 14))

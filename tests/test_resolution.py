@@ -207,6 +207,41 @@ def test_strengthening_goes_preventive_corrective_increase():
     assert seen == [Strength.PREVENTIVE, Strength.CORRECTIVE, Strength.INCREASE]
 
 
+# Strengthening is judged against the RA being flown, not the path of the RA's start (evaluation 2026-12-03,
+# seed 1 encounters 16492 and 2860). Standard response by hand: 5 s, 2.4517 m/s^2 to 7.62 m/s, reached after
+# 3.108 s; after 5 + 3.108 s, 0.5 * 2.4517 * 3.108^2 = 11.84 m.
+
+def test_dont_climb_strengthens_to_descend_after_ownship_levels_off_under_a_descending_threat():
+    # Ownship descends at 2000 fpm; a threat 300 ft above descends at 1500 fpm, CPA in 36 s: keeping the
+    # descent passes 600 ft below it (>= ALIM): DON'T CLIMB. 18 s later ownship has levelled off (DON'T CLIMB
+    # allows it), 600 ft lower; the threat is 450 ft above and reaches our altitude at CPA (18 s): the RA flown
+    # leaves 0 ft. DESCEND leaves 11.84 + 7.62 * (18 - 8.108) = 87.2 m (286 ft) > 0: the RA strengthens (v7.1
+    # booklet: an RA no longer predicted to give ALIM is strengthened). Against the 2000 fpm descent ownship no
+    # longer flies (600 ft) it was held, and the evaluation flew it to an NMAC.
+    lg = logic()
+    first = lg.resolve(0.0, [Threat(300 * FT, -1500 * FPM, 36.0)], -2000 * FPM, ALIM, own_altitude_m=0.0)
+    assert first.words() == "DONT CLIMB" and first.separation_m == pytest.approx(600 * FT)
+    ra = lg.resolve(18.0, [Threat(450 * FT, -1500 * FPM, 18.0)], 0.0, ALIM, own_altitude_m=-600 * FT)
+    assert (ra.sense, ra.strength, ra.words()) == (Sense.DESCEND, Strength.CORRECTIVE, "DESCEND")
+    assert ra.separation_m == pytest.approx(11.84 + 7.62 * (18 - 5 - 7.62 / 2.4517), abs=0.05)
+
+
+def test_level_off_strengthens_to_climb_when_the_threat_below_starts_climbing():
+    # Ownship descends at 800 fpm, a threat 120 ft below at the same rate, CPA in 33 s: LEVEL OFF (66.7 ft in the
+    # 5 s delay, 11.1 ft more to stop at 0.25 g) keeps us 482 ft above it (>= ALIM). Ownship levels (100 ft
+    # lower); at CPA - 8 s the threat, 220 ft below, climbs at
+    # 1500 fpm and would be 20 ft below us at CPA with LEVEL OFF. CLIMB: 0.5 * 2.4517 * 3^2 = 11.03 m (36 ft)
+    # in the 3 s after the delay, 56 ft > 20 ft: CLIMB. The 800 fpm descent that LEVEL OFF stopped (320 ft
+    # below it at CPA) must not hold it back.
+    lg = logic()
+    first = lg.resolve(0.0, [Threat(-120 * FT, -800 * FPM, 33.0)], -800 * FPM, ALIM, own_altitude_m=0.0)
+    assert first.words() == "LEVEL OFF" and first.sense is Sense.CLIMB
+    assert first.separation_m == pytest.approx(560 * FT - 800 * FPM * 5 - 4.064**2 / (2 * 2.4517), abs=0.05)
+    ra = lg.resolve(25.0, [Threat(-220 * FT, 1500 * FPM, 8.0)], 0.0, ALIM, own_altitude_m=-100 * FT)
+    assert (ra.sense, ra.strength, ra.words()) == (Sense.CLIMB, Strength.CORRECTIVE, "CLIMB")
+    assert ra.separation_m == pytest.approx(0.5 * 2.4517 * 3.0**2 + 20 * FT, abs=0.05)
+
+
 def test_a_first_ra_is_never_an_increase():
     ra = logic().resolve(0.0, [Threat(0.0, 0.0, 8.0)], 0.0, ALIM)  # too late for ALIM with any RA
     assert ra.strength is Strength.CORRECTIVE

@@ -8,9 +8,10 @@ target rate and holds it; each intruder keeps its vertical rate. Against threat 
     sep_k(RA)   = sigma_k * miss_k(RA)                     sigma_k = +1 passing above the threat, -1 below
 
 The rules, in the order they apply (docs/advisories.md has the table with sources and worked examples):
-1. Never worse than doing nothing: an RA (first, strengthened, weakened or reversed) whose least |miss_k|
-   over the threats is smaller than that of the path ownship was on when the RA began (at the first RA:
-   keeping the current vertical rate) is never issued.
+1. Never worse than doing nothing: a first or weakened RA whose least |miss_k| over the threats is smaller
+   than that of the path ownship was on when the RA began (at the first RA: keeping the current vertical
+   rate), or a strengthened or reversed RA whose least |miss_k| is smaller than that of the RA being flown
+   (projected from ownship's present state), is never issued.
 2. Sense: the sense that crosses no threat's altitude when it achieves ALIM; otherwise, against threats
    above and below, a composite RA (Don't Climb + Don't Descend: level) when it does better than either
    sense; otherwise the sense with the larger least separation. Ties within TIE_M go to descend (DO-185B
@@ -194,9 +195,10 @@ class ResolutionLogic:
         self._threats, self._v0 = threats, v0
         return self._separation(sense, self._misses(sense, strength, reversal, delay_s))
 
-    def _helps(self, misses: list[float]) -> bool:
-        """Rule 1: no RA leaves less vertical miss than doing nothing."""
-        return min(abs(m) for m in misses) >= self._do_nothing_m - NEVER_WORSE_TOLERANCE_M
+    def _helps(self, misses: list[float], do_nothing_m: float | None = None) -> bool:
+        """Rule 1: no RA leaves less vertical miss than doing nothing (by default the path of the RA's start)."""
+        reference = self._do_nothing_m if do_nothing_m is None else do_nothing_m
+        return min(abs(m) for m in misses) >= reference - NEVER_WORSE_TOLERANCE_M
 
     @staticmethod
     def _crossing(threats: list[Threat], sense: Sense | None) -> bool:
@@ -319,6 +321,11 @@ class ResolutionLogic:
         delay_left = max(0.0, self._command_s + self._command_delay_s - now_s)
         misses_now = self._misses(sense, current.strength, delay_s=delay_left)
         now_sep = self._separation(sense, misses_now)
+        # Doing nothing, for a strengthening or a reversal, is keeping the RA being flown, projected from ownship's
+        # present state as TCAS II models every RA (v7.1 booklet, "Resolution Advisory Selection"). The path of the
+        # RA's start may be one ownship has left: the descent a LEVEL OFF stopped, or a level-off that a DONT CLIMB
+        # allows; judged against it, a strengthening the threat's manoeuvre needs was never issued.
+        keep_m = min(abs(m) for m in misses_now)
         dwell_over = now_s - self._changed_s >= DWELL_S
         t_min = min(th.t_cpa_s for th in self._threats)
         strongest = Strength.INCREASE if self._allowed(sense, Strength.INCREASE, inhibits) else Strength.CORRECTIVE
@@ -327,7 +334,7 @@ class ResolutionLogic:
                 and self._separation(sense, self._misses(sense, strongest)) < alim):
             other = sense.opposite
             misses = self._misses(other, Strength.CORRECTIVE, reversal=True)
-            if self._separation(other, misses) >= alim and self._helps(misses):
+            if self._separation(other, misses) >= alim and self._helps(misses, keep_m):
                 self._changed_s = self._command_s = now_s
                 self._command_delay_s = self.profile.response.strengthen_delay_s
                 return self._resolution(other, Strength.CORRECTIVE, reversed_=True)
@@ -335,7 +342,7 @@ class ResolutionLogic:
             stronger = STRONGER.get(current.strength)
             if stronger is not None and self._allowed(sense, stronger, inhibits):
                 misses = self._misses(sense, stronger)
-                if self._helps(misses) and self._separation(sense, misses) > now_sep:
+                if self._helps(misses, keep_m) and self._separation(sense, misses) > now_sep:
                     self._changed_s = self._command_s = now_s
                     self._command_delay_s = self._command(sense, stronger, self._v0)[2]
                     return self._resolution(sense, stronger, current.reversed)
