@@ -32,9 +32,11 @@ import zenoh
 
 from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
+from avionics.core.types import (
+    ASSESSMENT_FIELDS, AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
+)
 from avionics.daa import Daa
-from avionics.io.payloads import TRACK_ASSESSMENT_FIELDS, track_payload
+from avionics.io.payloads import track_payload
 from avionics.io.traffic import decode_traffic, encode_traffic
 from avionics.io.zenoh_bus import open_session, to_json
 
@@ -99,11 +101,11 @@ ROW_FIELDS = ("intruder", "address", "address_source", "callsign", "squawk", "em
               "spoof_suspected", "model", "last_report_s", "age_s", "updates", "lat_deg", "lon_deg", "altitude_m",
               "altitude_datum", "velocity_enu_mps", "ground_speed_mps", "track_deg", "vertical_rate_mps",
               "position_sigma_m", "velocity_sigma_mps", "advisory", "integrity", "integrity_fault_m",
-              *TRACK_ASSESSMENT_FIELDS)
+              *ASSESSMENT_FIELDS)
 
 
 def _row(track, now_s: float) -> tuple:
-    x, p, advisory, altitude_valid = track.x, track.p, track.advisory, track.altitude_valid
+    x, p, altitude_valid = track.x, track.p, track.altitude_valid
     ve, vn, vu = (float(v) for v in x[3:6])
     modes = track.modes
     return (
@@ -114,16 +116,15 @@ def _row(track, now_s: float) -> tuple:
         track.datum.value if altitude_valid and track.datum else None, [ve, vn, vu], math.hypot(ve, vn),
         math.degrees(math.atan2(ve, vn)) % 360.0, vu if altitude_valid else None,
         math.sqrt(max(p[0, 0] + p[1, 1], 0.0)), math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
-        advisory.level.name if advisory else "NONE", track.integrity, track.integrity_fault_m,
-        *((getattr(advisory, name) for name in TRACK_ASSESSMENT_FIELDS) if advisory
-          else (None,) * len(TRACK_ASSESSMENT_FIELDS)),
+        track.advisory_level.name, track.integrity, track.integrity_fault_m,
+        *(track.assessment or (None,) * len(ASSESSMENT_FIELDS)),
     )
 
 
 def traffic_payload(vehicle: str, tracks, now_s: float) -> dict:
     """JSON columns: a header and {field: [value per track]}; IMM maps as value lists with their keys once."""
     columns = dict(zip(ROW_FIELDS, (list(c) for c in zip(*(_row(t, now_s) for t in tracks)))))
-    for name in TRACK_ASSESSMENT_FIELDS:
+    for name in ASSESSMENT_FIELDS:
         columns[name] = [None if v is not None and not math.isfinite(v) else v for v in columns[name]]
     keys = {}
     modes = [t.modes for t in tracks]

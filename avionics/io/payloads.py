@@ -54,10 +54,6 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
     }
 
 
-# The latest assessment of a track, repeated in its track message.
-TRACK_ASSESSMENT_FIELDS = ASSESSMENT_FIELDS
-
-
 def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
     """One track as the facade publishes it (core/types.py TrackView). Its `modes` (IMM filters; None for the CV
     filter): filter name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s,
@@ -94,7 +90,7 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
         "advisory": track.advisory_level.name,
         "integrity": track.integrity,  # "ok" | "degraded:<mode>" (docs/tracking.md, "Integrity monitor")
         "integrity_fault_m": track.integrity_fault_m,
-        **dict(zip(TRACK_ASSESSMENT_FIELDS, track.assessment or (None,) * len(TRACK_ASSESSMENT_FIELDS))),
+        **dict(zip(ASSESSMENT_FIELDS, track.assessment or (None,) * len(ASSESSMENT_FIELDS))),
         **(track.modes or {}),
     }
 

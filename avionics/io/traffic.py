@@ -27,7 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.io.payloads import SCHEMA_VERSION, TRACK_ASSESSMENT_FIELDS, track_payload
+from avionics.core.types import ASSESSMENT_FIELDS
+from avionics.io.payloads import SCHEMA_VERSION, track_payload
 
 TRAFFIC_LAYOUT = 1  # the batch's own layout version (the fields inside follow SCHEMA_VERSION)
 ARROW_STREAM = "application/vnd.apache.arrow.stream"
@@ -41,7 +42,7 @@ TRAFFIC_TYPES = {
     "age_s": "f64", "updates": "i64", "lat_deg": "f64", "lon_deg": "f64", "altitude_m": "f64",
     "altitude_datum": "str", "velocity_enu_mps": "f64[3]", "ground_speed_mps": "f64", "track_deg": "f64",
     "vertical_rate_mps": "f64", "position_sigma_m": "f64", "velocity_sigma_mps": "f64", "advisory": "str",
-    "integrity": "str", "integrity_fault_m": "f64", **{name: "f64" for name in TRACK_ASSESSMENT_FIELDS},
+    "integrity": "str", "integrity_fault_m": "f64", **{name: "f64" for name in ASSESSMENT_FIELDS},
     # IMM trackers only (absent with the CV filter):
     "mode_probabilities": "f64[k]", "most_likely_mode": "str", "turn_rate_dps": "f64",
     "vertical_mode_probabilities": "f64[k]", "vertical_mode": "str", "vb_noise": "f64[k]",
@@ -93,7 +94,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "integrity": pa.array([t.integrity for t in tracks], pa.string()),
         "integrity_fault_m": pa.array(_finite(t.integrity_fault_m for t in tracks), f64),
     }
-    for j, name in enumerate(TRACK_ASSESSMENT_FIELDS):
+    for j, name in enumerate(ASSESSMENT_FIELDS):
         cols[name] = pa.array(_finite(t.assessment[j] if t.assessment else None for t in tracks), f64)
     key_names: dict = {}
     first = next((m for m in modes if m), None)
