@@ -98,8 +98,9 @@ def test_a_directory_of_another_set_is_refused(tmp_path):
     run(2, SEED, PROFILES, tmp_path, scheduler="synchronous", partition_size=1, progress=False)
     with pytest.raises(EvaluationError, match="another set"):
         run(2, SEED + 1, PROFILES, tmp_path, scheduler="synchronous", partition_size=1, progress=False)
-    with pytest.raises(EvaluationError, match="--scheduler"):
-        run(3, SEED, PROFILES, tmp_path / "other", scheduler="threads", partition_size=1, progress=False)
+    for bad in ("threads", "local:0", "local:two", "tcp:host"):
+        with pytest.raises(EvaluationError, match="--scheduler"):
+            run(3, SEED, PROFILES, tmp_path / "other", scheduler=bad, partition_size=1, progress=False)
     assert not (tmp_path / "other").exists()  # refused before anything is written
 
 

@@ -109,28 +109,39 @@ def _distributed(client, pending, seed, profiles, done):
             futures.add(submit())
 
 
-def _client(scheduler: str):
-    """A dask.distributed Client for local:N (a LocalCluster of N processes on 127.0.0.1, no dashboard) or
-    tcp://HOST:PORT (an existing scheduler); None for synchronous."""
+def _scheduler(scheduler: str) -> tuple[str, int | str | None]:
+    """--scheduler parsed: ("synchronous", None), ("local", workers) or ("tcp", address); EvaluationError
+    otherwise, before anything is written or started."""
+    kind, _, arg = scheduler.partition(":")
     if scheduler == "synchronous":
+        return "synchronous", None
+    if kind == "local":
+        if not arg:
+            return "local", os.cpu_count() or 1
+        if arg.isdigit() and int(arg) >= 1:
+            return "local", int(arg)
+        raise EvaluationError(f"--scheduler {scheduler}: local:N takes a whole number of workers, at least one")
+    if kind == "tcp" and arg.startswith("//"):
+        return "tcp", scheduler
+    raise EvaluationError(f"--scheduler {scheduler!r}: expected local[:N], synchronous or tcp://HOST:PORT")
+
+
+def _client(kind: str, arg):
+    """A dask.distributed Client for a parsed --scheduler (_scheduler): local, a LocalCluster of `arg` processes
+    on 127.0.0.1 with no dashboard; tcp, the existing scheduler at `arg`. None for synchronous."""
+    if kind == "synchronous":
         return None, None
     from distributed import Client, LocalCluster
 
-    if scheduler.startswith("local"):
-        n = scheduler.partition(":")[2]
-        n_workers = int(n) if n else os.cpu_count() or 1
-        if n_workers < 1:
-            raise EvaluationError(f"--scheduler {scheduler}: at least one worker")
-        logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO lines would bury the progress bar
-        # Loopback only: the scheduler, the nannies and the workers bind 127.0.0.1; no dashboard, and the
-        # scheduler's small HTTP server (health routes, always started) on an ephemeral loopback port.
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, scheduler_port=0, silence_logs=logging.WARNING,
-                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
-        return Client(cluster), cluster
-    if scheduler.startswith("tcp://"):
-        return Client(scheduler), None
-    raise EvaluationError(f"--scheduler {scheduler!r}: expected local[:N], synchronous or tcp://HOST:PORT")
+    if kind == "tcp":
+        return Client(arg), None
+    logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO lines would bury the progress bar
+    # Loopback only: the scheduler, the nannies and the workers bind 127.0.0.1; no dashboard, and the
+    # scheduler's small HTTP server (health routes, always started) on an ephemeral loopback port.
+    cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None, scheduler_port=0, silence_logs=logging.WARNING,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+    return Client(cluster), cluster
 
 
 def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler: str = "local",
@@ -139,8 +150,7 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
     summary of this invocation (also appended to <out>/_runs.jsonl)."""
     from avionics_sitl.progress import progress_bar
 
-    if not (scheduler in ("synchronous", "local") or scheduler.startswith(("local:", "tcp://"))):
-        raise EvaluationError(f"--scheduler {scheduler!r}: expected local[:N], synchronous or tcp://HOST:PORT")
+    kind, arg = _scheduler(scheduler)
     for profile in profiles:  # a bad name fails here, before a worker starts or a manifest is written
         check_profile(profile)
     out = Path(out)
@@ -163,7 +173,7 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
             bar.advance(task, part.stop - part.start)
 
     wall0 = time.perf_counter()
-    client, cluster = _client(scheduler)
+    client, cluster = _client(kind, arg)
     try:
         if client is None:
             _synchronous(pending, seed, profiles, done)
