@@ -443,10 +443,12 @@ class DaaCore:
                         AdvisoryLevel.RA]:
                 del self._ra_threats[key]
         for i in ra_rows:
-            self._ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]))
+            self._ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]),
+                                               keys[i])
         try:
             resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
-                                                 level.alim_m or 0.0, inhibits, float(own.x[2]))
+                                                 level.alim_m or 0.0, inhibits, float(own.x[2]),
+                                                 self.inhibits.floors(float(own.x[2]), agl))
             blocked = self.resolution.blocked if resolution is None else ""
         except Exception as exc:  # noqa: BLE001  (one manoeuvre for every RA threat: they all fail with it)
             for key in sorted(self._ra_threats):
@@ -831,7 +833,7 @@ NONE = int(AdvisoryLevel.NONE)
 def _ra_fields(r, threat) -> dict:
     return dict(ra_sense=r.sense_against(threat).value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
-                ra_separation_m=r.separation_m)
+                ra_separation_m=r.separation_against(threat), ra_composite=r.composite)
 
 
 def _finite_input(item) -> bool:
@@ -870,4 +872,4 @@ def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: 
     ended = level is AdvisoryLevel.NONE and advisory.alert_level is not None
     return replace(advisory, level=level, time_s=now_s, reason=reason, ra_sense=None, ra_strength=None,
                    ra_words=None, target_vertical_rate_mps=None, ra_reversed=False, ra_crossing=False,
-                   ra_separation_m=None, **(dict(alert_level=NONE, alert_name="NONE") if ended else {}))
+                   ra_separation_m=None, ra_composite=False, **(dict(alert_level=NONE, alert_name="NONE") if ended else {}))

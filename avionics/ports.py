@@ -277,7 +277,7 @@ class LogOut:
 # The advisory CSV (`sitl replay --out`, `avionics run --csv`): one row per advisory change.
 CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
                "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
-               "mod_tau_s", "vertical_tau_s", "ra_separation_m", "alert_level", "alert_name")
+               "mod_tau_s", "vertical_tau_s", "ra_separation_m", "alert_level", "alert_name", "ra_composite")
 
 
 def csv_row(a: Advisory, name: str = "") -> dict:
@@ -293,6 +293,7 @@ def csv_row(a: Advisory, name: str = "") -> dict:
         "closure_rate_mps": num(a.closure_rate_mps), "t_cpa_s": num(a.t_cpa_s), "hmd_m": num(a.hmd_m),
         "vmd_m": num(a.vmd_m), "range_tau_s": num(a.range_tau_s), "mod_tau_s": num(a.mod_tau_s),
         "vertical_tau_s": num(a.vertical_tau_s), "alert_level": a.alert()[0], "alert_name": a.alert()[1],
+        "ra_composite": "1" if a.ra_composite else "",
     }
 
 

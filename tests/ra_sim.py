@@ -49,12 +49,16 @@ class Outcome:
     first_ra: object = None  # (time, Resolution, threats, inhibits) of the first RA
     words: list[str] = field(default_factory=list)
     threats: set[int] = field(default_factory=set)  # intruders that were RA threats at some time
-    # per RA threat, |vertical miss| at its CPA on the path ownship was flying when it became a threat (the RA
-    # logic's "never worse than doing nothing" reference: before the first RA, the unflown path)
+    # per RA threat, |vertical miss| at its CPA on the path ownship was flying when it became a threat, flown on
+    # by this pilot with no new command (the RA logic's "never worse than doing nothing" reference: before the
+    # first RA, the unflown path; during an RA, the RA being flown)
     joined_miss_m: dict[int, float] = field(default_factory=dict)
     # the TCAS II v7.1 HMD filter ended an RA while the range still closed: (its threats' HMD, the filter's HMD),
     # [B71] "the HMD filter can terminate an RA prior to ALIM being obtained"
     hmd_filter_ended: tuple | None = None
+    min_agl_m: float = math.inf  # the lowest height above ground ownship flew
+    # every RA as issued: (time, Resolution, the RA threats' intruder indices, ownship altitude and rate then)
+    issued: list = field(default_factory=list)
 
 
 def true_cpa_time(intr: Intruder) -> float:
@@ -92,6 +96,15 @@ class Pilot:
             rate = self.r.strengthen_rate_mps if ra.strength is Strength.INCREASE else self.r.rate_mps
             command = ("at_least", rate, ra.sense.sign)
         self.command, self.key = (*command, accel, t + delay), key
+
+    def flown_on(self, t: float, until: float, dt: float) -> float:
+        """The altitude change from t to until of this pilot given no new command (a copy flies it)."""
+        copy = Pilot.__new__(Pilot)
+        copy.__dict__.update(self.__dict__)
+        dz, n = 0.0, int(round((until - t) / dt))
+        for k in range(max(n, 0)):
+            dz += copy.step(t + k * dt, dt)
+        return dz
 
     def step(self, t: float, dt: float) -> float:
         """Advance dt; return the altitude change."""
@@ -143,8 +156,8 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             candidate = ALERTER.alert(pairs, level, most)
             candidate, _ = ALERTER.hold(pairs, level, np.where(was_ra, int(AdvisoryLevel.RA), 0), candidate, most)
             ra_now = [j for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
-            threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j])) for j in ra_now]
-            ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z)
+            threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j]), j) for j in ra_now]
+            ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z, inhibits.floors(own_z, own_z))
             ended = [j for j in np.flatnonzero(was_ra) if j not in ra_now and g.s_dot_v[j] < 0.0]
             if ended and level.ra_hmd_m is not None and all(g.hmd_m[j] > level.ra_hmd_m for j in ended):
                 out.hmd_filter_ended = (min(float(g.hmd_m[j]) for j in ended), level.ra_hmd_m)
@@ -152,15 +165,20 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             if ra is not None:
                 out.threats.update(ra_now)
                 for j in ra_now:
-                    if j not in out.joined_miss_m:
+                    if j not in out.joined_miss_m and at_cpa[j] is not None:  # joined after its CPA: the miss is past
+                        out.joined_miss_m[j] = abs(at_cpa[j])
+                    elif j not in out.joined_miss_m:
                         at_cpa_z = encounter.agl_m + intr[j].sz_m + intr[j].vz_mps * t_cpa[j]
-                        out.joined_miss_m[j] = abs(at_cpa_z - (own_z + pilot.vz * (t_cpa[j] - t)))
+                        out.joined_miss_m[j] = abs(at_cpa_z - (own_z + pilot.flown_on(t, t_cpa[j], dt)))
                 if out.first_ra is None:
                     out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
             if ra is not None and (not out.words or out.words[-1] != ra.words()):
                 out.words.append(ra.words())
+            if ra is not None and (not out.issued or out.issued[-1][1].words() != ra.words()):
+                out.issued.append((t, ra, tuple(ra_now), own_z, pilot.vz))
             pilot.receive(t, ra)
         own_z += pilot.step(t, dt) if respond else encounter.vz_own_mps * dt
+        out.min_agl_m = min(out.min_agl_m, own_z)
     unflown = [abs(i.sz_m + i.vz_mps * tc - encounter.vz_own_mps * tc) for i, tc in zip(intr, t_cpa)]
     out.vmd_unflown_m = unflown
     out.vmd_flown_m = [abs(m) if m is not None else math.inf for m in at_cpa]
@@ -236,3 +254,13 @@ def to_scenario(enc: Encounter, name: str = "generated"):
                            own_v[1] + i.vy_mps, i.vz_mps) for k, i in enumerate(enc.intruders))
     return Scenario(name=name, description="generated encounter (tests/ra_sim.py)", ownship=own,
                     intruders=intruders, duration_s=enc.duration_s, origin=origin)
+
+
+def level_off_dz(t: float, v0: float, delay: float, accel: float) -> float:
+    """Ownship's altitude change t seconds after a LEVEL OFF command (closed form, independent of the logic):
+    v0 for the delay, then constant deceleration to 0."""
+    if t <= delay:
+        return v0 * t
+    stop = abs(v0) / accel
+    u = min(t - delay, stop)
+    return v0 * delay + v0 * u - math.copysign(0.5 * accel * u * u, v0)

@@ -12,6 +12,7 @@ inhibit can apply (docs/advisories.md).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from avionics.advisory.tables import AlertProfile
@@ -50,6 +51,34 @@ class Inhibits:
 NO_INHIBITS = Inhibits()
 
 
+@dataclass(frozen=True, slots=True)
+class Floors:
+    """The heights above ground below which an RA must never take ownship, for the whole RA (not only at its
+    onset): a commanded descent (DESCEND, INCREASE DESCENT, DESCEND NOW) is levelled off in time to stop above
+    `descend_agl_m`, and an INCREASE DESCENT is weakened to DESCEND in time to be at the corrective rate by
+    `increase_descent_agl_m` (advisory/resolution.py projects both with the response model). They are the
+    inhibit heights where the inhibits engage (height - hysteresis), never below the ground: TCAS II changes a
+    Descend RA in progress to a Don't Climb when the aircraft descends through the Descend inhibit height (FAA,
+    Introduction to TCAS II v7.1, "RA inhibits"); a UAV, whose floor is the nearest obstacle, is stopped above it.
+    `ground_m`: the ground's altitude in the frame of the ownship altitude the RA logic is given; None (AGL
+    unknown): no floor applies, as no inhibit can."""
+
+    ground_m: float | None = None
+    descend_agl_m: float = 0.0
+    increase_descent_agl_m: float = 0.0
+
+    @property
+    def descend_m(self) -> float:
+        return -math.inf if self.ground_m is None else self.ground_m + self.descend_agl_m
+
+    @property
+    def increase_descent_m(self) -> float:
+        return -math.inf if self.ground_m is None else self.ground_m + self.increase_descent_agl_m
+
+
+NO_FLOORS = Floors()
+
+
 class LowAltitudeInhibits:
     def __init__(self, profile: AlertProfile):
         h = profile.inhibit_hysteresis_m
@@ -59,3 +88,10 @@ class LowAltitudeInhibits:
 
     def update(self, agl_m: float | None) -> Inhibits:
         return Inhibits(self._ra.update(agl_m), self._descend.update(agl_m), self._increase_descent.update(agl_m))
+
+    def floors(self, altitude_m: float, agl_m: float | None) -> Floors:
+        """The floors for ownship at altitude_m (any frame), agl_m above the ground (None: unknown)."""
+        if agl_m is None:
+            return NO_FLOORS
+        engage = lambda inhibit: max(inhibit.height_m - inhibit.hysteresis_m, 0.0)  # noqa: E731
+        return Floors(altitude_m - agl_m, engage(self._descend), engage(self._increase_descent))

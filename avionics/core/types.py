@@ -136,7 +136,10 @@ class Advisory:
     target_vertical_rate_mps: float | None = None  # None for a preventive RA (a limit, not a target)
     ra_reversed: bool = False
     ra_crossing: bool = False  # the sense takes ownship through the intruder's altitude
-    ra_separation_m: float | None = None  # least projected vertical separation at CPA with the RA flown
+    # projected vertical separation from this intruder at its CPA with the RA flown, in the sense the RA has
+    # against it (ra_sense); negative when the RA would leave ownship on the other side (advisory/resolution.py)
+    ra_separation_m: float | None = None
+    ra_composite: bool = False  # a composite RA (threats above and below): level, each ra_sense away from its threat
     # ADS-B integrity of the intruder's reports (tracking/integrity.py): "ok" or "degraded:<mode>"
     integrity: str = "ok"
     # A DO-365 alerter's own level (advisory/alerting.py: 0 NONE, 1 PREVENTIVE, 2 CORRECTIVE, 3 WARNING) and its
@@ -146,7 +149,7 @@ class Advisory:
 
     def ra_key(self) -> tuple:
         """What a pilot would hear change: level, sense, strength, reversal, the DO-365 alert level."""
-        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.alert_level)
+        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.ra_composite, self.alert_level)
 
     def assessment(self) -> tuple:
         """Its ASSESSMENT_FIELDS, in order."""

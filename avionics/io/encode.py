@@ -38,11 +38,15 @@ UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude"
 
 def collision(advisory: Advisory, request_action: bool = False):
     """COLLISION for one intruder. altitude_minimum_delta is NaN when the intruder's altitude is unknown.
-    request_action: an RA says ASCEND_OR_DESCEND (the autopilot may act) instead of REPORT."""
+    request_action: an RA says ASCEND_OR_DESCEND (the autopilot may act) instead of REPORT, except a composite RA
+    (threats above and below): ArduCopter answers ASCEND_OR_DESCEND by moving away from the one intruder's
+    altitude (AP_Avoidance_Copter::handle_avoidance_vertical), that is toward the other threat, so every threat
+    of a composite RA says REPORT (the level-off is in DAA_ADVISORY)."""
+    request = request_action and not advisory.ra_composite
     return mavlink2.MAVLink_collision_message(
         src=mavlink2.MAV_COLLISION_SRC_ADSB,
         id=advisory.intruder.address,
-        action=(ACTION_REQUEST if request_action else ACTION)[advisory.level],
+        action=(ACTION_REQUEST if request else ACTION)[advisory.level],
         threat_level=THREAT_LEVEL[advisory.level],
         time_to_minimum_delta=advisory.t_cpa_s,
         altitude_minimum_delta=advisory.vmd_m if advisory.vmd_m is not None else math.nan,
@@ -91,6 +95,7 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
         pc = advisory.pc_ra if advisory.level is AdvisoryLevel.RA else advisory.pc_ta
     flags = ((mavlink2.DAA_ADVISORY_FLAGS_REVERSED if advisory.ra_reversed else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_CROSSING if advisory.ra_crossing else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_COMPOSITE if advisory.ra_composite else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_DATUM_MISMATCH if advisory.datum_mismatch else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN if advisory.vmd_m is None else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_UAT if advisory.intruder.source.value == "uat" else 0)

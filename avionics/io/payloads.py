@@ -50,6 +50,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
         "ra_reversed": advisory.ra_reversed,
         "ra_crossing": advisory.ra_crossing,
         "ra_separation_m": advisory.ra_separation_m,
+        "ra_composite": advisory.ra_composite,
         "integrity": advisory.integrity,
     }
 

@@ -47,7 +47,7 @@ SETTLE_MAX_S = 0.020
 SLICE_S = 0.0005
 PROBE_S = 0.0002
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
-ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed")
+ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed", "ra_composite")
 VITAL_KINDS = ("status", "ownship", "bands")  # their own queue, ahead of the tracks
 VITAL_QUEUE = 32  # samples (16 status periods of status + ownship)
 UPDATES_PER_BATCH = 64  # the publisher thread comes back for advisories after this many track updates

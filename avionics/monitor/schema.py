@@ -273,7 +273,7 @@ ADVISORY = {
     **INTRUDER, "level": ID, "alert_level": _int(0, 9), "alert_name": ID, "reason": TEXT,
     "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
     "ra_strength": ID, "ra_words": TEXT, "target_vertical_rate_mps": RATE, "ra_reversed": _bool,
-    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST, "integrity": ID,
+    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST, "ra_composite": _bool, "integrity": ID,
 }
 OWNSHIP = {
     **COMMON, "valid": _bool, "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "alt_msl_m": ALT,
