@@ -28,9 +28,10 @@ from avionics_sitl.progress import progress_bar
 from avionics_sitl.response import RaResponder
 from avionics_sitl.scenario import Scenario
 
-# One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop).
+# One row per intruder: true miss at the true horizontal CPA, without and with the RAs flown (equal open loop), and
+# the lowest height above the scenario's ground that ownship flew (the same on every row).
 PROGRESS_EVERY_TICKS = 50  # the bar moves every 5 s of simulated time at 10 Hz
-MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m")
+MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m", "min_agl_m")
 
 
 @dataclass
@@ -40,6 +41,7 @@ class ReplayResult:
     collisions: list[tuple[float, object]] = field(default_factory=list)  # COLLISION as the autopilot got them
     counters: Counter = field(default_factory=Counter)
     misses: list = field(default_factory=list)  # VerticalMiss per intruder
+    min_agl_m: float = math.nan  # the lowest true height above the scenario's ground ownship flew, at any tick
 
     def rows(self) -> list[dict]:
         return [csv_row(a, self.names.get(a.intruder.address, "")) for a in self.changes]
@@ -54,6 +56,7 @@ class ReplayResult:
         return [{
             "intruder": str(m.key) if m.key is not None else "", "name": m.intruder, "t_cpa_s": f"{m.t_cpa_s:.3f}",
             "hmd_m": f"{m.hmd_m:.3f}", "vmd_unflown_m": f"{m.vmd_without_m:.3f}", "vmd_flown_m": f"{m.vmd_with_m:.3f}",
+            "min_agl_m": f"{self.min_agl_m:.3f}",
         } for m in self.misses]
 
     def write_misses_csv(self, path: str | Path) -> None:
@@ -111,6 +114,7 @@ class _ScheduleSource:
         self.packer = Packer(autopilot)
         self.own_traj, self.intruder_trajs = scenario.trajectories()
         self.offsets: list[tuple[float, float]] = []  # (t, ownship altitude offset from the response)
+        self.min_alt_msl_m = math.inf  # the lowest true ownship altitude at any tick
         self.now_s = 0.0
         self.progress = None  # called with the simulated time now and then
 
@@ -133,6 +137,9 @@ class _ScheduleSource:
                 if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6:
                     for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):
                         yield self._batch(msg, t_tick)
+            else:
+                own = self.own_traj.state_at(t_tick)
+            self.min_alt_msl_m = min(self.min_alt_msl_m, own.alt_msl_m)
             self.now_s = t_tick
             yield Batch(t_tick, [])
 
@@ -166,6 +173,7 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     result.misses = [_vertical_miss(scenario, source.own_traj, traj, spec.name, source.offsets,
                                     IntruderKey(spec.icao_address, spec.address_source))
                      for spec, traj in zip(scenario.intruders, source.intruder_trajs)]
+    result.min_agl_m = source.min_alt_msl_m - scenario.ground_elevation_m
     return result
 
 

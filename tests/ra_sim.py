@@ -232,8 +232,8 @@ def random_encounter(rng: np.random.Generator, t_cpa_s=(25.0, 60.0), duration_s:
     return Encounter(agl, vz_own, tuple(intruders), duration_s)
 
 
-def to_scenario(enc: Encounter, name: str = "generated"):
-    """The same encounter as a SITL scenario (ground at 0 ft MSL, ownship northbound at 60 m/s), for
+def to_scenario(enc: Encounter, name: str = "generated", own_speed_mps: float = 60.0):
+    """The same encounter as a SITL scenario (ground at 0 ft MSL, ownship northbound at own_speed_mps), for
     `sitl replay --fly-ras`."""
     from avionics.core.geodesy import LocalTangentPlane
     from avionics_sitl.aircraft import AircraftSpec
@@ -241,7 +241,7 @@ def to_scenario(enc: Encounter, name: str = "generated"):
 
     origin = (47.4, 8.5)
     plane = LocalTangentPlane(*origin)
-    own_v = (0.0, 60.0)
+    own_v = (0.0, own_speed_mps)
 
     def spec(label, icao, east, north, alt, ve, vn, vu):
         lat, lon = (float(c) for c in plane.to_geodetic(east, north))
