@@ -8,6 +8,7 @@ With a MAVLink 2 signing key, every frame we send is signed and every frame rece
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import select
@@ -24,6 +25,7 @@ from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DA
 from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
 from avionics.io.signing import Signing, SigningKeyError, load_key
+from avionics.io.sinks import FileSink, SinkHealth
 
 READ_CHUNK = 65536
 MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
@@ -191,7 +193,8 @@ class LogClock:
 class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
-                 signing_required: bool = True):
+                 signing_required: bool = True, sinks: SinkHealth | None = None):
+        """sinks: where a failing record (tlog_out) or endpoint write is reported (avionics/io/sinks.py)."""
         connection, baud = translate_connection(connection, baud)  # MAVSDK/MAVROS URLs; a bad one: ConfigError
         self.connection = connection
         self.counters = counters
@@ -222,7 +225,8 @@ class MavlinkLink:
         self._log_clock = LogClock(counters) if self.is_log else None
         self._log_ready: deque = deque()
         self._log_done = False
-        self._tlog = open(tlog_out, "ab") if tlog_out else None
+        self.sinks = sinks if sinks is not None else SinkHealth(counters)
+        self._tlog = FileSink("tlog", tlog_out, "ab", self.sinks) if tlog_out else None
         # Overload (UDP, see STEP_BUDGET_S): datagrams read and not framed yet; the kernel's drop counter.
         self.step_budget_s = STEP_BUDGET_S
         self.max_backlog_bytes = MAX_BACKLOG_BYTES
@@ -409,10 +413,7 @@ class MavlinkLink:
             return  # a log being replayed is read-only: outputs go to the tlog record and zenoh only
         if self.signing is not None:
             self.signing.before_send(self.mav)
-        buf = msg.pack(self.mav)
-        self.conn.write(buf)
-        if self._tlog is not None:
-            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
+        self._write(msg.pack(self.mav))
 
     def send_as(self, msg, component: int) -> None:
         """send() from another component id of our system (the ADSB_VEHICLE re-broadcast): its own encoder, so
@@ -427,8 +428,15 @@ class MavlinkLink:
             return
         if self.signing is not None:
             self.signing.before_send(mav)
-        buf = msg.pack(mav)
-        self.conn.write(buf)
+        self._write(msg.pack(mav))
+
+    def _write(self, buf: bytes) -> None:
+        """To the endpoint and the record. A serial port that fails (EIO: a USB adapter unplugged) is the
+        endpoint's fault, retried with the next message (pymavlink reopens it), never the loop's: pymavlink's
+        mavserial.write() returns -1 then. Its mavudp and mavtcp write() drop a socket's send errors themselves
+        (a lost TCP peer is counted link.disconnected / link.reconnected)."""
+        if self.conn.write(buf) == -1:
+            self.sinks.failed("mavlink", OSError(errno.EIO, f"{self.connection} cannot be written"), closed=False)
         if self._tlog is not None:
             self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
 
