@@ -93,7 +93,7 @@ class FileSink:
 
     def __init__(self, name: str, path, mode: str, health: SinkHealth, **kw):
         self.name, self.health = name, health
-        self._file = open(path, mode, **kw)  # an error opening it is the caller's (a file error, exit 2)
+        self._file = open(path, mode, **kw)  # checked writable before (cli.check_output_file: exit 2)
 
     @property
     def closed(self) -> bool:
@@ -102,31 +102,25 @@ class FileSink:
     def write(self, data) -> None:
         if self._file is None:
             self.health.dropped(self.name)
-            return
-        try:
-            self._file.write(data)
-        except OSError as exc:
-            self._fail(exc)
+        else:
+            self._call("write", data)
 
     def flush(self) -> None:
-        if self._file is not None:
-            try:
-                self._file.flush()
-            except OSError as exc:
-                self._fail(exc)
+        self._call("flush")
 
     def close(self) -> None:
-        if self._file is not None:
-            try:
-                self._file.close()
-            except OSError as exc:  # its flush failed; the descriptor is released all the same
-                self.health.failed(self.name, exc, closed=True)
-            self._file = None
+        self._call("close")  # a failed flush in it still releases the descriptor
+        self._file = None
 
-    def _fail(self, exc: OSError) -> None:
-        f, self._file = self._file, None
+    def _call(self, method: str, *args) -> None:
+        if self._file is None:
+            return
         try:
-            f.close()  # the file object's own buffer is lost with it: it cannot be written
-        except OSError:
-            pass
-        self.health.failed(self.name, exc, closed=True)
+            getattr(self._file, method)(*args)
+        except OSError as exc:
+            f, self._file = self._file, None
+            try:
+                f.close()  # the file object's own buffer is lost with it: it cannot be written
+            except OSError:
+                pass
+            self.health.failed(self.name, exc, closed=True)
