@@ -35,6 +35,7 @@ from avionics.config import ConfigError, as_dict, load_config
 ERRORS = (  # (module, class, exit code, prefix of the line)
     ("avionics.core.params", "ConfigError", 2, "configuration error: "),
     ("avionics.io.link", "LinkError", 1, ""),
+    ("avionics.io.link", "LogError", 2, ""),  # a .tlog given as the connection without usable timestamps
     ("avionics.io.zenoh_bus", "ZenohBusError", 1, ""),
     ("avionics.monitor.app", "HttpServerError", 1, ""),
 )

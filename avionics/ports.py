@@ -21,6 +21,7 @@ from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
 from avionics.io.payloads import advisory_payload, bands_payload, ownship_payload, status_payload, track_payload
+from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import TrafficBatch
 
 
@@ -94,10 +95,12 @@ class MavlinkOut:
     availability changes as STATUSTEXT; HEARTBEAT with
     system_status STANDBY (no ownship fix yet) / ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). An
     intruder is named by its callsign whenever one was ever known, also after its track is gone. send: a link's
-    send(msg)."""
+    send(msg). sinks: the output sinks' health (avionics/io/sinks.py): each new fault is one STATUSTEXT."""
 
-    def __init__(self, send, config: Config, send_as=None):
+    def __init__(self, send, config: Config, send_as=None, sinks: SinkHealth | None = None):
         self._send = send
+        self._sinks = sinks
+        self._sink_faults_sent = 0
         self._statustext = config.mavlink.statustext
         self._request_action = config.mavlink.collision_action_request
         # the fused traffic for ground stations: ADSB_VEHICLE from our re-broadcast component (send_as(msg, comp):
@@ -166,6 +169,10 @@ class MavlinkOut:
             self._send(encode.statustext(
                 encode.availability_text(reason, result.fault_detail),
                 encode.mavlink2.MAV_SEVERITY_NOTICE if reason is None else encode.mavlink2.MAV_SEVERITY_WARNING))
+        if self._sinks is not None and self._statustext:
+            for fault in self._sinks.since(self._sink_faults_sent):
+                self._sink_faults_sent += 1  # counted first: a failing send is not repeated at every step
+                self._send(encode.statustext(encode.output_fault_text(fault), encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
@@ -192,10 +199,12 @@ class ZenohOut:
     zenoh.tracks_hz every track in one `traffic` sample (a TrafficBatch, encoded on the bus's publisher thread) and
     some per-track `tracks/<intruder>` samples: a new track's at once, then each track's every TRACK_KEYS_PERIOD_S,
     spread round-robin over the ticks; ownship and status at zenoh.status_hz. publish: a ZenohBus's
-    publish(suffix, payload)."""
+    publish(suffix, payload). sinks: the output sinks' health (avionics/io/sinks.py), in the status as
+    `output_faults` and `warnings`."""
 
-    def __init__(self, publish, config: Config):
+    def __init__(self, publish, config: Config, sinks: SinkHealth | None = None):
         self._publish = publish
+        self._sinks = sinks
         self.vehicle = config.vehicle.id
         self._tracks = Every(1.0 / config.zenoh.tracks_hz)
         self._status = Every(1.0 / config.zenoh.status_hz)
@@ -224,8 +233,11 @@ class ZenohOut:
             self._publish("bands", bands_payload(self.vehicle, self._profile, result.bands))
         if result.status is not None:
             self._publish("ownship", ownship_payload(self.vehicle, result.time_s, result.status["ownship"]))
-            self._publish("status", status_payload(self.vehicle, result.time_s, dict(result.status),
-                                                   result.counters or {}))
+            status = dict(result.status)
+            if self._sinks is not None:
+                status["warnings"] = [*status["warnings"], *self._sinks.warnings()]
+            status["output_faults"] = self._sinks.as_dict() if self._sinks is not None else {}
+            self._publish("status", status_payload(self.vehicle, result.time_s, status, result.counters or {}))
 
     def _traffic(self, tracks, now_s: float) -> None:
         """One batched sample of every track, then the per-track keys due: new tracks, and the next slice of the
@@ -298,8 +310,9 @@ def csv_row(a: Advisory, name: str = "") -> dict:
 
 
 class CsvOut:
-    """Advisory changes as CSV rows on an open text file (the caller owns the file). names: ICAO address ->
-    a name for the `name` column (a scenario's aircraft names)."""
+    """Advisory changes as CSV rows on an open text file (the caller owns the file; `avionics run` gives it a
+    sinks.FileSink, which fails alone). names: ICAO address -> a name for the `name` column (a scenario's
+    aircraft names). The rows of a step are flushed with it: a write error is seen then, not at exit."""
 
     def __init__(self, file: IO[str], names: dict[int, str] | None = None):
         self._file = file
@@ -311,7 +324,9 @@ class CsvOut:
         return NOTHING
 
     def publish(self, result: DaaResult) -> None:
-        self._writer.writerows(csv_row(a, self._names.get(a.intruder.address, "")) for a in result.changes)
+        if result.changes:
+            self._writer.writerows(csv_row(a, self._names.get(a.intruder.address, "")) for a in result.changes)
+            self._file.flush()
 
     def close(self) -> None:
         self._file.flush()

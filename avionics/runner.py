@@ -21,6 +21,7 @@ from avionics.core.params import ConfigError
 from avionics.daa import Daa
 from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.io.link import MavlinkLink
+from avionics.io.sinks import FileSink, SinkHealth
 from avionics.loop import LinkSource, Loop, MavlinkInput
 from avionics.ports import CsvOut, LogOut, MavlinkOut, ZenohOut
 
@@ -38,22 +39,24 @@ class Runner:
         self.config = config
         self.stop = stop if stop is not None else threading.Event()
         self.counters: Counter = Counter()
+        self.sinks = SinkHealth(self.counters)  # the outputs that fail alone (avionics/io/sinks.py)
         self._kernel_load: threading.Thread | None = None  # run(): the compiled kernels' load, once started
         start_s = time.monotonic()  # the loop's time 0: the link's batches and the feeds' reports share it
         self.feeds = FeedSet.open(traffic, config, lambda: time.monotonic() - start_s, self.counters)
         cfg = config.mavlink
         self.link = MavlinkLink(cfg.connection, self.counters, cfg.source_system, cfg.source_component,
                                 baud=cfg.baud, tlog_out=tlog_out, signing_key_file=cfg.signing_key_file,
-                                signing_required=cfg.signing_required)
+                                signing_required=cfg.signing_required, sinks=self.sinks)
         self.bus = bus
         if self.bus is None and config.zenoh.enabled:
             from avionics.io.zenoh_bus import ZenohBus
 
-            self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters)  # queued, never blocks
-        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as), LogOut(log)]
+            # queued, never blocks
+            self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters, sinks=self.sinks)
+        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as, sinks=self.sinks), LogOut(log)]
         if self.bus is not None:
-            ports.append(ZenohOut(self.bus.publish, config))
-        self._csv = open(csv_out, "w", newline="") if csv_out else None
+            ports.append(ZenohOut(self.bus.publish, config, sinks=self.sinks))
+        self._csv = FileSink("csv", csv_out, "w", self.sinks, newline="") if csv_out else None
         if self._csv is not None:
             ports.append(CsvOut(self._csv))
         if self.feeds.feeds and self.link.is_log:

@@ -154,6 +154,11 @@ def availability_text(reason: str | None, detail: str = "") -> str:
     return " ".join(w for w in ("DAA UNAVAILABLE", UNAVAILABLE_WORDS.get(reason, reason), detail) if w)[:STATUSTEXT_LEN]
 
 
+def output_fault_text(fault) -> str:
+    """"OUTPUT TLOG FAILED (ENOSPC): CLOSED" (fault: io/sinks.py SinkFault; the DAA goes on)."""
+    return f"OUTPUT {fault.sink.upper()} FAILED ({fault.code.upper()}): {fault.state.upper()}"[:STATUSTEXT_LEN]
+
+
 def statustext(text: str, severity: int):
     return mavlink2.MAVLink_statustext_message(severity, text.encode("ascii", "replace")[:STATUSTEXT_LEN])
 

@@ -8,6 +8,7 @@ With a MAVLink 2 signing key, every frame we send is signed and every frame rece
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import select
@@ -24,6 +25,7 @@ from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DA
 from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
 from avionics.io.signing import Signing, SigningKeyError, load_key
+from avionics.io.sinks import FileSink, SinkHealth
 
 READ_CHUNK = 65536
 MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
@@ -40,7 +42,7 @@ _DROPS_CMSG_SPACE = socket.CMSG_SPACE(4) if hasattr(socket, "CMSG_SPACE") else 0
 
 # A .tlog's 8-byte timestamps become the replay's clock; a corrupted one must not (LogClock).
 LOG_STAMP_MAX_S = 4102444800.0  # 2100-01-01 (microseconds since 1970; synthetic logs may start near 0)
-LOG_STAMP_STEP_S = 5.0  # a jump further than this ahead waits for the next frame to confirm it
+LOG_STAMP_STEP_S = 5.0  # a jump further than this either way waits for the next frame to confirm it
 
 
 def _enable_drop_counter(sock: socket.socket) -> bool:
@@ -140,58 +142,86 @@ def _check_udp_port_free(connection: str) -> None:
             raise LinkError(f"cannot open MAVLink connection {connection!r}: UDP port {port} is in use ({exc})") from exc
 
 
-class LogClock:
-    """Checks a log's timestamps before they become the replay's time; rejected frames count tlog.bad_timestamp.
+class LogError(ValueError):
+    """A log given as the connection yields no usable time: nothing in it can be replayed (exit 2, a file
+    error)."""
 
-    After 2100: rejected. At most LOG_STAMP_STEP_S from the last one: accepted, never
-    going back (a small step back is held at the last time). Further ahead (a gap in the log, or corruption),
-    and the first frame of the log: held until the next frame confirms it (within LOG_STAMP_STEP_S of it);
-    unconfirmed, it is rejected. Further back: rejected. One corrupted stamp therefore costs one frame, not the
-    rest of the log nor a time step of years for the tracker."""
+
+class LogClock:
+    """Checks a log's timestamps before they become the replay's time, which never goes back.
+
+    A stamp that is not finite, negative or after 2100 is rejected. Within LOG_STAMP_STEP_S of the last time:
+    taken (a small step back is held at the last time). Further either way, and the log's first frame: held
+    until the next frame confirms it (within LOG_STAMP_STEP_S of it); unconfirmed, it is rejected, so one
+    corrupted stamp costs one frame. A confirmed step is the log's clock stepping:
+    - back (the recording computer's clock was set back, by NTP or a GNSS time fix): no time can have passed
+      backwards, so the replay goes on from the last time and every later stamp is shifted by the step
+      (`tlog.clock_step_back`); without this the rest of the log was rejected as "behind";
+    - ahead: kept as time that passed (`tlog.clock_step_ahead`): the recorder writes only what it receives, so a
+      link that went quiet is a step ahead too, and the tracks coast and end over it as they did in flight.
+    Rejected frames count `tlog.bad_timestamp`. At the end, a log without a usable stamp (no frame, every
+    stamp rejected, or a time that never advanced: all zero, frozen) is a LogError: it would replay to
+    nothing, silently."""
 
     def __init__(self, counters: Counter):
         self.counters = counters
-        self.last_s: float | None = None
-        self.held = None  # a frame whose timestamp waits for confirmation
+        self.last_s: float | None = None  # the replay's time of the last frame released
+        self.shift_s = 0.0  # added to the log's stamps after steps back
+        self.held = None  # a frame whose timestamp waits for confirmation: (frame, its stamp)
+        self.first_s: float | None = None
+        self.frames = 0  # frames fed, for the error
 
     def _reject(self) -> None:
         self.counters["tlog.bad_timestamp"] += 1
 
     def feed(self, msg) -> list:
         """The frames msg releases, with msg._timestamp as the replay should use it."""
+        self.frames += 1
         t = getattr(msg, "_timestamp", None)
         if not isinstance(t, (int, float)) or not math.isfinite(t) or not 0.0 <= t <= LOG_STAMP_MAX_S:
             self._reject()
             return []
         out = []
         if self.held is not None:
-            held, self.held = self.held, None
-            if abs(t - held._timestamp) <= LOG_STAMP_STEP_S:
-                self.last_s = held._timestamp  # confirmed: the log really goes on there
-                out.append(held)
+            (held, held_t), self.held = self.held, None
+            if abs(t - held_t) <= LOG_STAMP_STEP_S:  # confirmed: the log really goes on there
+                if self.last_s is not None and held_t + self.shift_s < self.last_s:
+                    self.shift_s = self.last_s - held_t
+                    self.counters["tlog.clock_step_back"] += 1
+                elif self.last_s is not None:
+                    self.counters["tlog.clock_step_ahead"] += 1
+                out.append(self._release(held, held_t))
             else:
                 self._reject()
-        if self.last_s is None or t - self.last_s > LOG_STAMP_STEP_S:
-            self.held = msg
+        if self.last_s is None or abs(t + self.shift_s - self.last_s) > LOG_STAMP_STEP_S:
+            self.held = (msg, t)
             return out
-        if t < self.last_s - LOG_STAMP_STEP_S:
-            self._reject()
-            return out
-        msg._timestamp = self.last_s = max(t, self.last_s)
-        out.append(msg)
+        out.append(self._release(msg, t))
         return out
 
-    def end(self) -> None:
-        """At the end of the log a held frame was never confirmed."""
+    def _release(self, msg, t: float):
+        time_s = t + self.shift_s if self.last_s is None else max(t + self.shift_s, self.last_s)
+        msg._timestamp = self.last_s = time_s
+        if self.first_s is None:
+            self.first_s = time_s
+        return msg
+
+    def end(self, name: str) -> None:
+        """At the end of the log a held frame was never confirmed. LogError when the log had no usable time."""
         if self.held is not None:
             self._reject()
             self.held = None
+        if self.first_s is None or self.last_s == self.first_s:
+            why = "no frame" if not self.frames else f"every stamp of {self.frames} frame(s) rejected" \
+                if self.first_s is None else f"{self.frames} frame(s) all at one time: zero or frozen stamps"
+            raise LogError(f"{name}: no usable timestamp ({why}): nothing to replay on the log's time")
 
 
 class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
-                 signing_required: bool = True):
+                 signing_required: bool = True, sinks: SinkHealth | None = None):
+        """sinks: where a failing record (tlog_out) or endpoint write is reported (avionics/io/sinks.py)."""
         connection, baud = translate_connection(connection, baud)  # MAVSDK/MAVROS URLs; a bad one: ConfigError
         self.connection = connection
         self.counters = counters
@@ -222,7 +252,8 @@ class MavlinkLink:
         self._log_clock = LogClock(counters) if self.is_log else None
         self._log_ready: deque = deque()
         self._log_done = False
-        self._tlog = open(tlog_out, "ab") if tlog_out else None
+        self.sinks = sinks if sinks is not None else SinkHealth(counters)
+        self._tlog = FileSink("tlog", tlog_out, "ab", self.sinks) if tlog_out else None
         # Overload (UDP, see STEP_BUDGET_S): datagrams read and not framed yet; the kernel's drop counter.
         self.step_budget_s = STEP_BUDGET_S
         self.max_backlog_bytes = MAX_BACKLOG_BYTES
@@ -353,8 +384,8 @@ class MavlinkLink:
         while not self._log_ready:
             msg = self.conn.recv_msg()
             if msg is None:
-                self._log_clock.end()
                 self._log_done = True
+                self._log_clock.end(self.connection)  # a log without usable time: LogError
                 return []
             if msg.get_type() == "BAD_DATA":  # pymavlink's parser: bytes that are no frame (no usable time)
                 self.counters["tlog.bad_data"] += 1
@@ -409,10 +440,7 @@ class MavlinkLink:
             return  # a log being replayed is read-only: outputs go to the tlog record and zenoh only
         if self.signing is not None:
             self.signing.before_send(self.mav)
-        buf = msg.pack(self.mav)
-        self.conn.write(buf)
-        if self._tlog is not None:
-            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
+        self._write(msg.pack(self.mav))
 
     def send_as(self, msg, component: int) -> None:
         """send() from another component id of our system (the ADSB_VEHICLE re-broadcast): its own encoder, so
@@ -427,8 +455,15 @@ class MavlinkLink:
             return
         if self.signing is not None:
             self.signing.before_send(mav)
-        buf = msg.pack(mav)
-        self.conn.write(buf)
+        self._write(msg.pack(mav))
+
+    def _write(self, buf: bytes) -> None:
+        """To the endpoint and the record. A serial port that fails (EIO: a USB adapter unplugged) is the
+        endpoint's fault, retried with the next message (pymavlink reopens it), never the loop's: pymavlink's
+        mavserial.write() returns -1 then. Its mavudp and mavtcp write() drop a socket's send errors themselves
+        (a lost TCP peer is counted link.disconnected / link.reconnected)."""
+        if self.conn.write(buf) == -1:
+            self.sinks.failed("mavlink", OSError(errno.EIO, f"{self.connection} cannot be written"), closed=False)
         if self._tlog is not None:
             self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(buf))
 

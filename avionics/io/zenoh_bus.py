@@ -32,6 +32,7 @@ import zenoh
 
 from avionics.core.jsonsafe import dumps
 from avionics.io.params import ZenohConfig
+from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import ARROW_STREAM, TrafficBatch
 
 SNAPSHOT_SCHEMA = 1
@@ -109,15 +110,20 @@ class ZenohBus:
     publish(suffix, payload) is called by the onboard loop with a fresh dict it will not touch again.
     counters (the node's Counter, optional) gets `zenoh.dropped_updates`; it is only touched on the
     caller's thread. stats (a Counter) has the publisher thread's view: published, put_errors, ...
+    sinks (optional, io/sinks.py): the publisher thread's failed puts are reported there by publish(), on the
+    caller's thread (`sink.zenoh.errors`; each sample is tried, the next one is tried again).
     """
 
     def __init__(self, cfg: ZenohConfig, vehicle_id: str, session: zenoh.Session | None = None,
-                 counters: Counter | None = None):
+                 counters: Counter | None = None, sinks: SinkHealth | None = None):
         self.cfg = cfg
         self.vehicle = vehicle_id
         self.prefix = f"{cfg.key_prefix}/{vehicle_id}"
         self.counters = counters
         self.stats: Counter = Counter()
+        self.sinks = sinks
+        self._put_error: Exception | None = None  # the publisher thread's last one
+        self._put_errors_reported = 0
         self._own_session = session is None
         self.session = session if session is not None else open_session(cfg)
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -154,6 +160,7 @@ class ZenohBus:
     def publish(self, suffix: str, payload: dict) -> None:
         """File one sample for publication: never blocks on zenoh, O(1) except once per status."""
         kind, _, name = suffix.partition("/")
+        self._report_put_errors()
         with self._cond:
             if self._closing:
                 return
@@ -187,6 +194,12 @@ class ZenohBus:
             if isinstance(t, (int, float)):
                 self._last_time_s = t if self._last_time_s is None else max(self._last_time_s, t)
             self._last_publish = time.perf_counter()  # no notify(): see POLL_S
+
+    def _report_put_errors(self) -> None:
+        failed = self.stats["put_errors"] - self._put_errors_reported
+        if failed > 0 and self.sinks is not None and self._put_error is not None:
+            self._put_errors_reported += failed
+            self.sinks.failed("zenoh", self._put_error, closed=False, errors=failed)
 
     def _note_advisory(self, intruder: str, payload: dict) -> None:
         state = advisory_state(payload)
@@ -315,7 +328,8 @@ class ZenohBus:
                 self._publishers[key] = pub
             pub.put(to_json(payload))
             self.stats["published_advisories" if is_advisory else "published_updates"] += 1
-        except Exception:  # noqa: BLE001  (a closed session must not kill the thread)
+        except Exception as exc:  # noqa: BLE001  (a closed session must not kill the thread)
+            self._put_error = exc
             self.stats["put_errors"] += 1
 
     # -- the snapshot queryable (zenoh's thread) ---------------------------------------------------------------
