@@ -91,7 +91,8 @@ REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's 
 class MavlinkOut:
     """MAVLink to the autopilot and the ground station (docs/mavlink.md): per advisory change COLLISION,
     DAA_ADVISORY and STATUSTEXT; active ones refreshed; a DO-365 alerter's bands as DAA_BANDS once a second;
-    availability changes as STATUSTEXT; HEARTBEAT with
+    availability changes and rejected senders (a component of our vehicle posing as the autopilot or a receiver)
+    as STATUSTEXT; HEARTBEAT with
     system_status STANDBY (no ownship fix yet) / ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). An
     intruder is named by its callsign whenever one was ever known, also after its track is gone. send: a link's
     send(msg)."""
@@ -166,6 +167,8 @@ class MavlinkOut:
             self._send(encode.statustext(
                 encode.availability_text(reason, result.fault_detail),
                 encode.mavlink2.MAV_SEVERITY_NOTICE if reason is None else encode.mavlink2.MAV_SEVERITY_WARNING))
+        for sender in result.new_rejected_senders if self._statustext else ():
+            self._send(encode.statustext(encode.rejected_sender_text(*sender), encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
@@ -251,8 +254,8 @@ class ZenohOut:
 
 
 class LogOut:
-    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO) and changes of
-    availability."""
+    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO), changes of
+    availability and rejected senders."""
 
     def __init__(self, logger: logging.Logger | None = None):
         self.log = logger or logging.getLogger("avionics")
@@ -269,6 +272,8 @@ class LogOut:
             reason = result.unavailable_reason
             self.log.log(logging.INFO if reason is None else logging.WARNING, "t=%7.2f %s", result.time_s,
                          encode.availability_text(reason, result.fault_detail))
+        for sender in result.new_rejected_senders:
+            self.log.warning("t=%7.2f %s", result.time_s, encode.rejected_sender_text(*sender))
 
     def close(self) -> None:
         pass

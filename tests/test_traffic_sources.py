@@ -1,5 +1,6 @@
 """Trusted traffic sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's
-system, any component), and an intruder belongs to the first sender that reported it. The head-on encounter is
+autopilot and ADS-B receiver components, io/senders.py), and an intruder belongs to the first sender that reported
+it. The head-on encounter is
 flown through real pymavlink framing (sitl's autopilot and ADS-B receiver, FrameScanner, Harness) with a second
 MAVLink system sending the intruder's address at 5 Hz from somewhere harmless: it can neither take over the
 track nor suppress the RA. A fabricated intruder from an untrusted system gets nothing."""
@@ -89,7 +90,8 @@ def clean():
     ((), (2, 156), False),  # default: only our vehicle's system is trusted; system 2 is not
     (("1", "2"), (2, 156), True),  # both systems trusted: system 2 is a second sender of the address
     (("1:156",), (1, 99), False),  # our system, another component, with only the receiver trusted
-    ((), (1, 99), True),  # our system, another component, any component trusted: a second sender
+    ((), (1, 99), False),  # default: our system, a component neither the autopilot nor an ADS-B receiver
+    (("1",), (1, 99), True),  # our system, any component trusted: a second sender
 ])
 def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the_ra(clean, sources, spoofer,
                                                                                      trusted):
@@ -140,9 +142,9 @@ def test_the_same_intruder_from_a_trusted_other_system_is_used_when_configured()
 
 
 # -- the decoder's rules --------------------------------------------------------------------------------------
-def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = False):
+def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = False, lat_e7: int = 474000000):
     flags = 0x1FF | (0x8000 if uat else 0)
-    msg = m2.MAVLink_adsb_vehicle_message(address, 474000000, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
+    msg = m2.MAVLink_adsb_vehicle_message(address, lat_e7, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
                                           flags, 7000)
     return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
 
@@ -158,11 +160,16 @@ def test_sources_match_a_whole_system_or_one_component():
 
 
 def test_the_first_sender_owns_an_intruder_until_its_track_can_no_longer_exist():
-    config = load_config()
+    config = load_config(overrides=['mavlink.traffic_sources=["1"]'])
     decoder = MessageDecoder(config, Counter())
     expiry = config.tracking.delete_after_s + 1.0
     assert decoder.decode(_adsb(1, 156), 0.0) is not None
-    assert decoder.decode(_adsb(1, 157), 0.5) is None and decoder.counters["adsb.second_sender"] == 1
+    # a second receiver hearing the same aircraft (64.3 m/s due south: 32 m in 0.5 s): dropped, not suspected
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 2900), 0.5) is None
+    assert decoder.counters["adsb.second_sender"] == 1 and decoder.spoof_suspected == set()
+    # ... the same address 2 km away: dropped and suspected
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 180000), 0.5) is None
+    assert decoder.counters["adsb.second_sender"] == 2
     assert decoder.spoof_suspected == {IntruderKey(0xA1B2C3, AddressSource.ES1090)}
     # the same number as a UAT address is another aircraft, and another sender may own it
     assert decoder.decode(_adsb(1, 157, uat=True), 1.0) is not None
@@ -188,5 +195,25 @@ def test_a_bad_traffic_source_is_a_configuration_error(entry):
         load_config(overrides=[f"mavlink.traffic_sources=[{entry}]"])
 
 
-def test_the_default_is_our_vehicles_system_any_component():
-    assert traffic_source_ids(load_config(overrides=["mavlink.source_system=7"]).mavlink) == ((7, None),)
+def _heartbeat(system: int, component: int, kind: int, autopilot: int = m2.MAV_AUTOPILOT_INVALID):
+    msg = m2.MAVLink_heartbeat_message(kind, autopilot, 0, 0, m2.MAV_STATE_ACTIVE, 3)
+    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+
+
+def test_the_default_is_the_autopilot_and_the_receivers_of_our_vehicle_that_say_so():
+    """traffic_sources = []: the ownship (autopilot) component, MAV_COMP_ID_ADSB and any component of our system whose
+    HEARTBEAT says MAV_TYPE_ADSB. Another component of our system that reports traffic first does not become a
+    source: it is rejected, counted and a suspect; another system's is only counted."""
+    config = load_config(overrides=["mavlink.source_system=7"])
+    assert traffic_source_ids(config.mavlink) == ()
+    decoder = MessageDecoder(config, Counter())
+    assert decoder.decode(_adsb(7, 200, 0x1), 0.0) is None  # first, but nobody
+    assert decoder.decode(_adsb(7, 1, 0x1), 0.1) is not None  # the autopilot (component 1 until a HEARTBEAT)
+    assert decoder.decode(_adsb(7, 156, 0x2), 0.1) is not None  # MAV_COMP_ID_ADSB
+    assert decoder.decode(_adsb(8, 156, 0x3), 0.1) is None  # another system
+    assert decoder.counters["adsb.untrusted_source"] == 2 and decoder.senders.suspects == {(7, 200, "traffic")}
+    decoder.decode(_heartbeat(7, 42, m2.MAV_TYPE_ADSB), 0.2)  # a receiver on its own port announces itself
+    assert decoder.decode(_adsb(7, 42, 0x4), 0.2) is not None
+    decoder.decode(_heartbeat(7, 9, m2.MAV_TYPE_QUADROTOR, m2.MAV_AUTOPILOT_PX4), 0.3)  # the autopilot is 9
+    assert decoder.decode(_adsb(7, 9, 0x5), 0.3) is not None
+    assert decoder.decode(_adsb(7, 1, 0x6), 0.3) is None

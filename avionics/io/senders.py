@@ -1,0 +1,90 @@
+"""Who may tell us what (docs/mavlink.md, "Trusted sources"): the ownship comes from one component of our vehicle,
+the traffic from the configured or discovered receiver components; any other component of our vehicle that claims
+either is rejected, counted and remembered as a spoof suspect (announced once on MAVLink by daa.py and ports.py).
+
+Ownship: component `mavlink.ownship_component` of `mavlink.source_system`, or (0, the default) the first component of
+it whose HEARTBEAT names an autopilot (`autopilot` != MAV_AUTOPILOT_INVALID: "for components that are not flight
+controllers", MAVLink common.xml and the heartbeat microservice, mavlink.io/en/services/heartbeat.html; what MAVSDK
+and QGroundControl go by), MAV_COMP_ID_AUTOPILOT1 until one is heard (ArduPilot and PX4 are component 1).
+
+Traffic, with `mavlink.traffic_sources = []`: ADSB_VEHICLE from the ownship component (ArduPilot and PX4 re-send their
+receiver's traffic as their own), from MAV_COMP_ID_ADSB (156, common.xml's id for an ADS-B receiver) and from any
+component of source_system whose HEARTBEAT says MAV_TYPE_ADSB ("ADSB system", common.xml: how a receiver on its own
+MAVLink port, e.g. a uAvionix ping, announces itself). A component that says neither cannot become a traffic source
+by reporting first. A configured list is used as it is.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import avionics.io  # noqa: F401  (MAVLink 2)
+from pymavlink.dialects.v20 import common as mavlink2
+
+from avionics.io.params import MavlinkConfig, traffic_source_ids
+
+Sender = tuple[int, int]  # (system id, component id)
+# Types that are never the flight controller, whatever their `autopilot` field says (a misconfigured companion)
+NOT_AUTOPILOT_TYPES = {mavlink2.MAV_TYPE_GCS, mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_TYPE_ADSB}
+MAX_SUSPECTS = 512  # every component of our system claiming each of the two roles; more is not kept
+
+
+class Senders:
+    """The ownship component and the trusted traffic senders, pinned by configuration or HEARTBEAT."""
+
+    def __init__(self, m: MavlinkConfig, counters: Counter):
+        self.counters = counters
+        self.system = m.source_system
+        self._ownship_pinned = m.ownship_component != 0
+        self.ownship_component = m.ownship_component or mavlink2.MAV_COMP_ID_AUTOPILOT1
+        configured = traffic_source_ids(m)
+        self._discover = not configured
+        self._trusted_systems = {s for s, c in configured if c is None}
+        self._trusted_senders = {(s, c) for s, c in configured if c is not None}
+        self._receivers = {mavlink2.MAV_COMP_ID_ADSB}  # discovered receiver components of our system
+        # (system, component, "ownship" | "traffic"): components of our system whose claim was rejected
+        self.suspects: set[tuple[int, int, str]] = set()
+
+    def heartbeat(self, msg) -> None:
+        """A HEARTBEAT of our vehicle pins the autopilot (the first one heard) and announces receivers."""
+        system, component = msg.get_srcSystem(), msg.get_srcComponent()
+        if system != self.system:
+            return
+        autopilot = msg.autopilot != mavlink2.MAV_AUTOPILOT_INVALID and msg.type not in NOT_AUTOPILOT_TYPES
+        if autopilot and not self._ownship_pinned:
+            self._ownship_pinned = True
+            self.ownship_component = component
+        elif autopilot and component != self.ownship_component:
+            self._claim((system, component), "heartbeat.second_autopilot", "ownship")
+        if msg.type == mavlink2.MAV_TYPE_ADSB and component not in self._receivers and self._discover:
+            self._receivers.add(component)
+
+    def ownship(self, sender: Sender, prefix: str) -> bool:
+        """May sender tell us our own position / pressure? Counted `<prefix>.other_system` / `.other_component`."""
+        if sender[0] != self.system:
+            self.counters[f"{prefix}.other_system"] += 1  # another vehicle on the link: not a claim about us
+            return False
+        if sender[1] != self.ownship_component:
+            return self._claim(sender, f"{prefix}.other_component", "ownship")
+        return True
+
+    def traffic(self, sender: Sender) -> bool:
+        """May sender report traffic? Counted `adsb.untrusted_source` when not."""
+        system, component = sender
+        if self._discover:
+            trusted = system == self.system and (component == self.ownship_component or component in self._receivers)
+        else:
+            trusted = system in self._trusted_systems or sender in self._trusted_senders
+        if trusted:
+            return True
+        if system != self.system:
+            self.counters["adsb.untrusted_source"] += 1  # another system: not trusted, but not posing as ours
+            return False
+        return self._claim(sender, "adsb.untrusted_source", "traffic")
+
+    def _claim(self, sender: Sender, counter: str, role: str) -> bool:
+        """A component of our vehicle claimed a role that is another's: rejected, counted, a suspect."""
+        self.counters[counter] += 1
+        if len(self.suspects) < MAX_SUSPECTS:
+            self.suspects.add((sender[0], sender[1], role))
+        return False
