@@ -38,7 +38,8 @@ class SourceStatus:
     reports are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible,
     the health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
     last_report_s, warning, as_dict(); docs/traffic-inputs.md), the components of our vehicle whose claim to send
-    the ownship or traffic was rejected ((system, component, "ownship" | "traffic"), io/senders.py), and whether
+    the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
+    io/senders.py), and whether
     ownship fixes have failed the jump check for input.ownship_jump_persist_s (io/ownship_check.py)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
@@ -96,9 +97,9 @@ class DaaResult:
     final: bool = False  # the last result: the process stops
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance bands, once a second
     starting: bool = False  # no ownship fix yet since start-up (unavailable, reason no_ownship, not announced)
-    # components of our vehicle newly rejected as a source of ownship or traffic, (system, component, role):
-    # announce them (STATUSTEXT, log), once each
-    new_rejected_senders: tuple[tuple[int, int, str], ...] = ()
+    # components of our vehicle rejected as a source of ownship or traffic in the last 10 s, (system, component,
+    # role), sorted: announce them (ports.py: STATUSTEXT, log)
+    rejected_senders: tuple[tuple[int, int, str], ...] = ()
 
     @property
     def available(self) -> bool:
@@ -115,7 +116,6 @@ class Daa:
         self._availability = Every(1.0 / config.advisory.assessment_hz)
         self._unavailable: str | None = STARTUP  # the availability last reported (None: available)
         self._fault_detail = ""
-        self._announced_senders: set[tuple[int, int, str]] = set()
         self._stopped = False
         self._fault = FaultLog(self.counters)
 
@@ -148,8 +148,6 @@ class Daa:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
             changed = self._check_availability(now_s, sources)
-        new_senders = tuple(sorted(sources.rejected_senders - self._announced_senders))
-        self._announced_senders.update(new_senders)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
             track_views = self.tracks(now_s, sources) if tracks else None
@@ -167,7 +165,7 @@ class Daa:
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
-            starting=self._unavailable == STARTUP, new_rejected_senders=new_senders)
+            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)))
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:

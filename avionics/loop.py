@@ -64,7 +64,7 @@ class MavlinkInput:
     def status(self) -> SourceStatus:
         decoder = self.decoder
         return SourceStatus(frozenset(decoder.spoof_suspected), decoder.pressure_rejection is not None,
-                            rejected_senders=frozenset(decoder.senders.suspects),
+                            rejected_senders=decoder.senders.active_suspects(self._now_s),
                             ownship_inconsistent=decoder.ownship_check.failing(self._now_s))
 
 

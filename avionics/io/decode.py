@@ -110,7 +110,7 @@ class MessageDecoder:
     def decode(self, msg, now_s: float) -> Input | None:
         kind = msg.get_type()
         if kind == "HEARTBEAT":
-            return self.senders.heartbeat(msg)  # who is who (io/senders.py); no input
+            return self.senders.heartbeat(msg, now_s)  # who is who (io/senders.py); no input
         handler = self._handlers.get(kind)
         if handler is None:
             return None  # not ours to use; not a rejection
@@ -126,7 +126,7 @@ class MessageDecoder:
         sender = (msg.get_srcSystem(), msg.get_srcComponent())
         if flags & DAA_REBROADCAST or sender == self._own_rebroadcaster:  # never our own output as input
             return self._reject("adsb.own_rebroadcast")
-        if not self.senders.traffic(sender):
+        if not self.senders.traffic(sender, now_s):
             return None  # counted by senders
         source = AddressSource.UAT if flags & SOURCE_UAT else AddressSource.ES1090
         problem = address_problem(self.config.vehicle.own_icao, msg.ICAO_address, source is AddressSource.ES1090)
@@ -228,11 +228,11 @@ class MessageDecoder:
         )
 
     # -- ownship ----------------------------------------------------------------------------------------------
-    def _from_own_vehicle(self, msg, prefix: str) -> bool:
-        return self.senders.ownship((msg.get_srcSystem(), msg.get_srcComponent()), prefix)
+    def _from_own_vehicle(self, msg, prefix: str, now_s: float) -> bool:
+        return self.senders.ownship((msg.get_srcSystem(), msg.get_srcComponent()), prefix, now_s)
 
     def _global_position_int(self, msg, now_s: float) -> OwnshipFix | None:
-        if not self._from_own_vehicle(msg, "gpi"):
+        if not self._from_own_vehicle(msg, "gpi", now_s):
             return None
         cfg = self.config.input
         position = _lat_lon("gpi", msg.lat, msg.lon, self.counters)
@@ -252,7 +252,7 @@ class MessageDecoder:
     def _scaled_pressure(self, msg, now_s: float) -> OwnshipPressure | None:
         """press_abs -> pressure altitude, only within the range the ISA model inverts correctly
         (core/atmosphere.py); outside it the reading is rejected and counted, never extrapolated."""
-        if not self._from_own_vehicle(msg, "pressure"):
+        if not self._from_own_vehicle(msg, "pressure", now_s):
             return None
         press_abs = float(msg.press_abs)
         if not math.isfinite(press_abs):

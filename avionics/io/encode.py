@@ -152,7 +152,7 @@ def availability_text(reason: str | None, detail: str = "") -> str:
 
 def rejected_sender_text(system: int, component: int, role: str) -> str:
     """"SPOOF? 1:200 SENDS OWNSHIP, IGNORED": a component of our vehicle claimed to send the ownship (position,
-    pressure, an autopilot HEARTBEAT) or traffic, and was rejected (DaaResult.new_rejected_senders)."""
+    pressure, an autopilot HEARTBEAT) or traffic, and was rejected (DaaResult.rejected_senders)."""
     return f"SPOOF? {system}:{component} SENDS {role.upper()}, IGNORED"[:STATUSTEXT_LEN]
 
 

@@ -1,6 +1,7 @@
 """Who may tell us what (docs/mavlink.md, "Trusted sources"): the ownship comes from one component of our vehicle,
 the traffic from the configured or discovered receiver components; any other component of our vehicle that claims
-either is rejected, counted and remembered as a spoof suspect (announced once on MAVLink by daa.py and ports.py).
+either is rejected, counted and a spoof suspect while it goes on (announced on MAVLink and in the status by ports.py
+and daa.py).
 
 Ownship: component `mavlink.ownship_component` of `mavlink.source_system`, or (0, the default) the first component of
 it whose HEARTBEAT names an autopilot (`autopilot` != MAV_AUTOPILOT_INVALID: "for components that are not flight
@@ -27,6 +28,7 @@ Sender = tuple[int, int]  # (system id, component id)
 # Types that are never the flight controller, whatever their `autopilot` field says (a misconfigured companion)
 NOT_AUTOPILOT_TYPES = {mavlink2.MAV_TYPE_GCS, mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_TYPE_ADSB}
 MAX_SUSPECTS = 512  # every component of our system claiming each of the two roles; more is not kept
+SUSPECT_ACTIVE_S = 10.0  # a suspect is reported while its last rejected claim is this recent
 
 
 class Senders:
@@ -42,10 +44,19 @@ class Senders:
         self._trusted_systems = {s for s, c in configured if c is None}
         self._trusted_senders = {(s, c) for s, c in configured if c is not None}
         self._receivers = {mavlink2.MAV_COMP_ID_ADSB}  # discovered receiver components of our system
-        # (system, component, "ownship" | "traffic"): components of our system whose claim was rejected
-        self.suspects: set[tuple[int, int, str]] = set()
+        # (system, component, "ownship" | "traffic") -> when it last claimed it: components of our system whose claim
+        # was rejected
+        self.suspects: dict[tuple[int, int, str], float] = {}
 
-    def heartbeat(self, msg) -> None:
+    def active_suspects(self, now_s: float) -> frozenset[tuple[int, int, str]]:
+        """The suspects whose last rejected claim is at most SUSPECT_ACTIVE_S old (the older ones are forgotten)."""
+        if not self.suspects:
+            return frozenset()
+        for key in [k for k, last in self.suspects.items() if now_s - last > SUSPECT_ACTIVE_S]:
+            del self.suspects[key]
+        return frozenset(self.suspects)
+
+    def heartbeat(self, msg, now_s: float) -> None:
         """A HEARTBEAT of our vehicle pins the autopilot (the first one heard) and announces receivers."""
         system, component = msg.get_srcSystem(), msg.get_srcComponent()
         if system != self.system:
@@ -55,20 +66,20 @@ class Senders:
             self._ownship_pinned = True
             self.ownship_component = component
         elif autopilot and component != self.ownship_component:
-            self._claim((system, component), "heartbeat.second_autopilot", "ownship")
+            self._claim((system, component), "heartbeat.second_autopilot", "ownship", now_s)
         if msg.type == mavlink2.MAV_TYPE_ADSB and component not in self._receivers and self._discover:
             self._receivers.add(component)
 
-    def ownship(self, sender: Sender, prefix: str) -> bool:
+    def ownship(self, sender: Sender, prefix: str, now_s: float) -> bool:
         """May sender tell us our own position / pressure? Counted `<prefix>.other_system` / `.other_component`."""
         if sender[0] != self.system:
             self.counters[f"{prefix}.other_system"] += 1  # another vehicle on the link: not a claim about us
             return False
         if sender[1] != self.ownship_component:
-            return self._claim(sender, f"{prefix}.other_component", "ownship")
+            return self._claim(sender, f"{prefix}.other_component", "ownship", now_s)
         return True
 
-    def traffic(self, sender: Sender) -> bool:
+    def traffic(self, sender: Sender, now_s: float) -> bool:
         """May sender report traffic? Counted `adsb.untrusted_source` when not."""
         system, component = sender
         if self._discover:
@@ -80,11 +91,12 @@ class Senders:
         if system != self.system:
             self.counters["adsb.untrusted_source"] += 1  # another system: not trusted, but not posing as ours
             return False
-        return self._claim(sender, "adsb.untrusted_source", "traffic")
+        return self._claim(sender, "adsb.untrusted_source", "traffic", now_s)
 
-    def _claim(self, sender: Sender, counter: str, role: str) -> bool:
+    def _claim(self, sender: Sender, counter: str, role: str, now_s: float) -> bool:
         """A component of our vehicle claimed a role that is another's: rejected, counted, a suspect."""
         self.counters[counter] += 1
-        if len(self.suspects) < MAX_SUSPECTS:
-            self.suspects.add((sender[0], sender[1], role))
+        key = (sender[0], sender[1], role)
+        if key in self.suspects or len(self.suspects) < MAX_SUSPECTS:
+            self.suspects[key] = now_s
         return False
