@@ -211,7 +211,7 @@ def test_the_default_is_the_autopilot_and_the_receivers_of_our_vehicle_that_say_
     assert decoder.decode(_adsb(7, 1, 0x1), 0.1) is not None  # the autopilot (component 1 until a HEARTBEAT)
     assert decoder.decode(_adsb(7, 156, 0x2), 0.1) is not None  # MAV_COMP_ID_ADSB
     assert decoder.decode(_adsb(8, 156, 0x3), 0.1) is None  # another system
-    assert decoder.counters["adsb.untrusted_source"] == 2 and decoder.senders.suspects == {(7, 200, "traffic")}
+    assert decoder.counters["adsb.untrusted_source"] == 2 and decoder.senders.active_suspects(0.1) == {(7, 200, "traffic")}
     decoder.decode(_heartbeat(7, 42, m2.MAV_TYPE_ADSB), 0.2)  # a receiver on its own port announces itself
     assert decoder.decode(_adsb(7, 42, 0x4), 0.2) is not None
     decoder.decode(_heartbeat(7, 9, m2.MAV_TYPE_QUADROTOR, m2.MAV_AUTOPILOT_PX4), 0.3)  # the autopilot is 9
