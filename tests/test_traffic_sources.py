@@ -55,6 +55,7 @@ def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10
     if not real_intruder:
         events = [e for e in events if e.msg.get_type() != "ADSB_VEHICLE"]
     changes, tracks, collisions, i = [], [], [], 0
+    node.sent = []  # every MAVLink message the node sent (COLLISION, STATUSTEXT, HEARTBEAT, ...)
     period = round(10 / spoof_hz)
     for k in range(int(DURATION_S * 10) + 1):
         t = k / 10
@@ -69,6 +70,7 @@ def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10
         result = node.handle(scanner.feed(datagram, end_of_datagram=True), t)
         changes.extend((t, a) for a in result.changes)
         collisions.extend(m for m in node.mavlink_out if m.get_type() == "COLLISION")
+        node.sent.extend(node.mavlink_out)
         tracks.extend(p for s, p in node.zenoh_out if s.startswith("tracks/"))
         node.mavlink_out.clear()
         node.zenoh_out.clear()
@@ -112,9 +114,18 @@ def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the
         status = [p for s, p in _status_payloads(node)]
         assert status and status[-1]["spoof_suspected"] == [str(KEY)]
         assert status[-1]["counters"]["adsb.second_sender"] == spoofed
+        # its real reports could have been the ones dropped: DAA says it cannot vouch for that intruder
+        assert status[-1]["daa_available"] is False and status[-1]["unavailable_reason"] == "spoof_suspected"
+        texts = [m.text for m in node.sent if m.get_type() == "STATUSTEXT"]
+        assert texts.count(f"DAA UNAVAILABLE spoof {KEY}") == 1
+        assert m2.MAV_STATE_CRITICAL in {m.system_status for m in node.sent if m.get_type() == "HEARTBEAT"}
     else:
         assert node.counters["adsb.untrusted_source"] == spoofed and not node.counters["adsb.second_sender"]
         assert node.status(DURATION_S)["spoof_suspected"] == []  # never seen: nothing to suspect
+        assert node.status(DURATION_S)["daa_available"] is True
+        texts = [m.text for m in node.sent if m.get_type() == "STATUSTEXT"]
+        own_system = spoofer[0] == 1  # a component of our vehicle posing as a receiver is announced
+        assert ("SPOOF? 1:99 SENDS TRAFFIC, IGNORED" in texts) == own_system
         assert not any(p["spoof_suspected"] for p in tracks)
     json.loads(to_json(tracks[-1]))
 
