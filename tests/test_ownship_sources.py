@@ -2,7 +2,8 @@
 component of our vehicle (configured, or the first autopilot HEARTBEAT's, component 1 until then) is the ownship;
 a fix that is not where the previous one, flown on, puts the aircraft is rejected; rejections that go on make DAA
 unavailable (`ownship_inconsistent`), announced on MAVLink. The head-on is flown through real pymavlink framing
-(sitl's autopilot and receiver, FrameScanner, Harness) with a forger on the autopilot's own component id."""
+(sitl's autopilot and receiver, FrameScanner, Harness; tests/forgery.py) with a forger on the autopilot's own
+component id."""
 
 from __future__ import annotations
 
@@ -15,19 +16,7 @@ from pymavlink.dialects.v20 import common as m2
 from avionics.config import ConfigError, load_config
 from avionics.core.types import OwnshipFix
 from avionics.io.decode import MessageDecoder
-from avionics.io.framing import FrameScanner
-from avionics_sitl.autopilot import Packer, ownship_messages, schedule
-from avionics_sitl.encounters import load_encounter
-from avionics_sitl.impairments import PRESETS
-from avionics_sitl.trajectory import KinematicState
-from harness import Harness
-
-SCENARIO = load_encounter("head-on")
-DURATION_S = 75.0  # TA ~55 s, RA ~65 s
-
-
-def _wire(msg, system: int, component: int):
-    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+from forgery import DURATION_S, SCENARIO, fly, forged_ownship, over_the_wire as _wire
 
 
 def _gpi(lat_deg: float = 47.0, alt_m: float = 1000.0, vn: float = 0.0, ve: float = 0.0, t_ms: int = 0):
@@ -117,41 +106,16 @@ def test_the_jump_check_allows_what_a_manoeuvring_aircraft_does():
     assert not check.counters["gpi.jump"]
 
 
-def _forged_fix(t: float):
-    own, _ = SCENARIO.trajectories()
-    real = own.state_at(t)
-    fake = KinematicState(t_s=t, lat_deg=real.lat_deg + 0.45, lon_deg=real.lon_deg, alt_msl_m=real.alt_msl_m,
-                          vel_east_mps=real.vel_east_mps, vel_north_mps=real.vel_north_mps, vel_up_mps=real.vel_up_mps)
-    return ownship_messages(fake, SCENARIO.ground_elevation_m, int(t * 1000))[0]
-
-
-def _fly(forge_from_s: float | None):
-    """The head-on on a 0.1 s grid; from forge_from_s a forger on the autopilot's own ids (1:1) sends our position
-    50 km north at 5 Hz. (advisory changes, the node's MAVLink output, the node)"""
-    node = Harness(load_config())
-    scanner, packer, forger = FrameScanner(node.counters), Packer(), m2.MAVLink(None, 1, 1)
-    events = schedule(SCENARIO, PRESETS["none"], duration_s=DURATION_S)
-    changes, sent, i = [], [], 0
-    for k in range(int(DURATION_S * 10) + 1):
-        t = k / 10
-        datagram = b""
-        while i < len(events) and events[i].deliver_s <= t + 1e-9:
-            datagram += packer.pack(events[i].msg)
-            i += 1
-        if forge_from_s is not None and t >= forge_from_s and k % 2 == 0:
-            datagram += bytes(_forged_fix(t).pack(forger))
-        result = node.handle(scanner.feed(datagram, end_of_datagram=True), t)
-        changes.extend((t, str(a.intruder), a.level.name) for a in result.changes)
-        sent.extend((t, m) for m in node.mavlink_out)
-        node.mavlink_out.clear()
-    return changes, sent, node
-
-
 def test_a_forger_on_the_autopilots_own_ids_moves_nothing_and_makes_daa_unavailable_with_the_reason():
-    clean, _, _ = _fly(None)
-    assert [level for _, _, level in clean][:2] == ["TA", "RA"]
-    changes, sent, node = _fly(10.0)
-    assert changes == clean  # every forged fix rejected: the same TA and RA at the same times
+    config = load_config()
+    def onsets(changes):
+        return [(t, str(a.intruder), a.level.name, a.ra_words, a.reason) for t, a in changes]
+
+    _, clean, _, _ = fly(config)
+    assert [level for _, _, level, _, _ in onsets(clean)][:2] == ["TA", "RA"]
+    node, changes, _, _ = fly(config, spoofer=(1, 1), forge=forged_ownship)  # 50 km north at 5 Hz from 10 s
+    assert onsets(changes) == onsets(clean)  # every forged fix rejected: the same TA and RA at the same times
+    sent = node.sent
     assert node.counters["gpi.jump"] == int((DURATION_S - 10.0) * 5) + 1
     texts = [(t, m.text) for t, m in sent if m.get_type() == "STATUSTEXT"]
     unavailable = [t for t, text in texts if text == "DAA UNAVAILABLE ownship jumps"]

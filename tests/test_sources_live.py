@@ -16,38 +16,15 @@ import avionics.io  # noqa: F401
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
-from avionics_sitl.autopilot import adsb_vehicle, ownship_messages
-from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import fly
-from avionics_sitl.trajectory import KinematicState
+from forgery import INTRUDER, SCENARIO, forged_ownship, forged_traffic
 from tests.conftest import DEADLINE_S, wait_for
 
 pytestmark = pytest.mark.live  # a child process and UDP on loopback
 
-SCENARIO = load_encounter("head-on")
-INTRUDER = SCENARIO.intruders[0]
 START_S, END_S = 46.0, 75.0  # head-on: TA ~55 s, RA ~65 s (21 s before the CPA at 86.4 s)
 FORGER = (1, 200)
-
-
-def forged_traffic(t: float):
-    """The intruder's address 20 km east of where it is, flying away: no threat at all."""
-    _, (traj,) = SCENARIO.trajectories()
-    real = traj.state_at(t)
-    fake = KinematicState(t_s=t, lat_deg=real.lat_deg, lon_deg=real.lon_deg + 0.27, alt_msl_m=real.alt_msl_m + 900.0,
-                          vel_east_mps=60.0, vel_north_mps=0.0, vel_up_mps=0.0)
-    return adsb_vehicle(fake, INTRUDER.icao_address, INTRUDER.altitude_datum, INTRUDER.address_source,
-                        INTRUDER.callsign, INTRUDER.emitter_type)
-
-
-def forged_ownship(t: float):
-    """Our own position 50 km north of where we are, at our altitude and velocity."""
-    own, _ = SCENARIO.trajectories()
-    real = own.state_at(t)
-    fake = KinematicState(t_s=t, lat_deg=real.lat_deg + 0.45, lon_deg=real.lon_deg, alt_msl_m=real.alt_msl_m,
-                          vel_east_mps=real.vel_east_mps, vel_north_mps=real.vel_north_mps, vel_up_mps=real.vel_up_mps)
-    return ownship_messages(fake, SCENARIO.ground_elevation_m, int(t * 1000))[0]
 
 
 def fly_with_forger(udp_port: int, forge) -> tuple[list, dict, list]:

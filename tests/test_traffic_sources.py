@@ -17,64 +17,10 @@ from pymavlink.dialects.v20 import common as m2
 from avionics.config import ConfigError, load_config, traffic_source_ids
 from avionics.core.types import AddressSource, IntruderKey
 from avionics.io.decode import MessageDecoder
-from avionics.io.framing import FrameScanner
 from avionics.io.zenoh_bus import to_json
-from harness import Harness
-from avionics_sitl.autopilot import Packer, adsb_vehicle, schedule
-from avionics_sitl.impairments import PRESETS
-from avionics_sitl.encounters import load_encounter
-from avionics_sitl.trajectory import KinematicState
+from forgery import DURATION_S, INTRUDER, fly, over_the_wire
 
-SCENARIO = load_encounter("head-on")
-INTRUDER = SCENARIO.intruders[0]
 KEY = IntruderKey(INTRUDER.icao_address, INTRUDER.address_source)
-DURATION_S = 75.0  # TA at ~55 s, RA at ~65 s
-
-
-def spoof_report(t: float):
-    """The intruder's address, reported 20 km east of its real path, flying away: no threat at all."""
-    _, (traj,) = SCENARIO.trajectories()
-    real = traj.state_at(t)
-    fake = KinematicState(t_s=t, lat_deg=real.lat_deg, lon_deg=real.lon_deg + 0.27, alt_msl_m=real.alt_msl_m + 900.0,
-                          vel_east_mps=60.0, vel_north_mps=0.0, vel_up_mps=0.0)
-    return adsb_vehicle(fake, INTRUDER.icao_address, INTRUDER.altitude_datum, INTRUDER.address_source,
-                        INTRUDER.callsign, INTRUDER.emitter_type)
-
-
-def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10.0, spoof_hz: float = 5.0,
-        real_intruder: bool = True, intruder_sender: tuple[int, int] | None = None):
-    """Fly the head-on on a 0.1 s grid through FrameScanner and Harness, as avionics_sitl.replay does. spoofer: the
-    (system, component) of a second sender of the intruder's address; intruder_sender: who sends the real
-    intruder's reports (default: the autopilot's ADS-B receiver, system 1 component 156)."""
-    node = Harness(config)
-    scanner = FrameScanner(node.counters)
-    packer = Packer()
-    fake_sender = m2.MAVLink(None, *spoofer) if spoofer else None
-    other = m2.MAVLink(None, *intruder_sender) if intruder_sender else None
-    events = schedule(SCENARIO, PRESETS["none"], duration_s=DURATION_S)
-    if not real_intruder:
-        events = [e for e in events if e.msg.get_type() != "ADSB_VEHICLE"]
-    changes, tracks, collisions, i = [], [], [], 0
-    node.sent = []  # every MAVLink message the node sent (COLLISION, STATUSTEXT, HEARTBEAT, ...)
-    period = round(10 / spoof_hz)
-    for k in range(int(DURATION_S * 10) + 1):
-        t = k / 10
-        datagram = b""
-        while i < len(events) and events[i].deliver_s <= t + 1e-9:
-            msg = events[i].msg
-            is_adsb = msg.get_type() == "ADSB_VEHICLE"
-            datagram += bytes(msg.pack(other)) if other is not None and is_adsb else packer.pack(msg)
-            i += 1
-        if fake_sender is not None and t >= spoof_from_s and k % period == 0:
-            datagram += bytes(spoof_report(t).pack(fake_sender))
-        result = node.handle(scanner.feed(datagram, end_of_datagram=True), t)
-        changes.extend((t, a) for a in result.changes)
-        collisions.extend(m for m in node.mavlink_out if m.get_type() == "COLLISION")
-        node.sent.extend(node.mavlink_out)
-        tracks.extend(p for s, p in node.zenoh_out if s.startswith("tracks/"))
-        node.mavlink_out.clear()
-        node.zenoh_out.clear()
-    return node, changes, tracks, collisions
 
 
 def onsets(changes) -> list[tuple[float, str, str]]:
@@ -116,14 +62,14 @@ def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the
         assert status[-1]["counters"]["adsb.second_sender"] == spoofed
         # its real reports could have been the ones dropped: DAA says it cannot vouch for that intruder
         assert status[-1]["daa_available"] is False and status[-1]["unavailable_reason"] == "spoof_suspected"
-        texts = [m.text for m in node.sent if m.get_type() == "STATUSTEXT"]
+        texts = [m.text for _, m in node.sent if m.get_type() == "STATUSTEXT"]
         assert texts.count(f"DAA UNAVAILABLE spoof {KEY}") == 1
-        assert m2.MAV_STATE_CRITICAL in {m.system_status for m in node.sent if m.get_type() == "HEARTBEAT"}
+        assert m2.MAV_STATE_CRITICAL in {m.system_status for _, m in node.sent if m.get_type() == "HEARTBEAT"}
     else:
         assert node.counters["adsb.untrusted_source"] == spoofed and not node.counters["adsb.second_sender"]
         assert node.status(DURATION_S)["spoof_suspected"] == []  # never seen: nothing to suspect
         assert node.status(DURATION_S)["daa_available"] is True
-        texts = [m.text for m in node.sent if m.get_type() == "STATUSTEXT"]
+        texts = [m.text for _, m in node.sent if m.get_type() == "STATUSTEXT"]
         own_system = spoofer[0] == 1  # a component of our vehicle posing as a receiver is announced
         assert ("SPOOF? 1:99 SENDS TRAFFIC, IGNORED" in texts) == own_system
         assert not any(p["spoof_suspected"] for p in tracks)
@@ -157,7 +103,7 @@ def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = Fals
     flags = 0x1FF | (0x8000 if uat else 0)
     msg = m2.MAVLink_adsb_vehicle_message(address, lat_e7, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
                                           flags, 7000)
-    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+    return over_the_wire(msg, system, component)
 
 
 def test_sources_match_a_whole_system_or_one_component():
@@ -207,8 +153,7 @@ def test_a_bad_traffic_source_is_a_configuration_error(entry):
 
 
 def _heartbeat(system: int, component: int, kind: int, autopilot: int = m2.MAV_AUTOPILOT_INVALID):
-    msg = m2.MAVLink_heartbeat_message(kind, autopilot, 0, 0, m2.MAV_STATE_ACTIVE, 3)
-    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+    return over_the_wire(m2.MAVLink_heartbeat_message(kind, autopilot, 0, 0, m2.MAV_STATE_ACTIVE, 3), system, component)
 
 
 def test_the_default_is_the_autopilot_and_the_receivers_of_our_vehicle_that_say_so():
