@@ -9,8 +9,9 @@ published track states (geodetic and local) and the status with the counters.
 Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, while ownship fixes
 keep failing the jump check, without ownship pressure altitude while a pressure-altitude intruder is tracked,
 while an intruder or the step is in the failed state (pipeline.py), while an intruder is spoof-suspected (its
-real reports may be the ones dropped), and once the process stops. A change is reported once (`availability_changed`); start-up
-without ownship, and the first fix after it, are not changes (HEARTBEAT and status say it).
+real reports may be the ones dropped), and once the process stops. A change is reported once
+(`availability_changed`); start-up without ownship, and the first fix after it, are not changes (HEARTBEAT and
+status say it).
 """
 
 from __future__ import annotations
@@ -39,8 +40,8 @@ class SourceStatus:
     the health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
     last_report_s, warning, as_dict(); docs/traffic-inputs.md), the components of our vehicle whose claim to send
     the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
-    io/senders.py), and whether
-    ownship fixes have failed the jump check for input.ownship_jump_persist_s (io/ownship_check.py)."""
+    io/senders.py), and whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
+    (io/ownship_check.py)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False

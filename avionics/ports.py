@@ -84,6 +84,9 @@ class AdvisoryRefresh:
         self._earliest = math.inf
 
 
+REJECTED_SENDER_REPEAT_S = 10.0  # a rejected sender that goes on is announced again this often
+
+
 class RejectedSenders:
     """When to announce the components of our vehicle rejected as a source (DaaResult.rejected_senders): a new one
     at once, each again every period_s while it goes on (an autopilot or ground station that joins the link later
@@ -107,7 +110,6 @@ class RejectedSenders:
         return text if len(due) == 1 else f"{text} +{len(due) - 1}"[:encode.STATUSTEXT_LEN]
 
 
-REJECTED_SENDER_REPEAT_S = 10.0  # a rejected sender that goes on is announced again this often
 CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
 REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's display; ~2 kB at 1 Hz)
 

@@ -96,7 +96,8 @@ def test_a_fix_that_jumps_is_rejected_and_rejections_that_persist_are_reported_t
 
 
 def test_the_jump_check_allows_what_a_manoeuvring_aircraft_does():
-    """10 m/s^2 (ArduPilot's GPS_GLITCH_ACCEL) for 10 s from 20 m/s, fixes 0.2 s apart and one 3 s gap: none rejected."""
+    """10 m/s^2 (ArduPilot's GPS_GLITCH_ACCEL) for 10 s from 20 m/s, fixes 0.2 s apart and one 3 s gap: none
+    rejected."""
     check = MessageDecoder(load_config(), Counter()).ownship_check
     t, pos, v, a = 0.0, 0.0, 20.0, 10.0
     times = [round(0.2 * k, 6) for k in range(50) if not 20 <= k < 35]

@@ -85,7 +85,8 @@ def _assert_ta_and_ra_on_time(received):
     assert ta.id == ra.id == INTRUDER.icao_address and {m.id for m in collisions} == {INTRUDER.icao_address}
     assert 25 < ta.time_to_minimum_delta < 38 and ta.horizontal_minimum_delta < 150
     assert 18 < ra.time_to_minimum_delta < 24 and ra.horizontal_minimum_delta < 150
-    assert levels.index(mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH) > levels.index(mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW)
+    assert levels.index(mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH) > \
+        levels.index(mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW)
     assert max(m.horizontal_minimum_delta for m in collisions if m.threat_level) < 500  # never a garbled geometry
 
 

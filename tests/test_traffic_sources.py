@@ -138,6 +138,22 @@ def test_the_first_sender_owns_an_intruder_until_its_track_can_no_longer_exist()
     assert decoder.decode(_adsb(1, 156), 1.0 + expiry + 0.2) is None  # and now the old owner is the second one
 
 
+def test_a_suspicion_ends_when_the_disagreeing_sender_stops_while_the_owner_goes_on():
+    """One bad report of a second receiver does not make DAA unavailable for the rest of the flight: the flag lasts
+    as long as a track of that report could (tracking.delete_after_s + 1 s, checked every that long)."""
+    config = load_config(overrides=['mavlink.traffic_sources=["1"]'])
+    decoder = MessageDecoder(config, Counter())
+    expiry = config.tracking.delete_after_s + 1.0
+    key = IntruderKey(0xA1B2C3, AddressSource.ES1090)
+    assert decoder.decode(_adsb(1, 156), 0.0) is not None
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 180000), 1.0) is None
+    suspected = []
+    for t in range(1, 61):  # the owner goes on at 1 Hz
+        decoder.decode(_adsb(1, 156), float(t))
+        suspected.append(key in decoder.spoof_suspected)
+    assert suspected[0] and all(suspected[:int(expiry)]) and not any(suspected[int(2 * expiry) + 1:])
+
+
 def test_owners_of_silent_addresses_are_forgotten_under_address_churn():
     config = load_config()
     decoder = MessageDecoder(config, Counter())
@@ -167,7 +183,8 @@ def test_the_default_is_the_autopilot_and_the_receivers_of_our_vehicle_that_say_
     assert decoder.decode(_adsb(7, 1, 0x1), 0.1) is not None  # the autopilot (component 1 until a HEARTBEAT)
     assert decoder.decode(_adsb(7, 156, 0x2), 0.1) is not None  # MAV_COMP_ID_ADSB
     assert decoder.decode(_adsb(8, 156, 0x3), 0.1) is None  # another system
-    assert decoder.counters["adsb.untrusted_source"] == 2 and decoder.senders.active_suspects(0.1) == {(7, 200, "traffic")}
+    assert decoder.counters["adsb.untrusted_source"] == 2
+    assert decoder.senders.active_suspects(0.1) == {(7, 200, "traffic")}
     decoder.decode(_heartbeat(7, 42, m2.MAV_TYPE_ADSB), 0.2)  # a receiver on its own port announces itself
     assert decoder.decode(_adsb(7, 42, 0x4), 0.2) is not None
     decoder.decode(_heartbeat(7, 9, m2.MAV_TYPE_QUADROTOR, m2.MAV_AUTOPILOT_PX4), 0.3)  # the autopilot is 9

@@ -99,6 +99,7 @@ class MessageDecoder:
         self._sender_expiry_s = config.tracking.delete_after_s + SENDER_MARGIN_S
         self._next_prune_s = 0.0
         self.spoof_suspected: set[IntruderKey] = set()  # a second sender reported them somewhere else
+        self._suspected_s: dict[IntruderKey, float] = {}  # when it last did; the flag lasts as a track would
         # (time, reason) when our last SCALED_PRESSURE was rejected; None once one is accepted
         self.pressure_rejection: tuple[float, str] | None = None
         self._handlers = {
@@ -137,6 +138,7 @@ class MessageDecoder:
         if owner is not None:  # another sender owns it: never merged; flagged when it says something else
             if not _same_aircraft(owner, msg, now_s, self.config.input.max_ground_speed_mps):
                 self.spoof_suspected.add(key)
+                self._suspected_s[key] = now_s
             return self._reject("adsb.second_sender")
         report = self._adsb_report(msg, key, now_s)
         if report is not None:
@@ -150,6 +152,9 @@ class MessageDecoder:
             self._next_prune_s = now_s + self._sender_expiry_s
             for k in [k for k, (_, last, _) in self._senders.items() if now_s - last > self._sender_expiry_s]:
                 del self._senders[k]
+                self.spoof_suspected.discard(k)
+            for k in [k for k, last in self._suspected_s.items() if now_s - last > self._sender_expiry_s]:
+                del self._suspected_s[k]
                 self.spoof_suspected.discard(k)
         owner = self._senders.get(key)
         if owner is None or owner[0] == sender:

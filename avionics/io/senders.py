@@ -4,15 +4,16 @@ either is rejected, counted and a spoof suspect while it goes on (announced on M
 and daa.py).
 
 Ownship: component `mavlink.ownship_component` of `mavlink.source_system`, or (0, the default) the first component of
-it whose HEARTBEAT names an autopilot (`autopilot` != MAV_AUTOPILOT_INVALID: "for components that are not flight
-controllers", MAVLink common.xml and the heartbeat microservice, mavlink.io/en/services/heartbeat.html; what MAVSDK
-and QGroundControl go by), MAV_COMP_ID_AUTOPILOT1 until one is heard (ArduPilot and PX4 are component 1).
+it whose HEARTBEAT names an autopilot (`autopilot` != MAV_AUTOPILOT_INVALID, which MAVLink common.xml defines as "No
+valid autopilot, e.g. a GCS or other MAVLink component"; the heartbeat microservice, mavlink.io/en/services/
+heartbeat.html, tells flight controllers from other components so), MAV_COMP_ID_AUTOPILOT1 until one is heard
+(ArduPilot and PX4 are component 1).
 
 Traffic, with `mavlink.traffic_sources = []`: ADSB_VEHICLE from the ownship component (ArduPilot and PX4 re-send their
-receiver's traffic as their own), from MAV_COMP_ID_ADSB (156, common.xml's id for an ADS-B receiver) and from any
-component of source_system whose HEARTBEAT says MAV_TYPE_ADSB ("ADSB system", common.xml: how a receiver on its own
-MAVLink port, e.g. a uAvionix ping, announces itself). A component that says neither cannot become a traffic source
-by reporting first. A configured list is used as it is.
+receiver's traffic as their own), from MAV_COMP_ID_ADSB (156, common.xml: "Automatic Dependent Surveillance-Broadcast
+(ADS-B) component") and from any component of source_system whose HEARTBEAT says MAV_TYPE_ADSB ("ADSB system",
+common.xml: how a receiver on a MAVLink port of its own announces itself). A component that is none of these cannot
+become a traffic source by reporting first. A configured list is used as it is.
 """
 
 from __future__ import annotations
