@@ -6,10 +6,12 @@ core's insides. What the result carries is what the output ports need: the step'
 advisories with their intruders' callsigns, DAA availability (and when it changed), and, when asked for, the
 published track states (geodetic and local) and the status with the counters.
 
-Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, without ownship
-pressure altitude while a pressure-altitude intruder is tracked, while an intruder or the step is in the failed
-state (pipeline.py), and once the process stops. A change is reported once (`availability_changed`); start-up
-without ownship, and the first fix after it, are not changes (HEARTBEAT and status say it).
+Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, while ownship fixes
+keep failing the jump check, without ownship pressure altitude while a pressure-altitude intruder is tracked,
+while an intruder or the step is in the failed state (pipeline.py), while an intruder is spoof-suspected (its
+real reports may be the ones dropped), and once the process stops. A change is reported once
+(`availability_changed`); start-up without ownship, and the first fix after it, are not changes (HEARTBEAT and
+status say it).
 """
 
 from __future__ import annotations
@@ -33,14 +35,19 @@ _UNSET = object()
 
 @dataclass(frozen=True, slots=True)
 class SourceStatus:
-    """What the input side knows that the core cannot: intruders a second sender also reports (their reports
-    are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible, and the
-    health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
-    last_report_s, warning, as_dict(); docs/traffic-inputs.md)."""
+    """What the input side knows that the core cannot: intruders a second sender reports somewhere else (its
+    reports are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible,
+    the health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
+    last_report_s, warning, as_dict(); docs/traffic-inputs.md), the components of our vehicle whose claim to send
+    the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
+    io/senders.py), and whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
+    (io/ownship_check.py)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
     feeds: tuple = ()
+    rejected_senders: frozenset[tuple[int, int, str]] = frozenset()
+    ownship_inconsistent: bool = False
 
 
 NO_SOURCE_STATUS = SourceStatus()
@@ -80,9 +87,10 @@ class DaaResult:
     assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (each built when read)
     active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
     callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active (read when asked)
-    unavailable_reason: str | None  # no_ownship | no_pressure_altitude | fault | shutdown; None: DAA available
+    # no_ownship | ownship_inconsistent | no_pressure_altitude | fault | spoof_suspected | shutdown; None: available
+    unavailable_reason: str | None
     availability_changed: bool  # announce it (STATUSTEXT, log)
-    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault
+    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault, "1090es-A10001" for a spoof
     sensitivity_level: int | None
     tracks: tuple[TrackView, ...] | None = None  # when asked for: every track, predicted to time_s
     status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
@@ -90,6 +98,9 @@ class DaaResult:
     final: bool = False  # the last result: the process stops
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance bands, once a second
     starting: bool = False  # no ownship fix yet since start-up (unavailable, reason no_ownship, not announced)
+    # components of our vehicle rejected as a source of ownship or traffic in the last 10 s, (system, component,
+    # role), sorted: announce them (ports.py: STATUSTEXT, log)
+    rejected_senders: tuple[tuple[int, int, str], ...] = ()
 
     @property
     def available(self) -> bool:
@@ -137,7 +148,7 @@ class Daa:
     def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None) -> DaaResult:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
-            changed = self._check_availability(now_s)
+            changed = self._check_availability(now_s, sources)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
             track_views = self.tracks(now_s, sources) if tracks else None
@@ -155,10 +166,10 @@ class Daa:
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
-            starting=self._unavailable == STARTUP)
+            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)))
 
     # -- availability ----------------------------------------------------------------------------------------
-    def _unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:
+    def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:
         """Why DAA cannot protect now; None when it can. A faulty ownship pressure (status "pressure_fault")
         is no pressure altitude: no_pressure_altitude."""
         core = self._core
@@ -171,14 +182,23 @@ class Daa:
                 own = None
         if own is None:
             return "no_ownship"
+        if sources.ownship_inconsistent:  # the ownship may be another sender's, or a glitch
+            return "ownship_inconsistent"
         if core.step_fault is not None or core.faults:
             return "fault"
+        if sources.spoof_suspected:  # the intruder's real reports may be the ones dropped: its alert may be lost
+            return "spoof_suspected"
         if own.pressure_altitude_m is None and any(t.datum is AltitudeDatum.PRESSURE
                                                    for t in core.tracker.tracks.values()):
             return "no_pressure_altitude"
         return None
 
-    def _detail(self) -> str:
+    def _detail(self, reason: str, sources: SourceStatus) -> str:
+        if reason == "spoof_suspected":
+            first, *more = sorted(str(k) for k in sources.spoof_suspected)
+            return first + (f" +{len(more)}" if more else "")
+        if reason != "fault":
+            return ""
         core = self._core
         if core.step_fault is not None:
             return "step"
@@ -188,17 +208,17 @@ class Daa:
             return f"{fault.stage} {key}{more}"
         return ""
 
-    def _check_availability(self, now_s: float) -> bool:
+    def _check_availability(self, now_s: float, sources: SourceStatus) -> bool:
         """Whether availability changed (to be announced once). Start-up without ownship is silent, and so is
         the first fix after it."""
-        reason = self._unavailable_reason(now_s)
+        reason = self._unavailable_reason(now_s, sources)
         previous = self._unavailable
         if reason == previous or previous == STARTUP and reason in ("no_ownship", None):
             if previous == STARTUP and reason is None:
                 self._unavailable = None
             return False
         self._unavailable = reason
-        self._fault_detail = self._detail() if reason == "fault" else ""
+        self._fault_detail = self._detail(reason, sources)
         return True
 
     # -- tracks and status -----------------------------------------------------------------------------------
@@ -236,7 +256,7 @@ class Daa:
         own = core.ownship.state_at(now_s)
         advisories = core.active.values()
         pressure_intruders = [str(k) for k, t in core.tracker.tracks.items() if t.datum is AltitudeDatum.PRESSURE]
-        unavailable = self._unavailable_reason(now_s, own)
+        unavailable = self._unavailable_reason(now_s, sources, own)
         # The cross-check's verdict (tracking/baro_check.py), or the decoder's when it rejected our last
         # SCALED_PRESSURE (not a number, or outside the range the ISA model inverts).
         pressure_fault = core.ownship.pressure_fault
@@ -256,6 +276,11 @@ class Daa:
             warnings.append(f"fault: the DAA step failed ({core.step_fault.error}): no advisories")
         if core.faults:
             warnings.append(f"fault: {len(core.faults)} intruder(s) failed in a stage: no advisories for them")
+        if sources.ownship_inconsistent:
+            warnings.append("ownship fixes keep failing the jump check: the ownship may be wrong")
+        if sources.spoof_suspected:
+            warnings.append(f"spoof suspected: {len(sources.spoof_suspected)} intruder(s) reported elsewhere by a "
+                            "second sender, whose reports are dropped: their alerts may be lost")
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
@@ -278,8 +303,10 @@ class Daa:
                                                                                           AdvisoryLevel.RA)},
             "warnings": warnings,
             "daa_available": unavailable is None,
-            "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | fault | shutdown
+            "unavailable_reason": unavailable,  # as DaaResult.unavailable_reason
             "failed_intruders": {str(k): f.stage for k, f in sorted(core.faults.items())},
-            "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # also sent by a second sender
+            "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # reported elsewhere by a second sender
+            # components of our vehicle rejected as a source of ownship or traffic: "SYS:COMP role"
+            "rejected_senders": [f"{s}:{c} {role}" for s, c, role in sorted(sources.rejected_senders)],
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
         }

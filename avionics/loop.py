@@ -46,8 +46,10 @@ class MavlinkInput:
     def __init__(self, config: Config, counters: Counter):
         self.decoder = MessageDecoder(config, counters)
         self._fault = FaultLog(counters)
+        self._now_s = 0.0  # the last batch's time: how long ownship fixes have been rejected is judged at it
 
     def decode(self, msgs: Iterable, now_s: float) -> list[Input]:
+        self._now_s = now_s
         inputs = []
         for m in msgs:
             try:
@@ -60,7 +62,10 @@ class MavlinkInput:
         return inputs
 
     def status(self) -> SourceStatus:
-        return SourceStatus(frozenset(self.decoder.spoof_suspected), self.decoder.pressure_rejection is not None)
+        decoder = self.decoder
+        return SourceStatus(frozenset(decoder.spoof_suspected), decoder.pressure_rejection is not None,
+                            rejected_senders=decoder.senders.active_suspects(self._now_s),
+                            ownship_inconsistent=decoder.ownship_check.failing(self._now_s))
 
 
 class LinkSource:

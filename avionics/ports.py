@@ -85,6 +85,32 @@ class AdvisoryRefresh:
         self._earliest = math.inf
 
 
+REJECTED_SENDER_REPEAT_S = 10.0  # a rejected sender that goes on is announced again this often
+
+
+class RejectedSenders:
+    """When to announce the components of our vehicle rejected as a source (DaaResult.rejected_senders): a new one
+    at once, each again every period_s while it goes on (an autopilot or ground station that joins the link later
+    hears it), all of one step in one text ("+N": a forger cycling component ids costs one STATUSTEXT a step)."""
+
+    def __init__(self, period_s: float):
+        self.period_s = period_s
+        self._announced: dict = {}  # suspect -> when it was last announced
+
+    def due(self, result: DaaResult) -> str | None:
+        now = result.time_s
+        active = result.rejected_senders
+        if len(self._announced) > len(active):
+            self._announced = {k: t for k, t in self._announced.items() if k in active}
+        due = [k for k in active if now - self._announced.get(k, -math.inf) >= self.period_s]
+        if not due:
+            return None
+        for key in due:
+            self._announced[key] = now
+        text = encode.rejected_sender_text(*due[0])
+        return text if len(due) == 1 else f"{text} +{len(due) - 1}"[:encode.STATUSTEXT_LEN]
+
+
 CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
 REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's display; ~2 kB at 1 Hz)
 
@@ -92,7 +118,8 @@ REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's 
 class MavlinkOut:
     """MAVLink to the autopilot and the ground station (docs/mavlink.md): per advisory change COLLISION,
     DAA_ADVISORY and STATUSTEXT; active ones refreshed; a DO-365 alerter's bands as DAA_BANDS once a second;
-    availability changes as STATUSTEXT; HEARTBEAT with
+    availability changes and rejected senders (a component of our vehicle posing as the autopilot or a receiver)
+    as STATUSTEXT; HEARTBEAT with
     system_status STANDBY (no ownship fix yet) / ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). An
     intruder is named by its callsign whenever one was ever known, also after its track is gone. send: a link's
     send(msg). sinks: the output sinks' health (avionics/io/sinks.py): each new fault is one STATUSTEXT."""
@@ -115,6 +142,7 @@ class MavlinkOut:
         self._next_sweep_s = 0.0
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
+        self._rejected = RejectedSenders(REJECTED_SENDER_REPEAT_S)
 
     def wants(self, now_s: float) -> Demand:
         self._rebroadcast_now = self._rebroadcast is not None and self._rebroadcast.due(now_s)
@@ -173,6 +201,9 @@ class MavlinkOut:
             for fault in self._sinks.since(self._sink_faults_sent):
                 self._sink_faults_sent += 1  # counted first: a failing send is not repeated at every step
                 self._send(encode.statustext(encode.output_fault_text(fault), encode.mavlink2.MAV_SEVERITY_WARNING))
+        rejected = self._rejected.due(result) if self._statustext and result.rejected_senders else None
+        if rejected is not None:
+            self._send(encode.statustext(rejected, encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
@@ -263,11 +294,12 @@ class ZenohOut:
 
 
 class LogOut:
-    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO) and changes of
-    availability."""
+    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO), changes of
+    availability and rejected senders."""
 
     def __init__(self, logger: logging.Logger | None = None):
         self.log = logger or logging.getLogger("avionics")
+        self._rejected: frozenset = frozenset()  # the rejected senders of the last result (each logged as it starts)
 
     def wants(self, now_s: float) -> Demand:
         return NOTHING
@@ -281,6 +313,11 @@ class LogOut:
             reason = result.unavailable_reason
             self.log.log(logging.INFO if reason is None else logging.WARNING, "t=%7.2f %s", result.time_s,
                          encode.availability_text(reason, result.fault_detail))
+        if result.rejected_senders or self._rejected:
+            active = frozenset(result.rejected_senders)
+            for sender in sorted(active - self._rejected):
+                self.log.warning("t=%7.2f %s", result.time_s, encode.rejected_sender_text(*sender))
+            self._rejected = active
 
     def close(self) -> None:
         pass

@@ -113,6 +113,7 @@ EXPLICIT: dict[str, list[str]] = {
     "mavlink.source_component": ["195"],
     "mavlink.traffic_rebroadcast_component": ["193"],
     "mavlink.traffic_sources": ['["1"]', f'["1:{ADSB_COMPONENT}"]', "[1]"],
+    "mavlink.ownship_component": ["1"],  # the simulated autopilot's component (it sends no HEARTBEAT)
     "zenoh.key_prefix": ["fleet"],
     "tracking.gate_probability": ["0.999"],
     "advisory.profile": [str(ROOT / "config" / "profiles" / "small-uas.toml")],  # a profile .toml path
@@ -363,6 +364,7 @@ def test_validation_only_keys(tmp_path):
 
 @pytest.mark.parametrize("override", [
     "vehicle.id=a/b", "mavlink.heartbeat_hz=0", "mavlink.source_system=0", 'mavlink.traffic_sources=["x"]',
+    "mavlink.ownship_component=256", "input.ownship_jump_m=0", "input.ownship_jump_persist_s=0",
     "zenoh.mode=router2", "zenoh.tracks_hz=0", "zenoh.queue_size=0", 'zenoh.key_prefix=""', "zenoh.key_prefix=a//b",
     "zenoh.key_prefix=/daa", "zenoh.key_prefix=daa/*", "input.max_report_age_s=0",
     "tracking.max_coast_s=0", "tracking.filter=kf", "tracking.gate_probability=1.0", "altitude.baro_noise_sigma_m=0",

@@ -16,7 +16,7 @@ from avionics.io.dialect import daa as m2
 from avionics.io.framing import FrameScanner
 from avionics.io.link import MavlinkLink
 from avionics.ports import MavlinkOut
-from avionics_sitl.autopilot import schedule
+from avionics_sitl.autopilot import Packer, schedule
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from harness import Harness
@@ -37,15 +37,22 @@ def _framed(msgs, system: int = 1, component: int = 191) -> list:
     return [m for msg in msgs for m in scanner.feed(bytes(msg.pack(mav)), True)]
 
 
+def _from_sitl(msgs) -> list:
+    """The simulated autopilot's messages framed with its ids (autopilot 1:1, receiver 1:156) and found again."""
+    packer, scanner = Packer(), FrameScanner(Counter())
+    return [m for msg in msgs for m in scanner.feed(packer.pack(msg), True)]
+
+
 def _fly(node: Harness, events, end_s: float, step_s: float = 0.1, results=None) -> list[tuple[float, object]]:
-    """The events delivered at their times, in steps; the node's MAVLink output (framed) with its step time."""
+    """The events delivered at their times, in steps, from the simulated autopilot's and receiver's ids; the node's
+    MAVLink output (framed) with its step time."""
     out, i, t = [], 0, 0.0
     while t <= end_s + 1e-9:
         batch = []
         while i < len(events) and events[i].deliver_s <= t + 1e-9:
             batch.append(events[i].msg)
             i += 1
-        result = node.handle(_framed(batch), t)
+        result = node.handle(_from_sitl(batch), t)
         if results is not None:
             results.append(result)
         out += [(t, m) for m in _framed(node.mavlink_out)]
@@ -133,7 +140,7 @@ def test_rebroadcast_sends_the_fused_track_flagged_at_a_bounded_rate_and_our_dec
         while i < len(events) and events[i].deliver_s <= t + 1e-9:
             batch.append(events[i].msg)
             i += 1
-        node.handle(_framed(batch), t)
+        node.handle(_from_sitl(batch), t)
         node.mavlink_out.clear()
         t = round(t + 0.1, 6)
     assert sent and {comp for _, comp, _ in sent} == {192}
@@ -184,8 +191,10 @@ def test_rebroadcast_goes_out_on_the_link_from_its_own_component_and_comes_back_
     for cfg in (config, load_config(overrides=["zenoh.enabled=false"])):  # re-broadcast on, or off (flag only)
         seen: Counter = Counter()
         assert MessageDecoder(cfg, seen).decode(frame, 20.1) is None and seen["adsb.own_rebroadcast"] == 1
-    # the same fields without the flag would be a report: it is the flag (and the sender) that refuses it
+    # the same fields without the flag would be a report from a trusted sender: it is the flag (and the sender)
+    # that refuses it
     frame.flags &= ~m2.ADSB_FLAGS_DAA_REBROADCAST
     seen = Counter()
-    assert MessageDecoder(load_config(overrides=["zenoh.enabled=false"]), seen).decode(frame, 20.1) is not None
+    trusting = load_config(overrides=["zenoh.enabled=false", 'mavlink.traffic_sources=["1"]'])
+    assert MessageDecoder(trusting, seen).decode(frame, 20.1) is not None
     assert math.isfinite(frame.lat)

@@ -1,5 +1,6 @@
 """Trusted traffic sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's
-system, any component), and an intruder belongs to the first sender that reported it. The head-on encounter is
+autopilot and ADS-B receiver components, io/senders.py), and an intruder belongs to the first sender that reported
+it. The head-on encounter is
 flown through real pymavlink framing (sitl's autopilot and ADS-B receiver, FrameScanner, Harness) with a second
 MAVLink system sending the intruder's address at 5 Hz from somewhere harmless: it can neither take over the
 track nor suppress the RA. A fabricated intruder from an untrusted system gets nothing."""
@@ -16,62 +17,10 @@ from pymavlink.dialects.v20 import common as m2
 from avionics.config import ConfigError, load_config, traffic_source_ids
 from avionics.core.types import AddressSource, IntruderKey
 from avionics.io.decode import MessageDecoder
-from avionics.io.framing import FrameScanner
 from avionics.io.zenoh_bus import to_json
-from harness import Harness
-from avionics_sitl.autopilot import Packer, adsb_vehicle, schedule
-from avionics_sitl.impairments import PRESETS
-from avionics_sitl.encounters import load_encounter
-from avionics_sitl.trajectory import KinematicState
+from forgery import DURATION_S, INTRUDER, fly, over_the_wire
 
-SCENARIO = load_encounter("head-on")
-INTRUDER = SCENARIO.intruders[0]
 KEY = IntruderKey(INTRUDER.icao_address, INTRUDER.address_source)
-DURATION_S = 75.0  # TA at ~55 s, RA at ~65 s
-
-
-def spoof_report(t: float):
-    """The intruder's address, reported 20 km east of its real path, flying away: no threat at all."""
-    _, (traj,) = SCENARIO.trajectories()
-    real = traj.state_at(t)
-    fake = KinematicState(t_s=t, lat_deg=real.lat_deg, lon_deg=real.lon_deg + 0.27, alt_msl_m=real.alt_msl_m + 900.0,
-                          vel_east_mps=60.0, vel_north_mps=0.0, vel_up_mps=0.0)
-    return adsb_vehicle(fake, INTRUDER.icao_address, INTRUDER.altitude_datum, INTRUDER.address_source,
-                        INTRUDER.callsign, INTRUDER.emitter_type)
-
-
-def fly(config, spoofer: tuple[int, int] | None = None, spoof_from_s: float = 10.0, spoof_hz: float = 5.0,
-        real_intruder: bool = True, intruder_sender: tuple[int, int] | None = None):
-    """Fly the head-on on a 0.1 s grid through FrameScanner and Harness, as avionics_sitl.replay does. spoofer: the
-    (system, component) of a second sender of the intruder's address; intruder_sender: who sends the real
-    intruder's reports (default: the autopilot's ADS-B receiver, system 1 component 156)."""
-    node = Harness(config)
-    scanner = FrameScanner(node.counters)
-    packer = Packer()
-    fake_sender = m2.MAVLink(None, *spoofer) if spoofer else None
-    other = m2.MAVLink(None, *intruder_sender) if intruder_sender else None
-    events = schedule(SCENARIO, PRESETS["none"], duration_s=DURATION_S)
-    if not real_intruder:
-        events = [e for e in events if e.msg.get_type() != "ADSB_VEHICLE"]
-    changes, tracks, collisions, i = [], [], [], 0
-    period = round(10 / spoof_hz)
-    for k in range(int(DURATION_S * 10) + 1):
-        t = k / 10
-        datagram = b""
-        while i < len(events) and events[i].deliver_s <= t + 1e-9:
-            msg = events[i].msg
-            is_adsb = msg.get_type() == "ADSB_VEHICLE"
-            datagram += bytes(msg.pack(other)) if other is not None and is_adsb else packer.pack(msg)
-            i += 1
-        if fake_sender is not None and t >= spoof_from_s and k % period == 0:
-            datagram += bytes(spoof_report(t).pack(fake_sender))
-        result = node.handle(scanner.feed(datagram, end_of_datagram=True), t)
-        changes.extend((t, a) for a in result.changes)
-        collisions.extend(m for m in node.mavlink_out if m.get_type() == "COLLISION")
-        tracks.extend(p for s, p in node.zenoh_out if s.startswith("tracks/"))
-        node.mavlink_out.clear()
-        node.zenoh_out.clear()
-    return node, changes, tracks, collisions
 
 
 def onsets(changes) -> list[tuple[float, str, str]]:
@@ -89,7 +38,8 @@ def clean():
     ((), (2, 156), False),  # default: only our vehicle's system is trusted; system 2 is not
     (("1", "2"), (2, 156), True),  # both systems trusted: system 2 is a second sender of the address
     (("1:156",), (1, 99), False),  # our system, another component, with only the receiver trusted
-    ((), (1, 99), True),  # our system, another component, any component trusted: a second sender
+    ((), (1, 99), False),  # default: our system, a component neither the autopilot nor an ADS-B receiver
+    (("1",), (1, 99), True),  # our system, any component trusted: a second sender
 ])
 def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the_ra(clean, sources, spoofer,
                                                                                      trusted):
@@ -110,9 +60,18 @@ def test_a_second_sender_at_5_hz_neither_takes_over_the_track_nor_suppresses_the
         status = [p for s, p in _status_payloads(node)]
         assert status and status[-1]["spoof_suspected"] == [str(KEY)]
         assert status[-1]["counters"]["adsb.second_sender"] == spoofed
+        # its real reports could have been the ones dropped: DAA says it cannot vouch for that intruder
+        assert status[-1]["daa_available"] is False and status[-1]["unavailable_reason"] == "spoof_suspected"
+        texts = [m.text for _, m in node.sent if m.get_type() == "STATUSTEXT"]
+        assert texts.count(f"DAA UNAVAILABLE spoof {KEY}") == 1
+        assert m2.MAV_STATE_CRITICAL in {m.system_status for _, m in node.sent if m.get_type() == "HEARTBEAT"}
     else:
         assert node.counters["adsb.untrusted_source"] == spoofed and not node.counters["adsb.second_sender"]
         assert node.status(DURATION_S)["spoof_suspected"] == []  # never seen: nothing to suspect
+        assert node.status(DURATION_S)["daa_available"] is True
+        texts = [m.text for _, m in node.sent if m.get_type() == "STATUSTEXT"]
+        own_system = spoofer[0] == 1  # a component of our vehicle posing as a receiver is announced
+        assert ("SPOOF? 1:99 SENDS TRAFFIC, IGNORED" in texts) == own_system
         assert not any(p["spoof_suspected"] for p in tracks)
     json.loads(to_json(tracks[-1]))
 
@@ -140,11 +99,11 @@ def test_the_same_intruder_from_a_trusted_other_system_is_used_when_configured()
 
 
 # -- the decoder's rules --------------------------------------------------------------------------------------
-def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = False):
+def _adsb(system: int, component: int, address: int = 0xA1B2C3, uat: bool = False, lat_e7: int = 474000000):
     flags = 0x1FF | (0x8000 if uat else 0)
-    msg = m2.MAVLink_adsb_vehicle_message(address, 474000000, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
+    msg = m2.MAVLink_adsb_vehicle_message(address, lat_e7, 85500000, 0, 914400, 18000, 6430, 0, b"DLH4AB", 1, 0,
                                           flags, 7000)
-    return m2.MAVLink(None).decode(bytearray(msg.pack(m2.MAVLink(None, system, component))))
+    return over_the_wire(msg, system, component)
 
 
 def test_sources_match_a_whole_system_or_one_component():
@@ -158,11 +117,16 @@ def test_sources_match_a_whole_system_or_one_component():
 
 
 def test_the_first_sender_owns_an_intruder_until_its_track_can_no_longer_exist():
-    config = load_config()
+    config = load_config(overrides=['mavlink.traffic_sources=["1"]'])
     decoder = MessageDecoder(config, Counter())
     expiry = config.tracking.delete_after_s + 1.0
     assert decoder.decode(_adsb(1, 156), 0.0) is not None
-    assert decoder.decode(_adsb(1, 157), 0.5) is None and decoder.counters["adsb.second_sender"] == 1
+    # a second receiver hearing the same aircraft (64.3 m/s due south: 32 m in 0.5 s): dropped, not suspected
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 2900), 0.5) is None
+    assert decoder.counters["adsb.second_sender"] == 1 and decoder.spoof_suspected == set()
+    # ... the same address 2 km away: dropped and suspected
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 180000), 0.5) is None
+    assert decoder.counters["adsb.second_sender"] == 2
     assert decoder.spoof_suspected == {IntruderKey(0xA1B2C3, AddressSource.ES1090)}
     # the same number as a UAT address is another aircraft, and another sender may own it
     assert decoder.decode(_adsb(1, 157, uat=True), 1.0) is not None
@@ -172,6 +136,22 @@ def test_the_first_sender_owns_an_intruder_until_its_track_can_no_longer_exist()
     assert decoder.decode(_adsb(1, 157), 1.0 + expiry + 0.1) is not None
     assert decoder.spoof_suspected == set()
     assert decoder.decode(_adsb(1, 156), 1.0 + expiry + 0.2) is None  # and now the old owner is the second one
+
+
+def test_a_suspicion_ends_when_the_disagreeing_sender_stops_while_the_owner_goes_on():
+    """One bad report of a second receiver does not make DAA unavailable for the rest of the flight: the flag lasts
+    as long as a track of that report could (tracking.delete_after_s + 1 s, checked every that long)."""
+    config = load_config(overrides=['mavlink.traffic_sources=["1"]'])
+    decoder = MessageDecoder(config, Counter())
+    expiry = config.tracking.delete_after_s + 1.0
+    key = IntruderKey(0xA1B2C3, AddressSource.ES1090)
+    assert decoder.decode(_adsb(1, 156), 0.0) is not None
+    assert decoder.decode(_adsb(1, 157, lat_e7=474000000 - 180000), 1.0) is None
+    suspected = []
+    for t in range(1, 61):  # the owner goes on at 1 Hz
+        decoder.decode(_adsb(1, 156), float(t))
+        suspected.append(key in decoder.spoof_suspected)
+    assert suspected[0] and all(suspected[:int(expiry)]) and not any(suspected[int(2 * expiry) + 1:])
 
 
 def test_owners_of_silent_addresses_are_forgotten_under_address_churn():
@@ -188,5 +168,25 @@ def test_a_bad_traffic_source_is_a_configuration_error(entry):
         load_config(overrides=[f"mavlink.traffic_sources=[{entry}]"])
 
 
-def test_the_default_is_our_vehicles_system_any_component():
-    assert traffic_source_ids(load_config(overrides=["mavlink.source_system=7"]).mavlink) == ((7, None),)
+def _heartbeat(system: int, component: int, kind: int, autopilot: int = m2.MAV_AUTOPILOT_INVALID):
+    return over_the_wire(m2.MAVLink_heartbeat_message(kind, autopilot, 0, 0, m2.MAV_STATE_ACTIVE, 3), system, component)
+
+
+def test_the_default_is_the_autopilot_and_the_receivers_of_our_vehicle_that_say_so():
+    """traffic_sources = []: the ownship (autopilot) component, MAV_COMP_ID_ADSB and any component of our system whose
+    HEARTBEAT says MAV_TYPE_ADSB. Another component of our system that reports traffic first does not become a
+    source: it is rejected, counted and a suspect; another system's is only counted."""
+    config = load_config(overrides=["mavlink.source_system=7"])
+    assert traffic_source_ids(config.mavlink) == ()
+    decoder = MessageDecoder(config, Counter())
+    assert decoder.decode(_adsb(7, 200, 0x1), 0.0) is None  # first, but nobody
+    assert decoder.decode(_adsb(7, 1, 0x1), 0.1) is not None  # the autopilot (component 1 until a HEARTBEAT)
+    assert decoder.decode(_adsb(7, 156, 0x2), 0.1) is not None  # MAV_COMP_ID_ADSB
+    assert decoder.decode(_adsb(8, 156, 0x3), 0.1) is None  # another system
+    assert decoder.counters["adsb.untrusted_source"] == 2
+    assert decoder.senders.active_suspects(0.1) == {(7, 200, "traffic")}
+    decoder.decode(_heartbeat(7, 42, m2.MAV_TYPE_ADSB), 0.2)  # a receiver on its own port announces itself
+    assert decoder.decode(_adsb(7, 42, 0x4), 0.2) is not None
+    decoder.decode(_heartbeat(7, 9, m2.MAV_TYPE_QUADROTOR, m2.MAV_AUTOPILOT_PX4), 0.3)  # the autopilot is 9
+    assert decoder.decode(_adsb(7, 9, 0x5), 0.3) is not None
+    assert decoder.decode(_adsb(7, 1, 0x6), 0.3) is None

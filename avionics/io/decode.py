@@ -3,13 +3,16 @@
 ADSB_VEHICLE: a field is used only when its ADSB_FLAGS bit says valid *and* it holds no sentinel
 (INT32_MAX, UINT16_MAX, INT16_MAX) and a physical value. A field flagged valid that fails those checks is
 counted as rejected ("adsb.<field>_invalid"); the report itself is rejected only without a usable position
-or identity. GLOBAL_POSITION_INT and SCALED_PRESSURE are taken only from our own vehicle's system id.
+or identity. GLOBAL_POSITION_INT and SCALED_PRESSURE are taken only from our vehicle's autopilot component, and a
+fix must pass the jump check (io/senders.py, io/ownship_check.py); HEARTBEAT pins that component and announces
+ADS-B receivers.
 
-Trusted sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: our vehicle's system, any
-component); others count adsb.untrusted_source. An intruder (address and address source) belongs to the first
-sender (system, component) that reported it, for as long as its track can live: the same intruder from a
-second sender is never merged into that track but dropped (adsb.second_sender), and the intruder is flagged
-spoof-suspected (spoof_suspected, shown in status and on its track).
+Trusted sources: ADSB_VEHICLE is used only from mavlink.traffic_sources (default: discovered, io/senders.py);
+others count adsb.untrusted_source. An intruder (address and address source) belongs to the first trusted sender
+(system, component) whose report of it was usable, for as long as its track can live: the same intruder from a
+second sender is never merged into that track but dropped (adsb.second_sender). When that report is not where the
+owner's last report, flown on, puts the aircraft (two receivers hearing one aircraft agree; a forged one does not),
+the intruder is spoof-suspected (spoof_suspected: status, track, and DAA unavailable while it lasts, daa.py).
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from avionics.io.checks import (
     address_problem, altitude_problem, callsign_text, position_problem, speed_problem, squawk_valid,
     vertical_rate_problem,
 )
-from avionics.io.params import DecoderConfig as Config, traffic_source_ids
+from avionics.io.ownship_check import OwnshipJumpCheck
+from avionics.io.params import DecoderConfig as Config
+from avionics.io.senders import Senders
 from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.core.types import (
     AddressSource, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
@@ -44,6 +49,28 @@ DAA_REBROADCAST = 16384  # our dialect's ADSB_FLAGS_DAA_REBROADCAST: a DAA proce
 ALTITUDE_TYPES = {0: AltitudeDatum.PRESSURE, 1: AltitudeDatum.GEOMETRIC}  # ADSB_ALTITUDE_TYPE
 MIN_HEIGHT_ABOVE_HOME_M = -9000.0  # a home on a summit above a valley flight; anything lower is corrupt
 SENDER_MARGIN_S = 1.0  # an intruder stays its first sender's this long after its track can have been deleted
+# Two receivers' reports of one aircraft differ by their position errors: ADSB_VEHICLE carries no NACp, so two
+# 0.1 NM EPUs (NACp 7, DO-260B Table 2-14) plus the report times' whole-second tslc at the aircraft's speed.
+SAME_AIRCRAFT_M = 2 * 185.2
+TSLC_RESOLUTION_S = 1.0
+EARTH_RADIUS_M = 6371008.8  # mean radius (IUGG): a flat-earth difference is exact enough over a few km
+
+
+def _same_aircraft(owner: IntruderReport, msg, now_s: float, max_speed_mps: float) -> bool:
+    """Does msg (another sender's ADSB_VEHICLE) put the aircraft where owner's report, flown on at its velocity, does?
+    (one aircraft, two receivers) Without the owner's velocity, anywhere it could have flown at max_speed_mps. A
+    report without a valid position says nothing against the owner."""
+    if not msg.flags & VALID_COORDS or INT32_MAX in (msg.lat, msg.lon) or position_problem(msg.lat * 1e-7,
+                                                                                         msg.lon * 1e-7):
+        return True
+    dt = now_s - msg.tslc - owner.time_s
+    ve, vn = owner.velocity_en_mps or (0.0, 0.0)
+    speed = math.hypot(ve, vn) if owner.velocity_en_mps else max_speed_mps
+    slack_s = TSLC_RESOLUTION_S if owner.velocity_en_mps else TSLC_RESOLUTION_S + abs(dt)
+    dlon = (msg.lon * 1e-7 - owner.lon_deg + 180.0) % 360.0 - 180.0
+    east = math.radians(dlon) * math.cos(math.radians(owner.lat_deg)) * EARTH_RADIUS_M - ve * dt
+    north = math.radians(msg.lat * 1e-7 - owner.lat_deg) * EARTH_RADIUS_M - vn * dt
+    return math.hypot(east, north) <= SAME_AIRCRAFT_M + speed * slack_s
 
 
 def _lat_lon(prefix: str, lat_e7: int, lon_e7: int, counters: Counter) -> tuple[float, float] | None:
@@ -62,16 +89,17 @@ class MessageDecoder:
     def __init__(self, config: Config, counters: Counter):
         self.config = config
         self.counters = counters
-        sources = traffic_source_ids(config.mavlink)
-        self._trusted_systems = {s for s, c in sources if c is None}
-        self._trusted_senders = {(s, c) for s, c in sources if c is not None}
+        self.senders = Senders(config.mavlink, counters)
+        self.ownship_check = OwnshipJumpCheck(config.input, counters)
         m = config.mavlink  # our own ADSB_VEHICLE re-broadcast comes from here (ports.py MavlinkOut)
         self._own_rebroadcaster = (m.source_system, m.traffic_rebroadcast_component) if m.traffic_rebroadcast else None
-        # intruder -> (its first sender, when that sender last reported it); kept while its track can live.
-        self._senders: dict[IntruderKey, tuple[tuple[int, int], float]] = {}
+        # intruder -> (its first sender, when that sender last reported it, its last usable report); kept while its
+        # track can live.
+        self._senders: dict[IntruderKey, tuple[tuple[int, int], float, IntruderReport]] = {}
         self._sender_expiry_s = config.tracking.delete_after_s + SENDER_MARGIN_S
         self._next_prune_s = 0.0
-        self.spoof_suspected: set[IntruderKey] = set()  # intruders also reported by a second sender
+        self.spoof_suspected: set[IntruderKey] = set()  # a second sender reported them somewhere else
+        self._suspected_s: dict[IntruderKey, float] = {}  # when it last did; the flag lasts as a track would
         # (time, reason) when our last SCALED_PRESSURE was rejected; None once one is accepted
         self.pressure_rejection: tuple[float, str] | None = None
         self._handlers = {
@@ -81,7 +109,10 @@ class MessageDecoder:
         }
 
     def decode(self, msg, now_s: float) -> Input | None:
-        handler = self._handlers.get(msg.get_type())
+        kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            return self.senders.heartbeat(msg, now_s)  # who is who (io/senders.py); no input
+        handler = self._handlers.get(kind)
         if handler is None:
             return None  # not ours to use; not a rejection
         self.counters[f"rx.{msg.get_type().lower()}"] += 1
@@ -96,35 +127,42 @@ class MessageDecoder:
         sender = (msg.get_srcSystem(), msg.get_srcComponent())
         if flags & DAA_REBROADCAST or sender == self._own_rebroadcaster:  # never our own output as input
             return self._reject("adsb.own_rebroadcast")
-        if sender[0] not in self._trusted_systems and sender not in self._trusted_senders:
-            return self._reject("adsb.untrusted_source")
+        if not self.senders.traffic(sender, now_s):
+            return None  # counted by senders
         source = AddressSource.UAT if flags & SOURCE_UAT else AddressSource.ES1090
         problem = address_problem(self.config.vehicle.own_icao, msg.ICAO_address, source is AddressSource.ES1090)
         if problem is not None:
             return self._reject(f"adsb.{problem}")
         key = IntruderKey(msg.ICAO_address, source)
-        if not self._first_sender(key, sender, now_s):
+        owner = self._owner(key, sender, now_s)
+        if owner is not None:  # another sender owns it: never merged; flagged when it says something else
+            if not _same_aircraft(owner, msg, now_s, self.config.input.max_ground_speed_mps):
+                self.spoof_suspected.add(key)
+                self._suspected_s[key] = now_s
             return self._reject("adsb.second_sender")
         report = self._adsb_report(msg, key, now_s)
         if report is not None:
-            self._senders[key] = (sender, now_s)  # only a usable report makes or keeps the sender the owner
+            self._senders[key] = (sender, now_s, report)  # only a usable report makes or keeps the sender the owner
         return report
 
-    def _first_sender(self, key: IntruderKey, sender: tuple[int, int], now_s: float) -> bool:
-        """Is sender the one this intruder belongs to (or may it become so)? A second sender flags it."""
+    def _owner(self, key: IntruderKey, sender: tuple[int, int], now_s: float) -> IntruderReport | None:
+        """The last usable report of this intruder's owner when that is another sender, else None (sender owns it
+        or may become its owner)."""
         if now_s >= self._next_prune_s:  # bounded memory under address churn
             self._next_prune_s = now_s + self._sender_expiry_s
-            for k in [k for k, (_, last) in self._senders.items() if now_s - last > self._sender_expiry_s]:
+            for k in [k for k, (_, last, _) in self._senders.items() if now_s - last > self._sender_expiry_s]:
                 del self._senders[k]
+                self.spoof_suspected.discard(k)
+            for k in [k for k, last in self._suspected_s.items() if now_s - last > self._sender_expiry_s]:
+                del self._suspected_s[k]
                 self.spoof_suspected.discard(k)
         owner = self._senders.get(key)
         if owner is None or owner[0] == sender:
-            return True
+            return None
         if now_s - owner[1] > self._sender_expiry_s:  # its track is gone: a new sender may begin a new one
             self.spoof_suspected.discard(key)
-            return True
-        self.spoof_suspected.add(key)
-        return False
+            return None
+        return owner[2]
 
     def _adsb_report(self, msg, key: IntruderKey, now_s: float) -> IntruderReport | None:
         cfg = self.config.input
@@ -195,14 +233,11 @@ class MessageDecoder:
         )
 
     # -- ownship ----------------------------------------------------------------------------------------------
-    def _from_own_vehicle(self, msg, prefix: str) -> bool:
-        if msg.get_srcSystem() != self.config.mavlink.source_system:
-            self._reject(f"{prefix}.other_system")
-            return False
-        return True
+    def _from_own_vehicle(self, msg, prefix: str, now_s: float) -> bool:
+        return self.senders.ownship((msg.get_srcSystem(), msg.get_srcComponent()), prefix, now_s)
 
     def _global_position_int(self, msg, now_s: float) -> OwnshipFix | None:
-        if not self._from_own_vehicle(msg, "gpi"):
+        if not self._from_own_vehicle(msg, "gpi", now_s):
             return None
         cfg = self.config.input
         position = _lat_lon("gpi", msg.lat, msg.lon, self.counters)
@@ -216,12 +251,13 @@ class MessageDecoder:
         if math.hypot(velocity[0], velocity[1]) > cfg.max_ground_speed_mps or \
                 abs(velocity[2]) > cfg.max_vertical_rate_mps or INT16_MAX in (msg.vx, msg.vy, msg.vz):
             return self._reject("gpi.velocity_invalid")
-        return OwnshipFix(now_s, position[0], position[1], msg.alt * 1e-3, msg.relative_alt * 1e-3, velocity)
+        fix = OwnshipFix(now_s, position[0], position[1], msg.alt * 1e-3, msg.relative_alt * 1e-3, velocity)
+        return fix if self.ownship_check.accept(fix) else None  # counted gpi.jump
 
     def _scaled_pressure(self, msg, now_s: float) -> OwnshipPressure | None:
         """press_abs -> pressure altitude, only within the range the ISA model inverts correctly
         (core/atmosphere.py); outside it the reading is rejected and counted, never extrapolated."""
-        if not self._from_own_vehicle(msg, "pressure"):
+        if not self._from_own_vehicle(msg, "pressure", now_s):
             return None
         press_abs = float(msg.press_abs)
         if not math.isfinite(press_abs):

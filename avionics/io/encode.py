@@ -33,7 +33,8 @@ SEVERITY = {
 STATUSTEXT_LEN = 50
 # Why DAA is unavailable (DaaResult.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
 UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude": "no pressure altitude",
-                     "fault": "fault", "shutdown": "shutdown"}
+                     "fault": "fault", "shutdown": "shutdown", "ownship_inconsistent": "ownship jumps",
+                     "spoof_suspected": "spoof"}
 
 
 def collision(advisory: Advisory, request_action: bool = False):
@@ -157,6 +158,12 @@ def availability_text(reason: str | None, detail: str = "") -> str:
 def output_fault_text(fault) -> str:
     """"OUTPUT TLOG FAILED (ENOSPC): CLOSED" (fault: io/sinks.py SinkFault; the DAA goes on)."""
     return f"OUTPUT {fault.sink.upper()} FAILED ({fault.code.upper()}): {fault.state.upper()}"[:STATUSTEXT_LEN]
+
+
+def rejected_sender_text(system: int, component: int, role: str) -> str:
+    """"SPOOF? 1:200 SENDS OWNSHIP, IGNORED": a component of our vehicle claimed to send the ownship (position,
+    pressure, an autopilot HEARTBEAT) or traffic, and was rejected (DaaResult.rejected_senders)."""
+    return f"SPOOF? {system}:{component} SENDS {role.upper()}, IGNORED"[:STATUSTEXT_LEN]
 
 
 def statustext(text: str, severity: int):

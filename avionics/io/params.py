@@ -49,8 +49,12 @@ class MavlinkConfig:
     # "" = off. With a key our frames are signed, and wrong-key and replayed frames are rejected.
     signing_key_file: str = ""
     signing_required: bool = True  # with a key: unsigned frames rejected (false: accepted, counted)
-    # Whose ADSB_VEHICLE is used: "SYS" (any component) or "SYS:COMP" ids; empty = source_system, any component.
+    # Whose ADSB_VEHICLE is used: "SYS" (any component) or "SYS:COMP" ids; empty = discovered (io/senders.py):
+    # the ownship component, MAV_COMP_ID_ADSB and components whose HEARTBEAT says MAV_TYPE_ADSB, of source_system.
     traffic_sources: tuple[int | str, ...] = ()
+    # The component of source_system whose GLOBAL_POSITION_INT and SCALED_PRESSURE are the ownship; 0 = the first
+    # one whose HEARTBEAT names an autopilot (autopilot != MAV_AUTOPILOT_INVALID), MAV_COMP_ID_AUTOPILOT1 until then.
+    ownship_component: int = 0
 
     def validate(self) -> None:
         traffic_source_ids(self)
@@ -73,12 +77,13 @@ class MavlinkConfig:
             raise ConfigError(f"mavlink.traffic_rebroadcast_hz: at most 10 Hz, got {self.traffic_rebroadcast_hz}")
         if not 1 <= self.source_system <= 255 or not 0 <= self.source_component <= 255:
             raise ConfigError("mavlink.source_system must be in 1..255 and mavlink.source_component in 0..255")
+        if not 0 <= self.ownship_component <= 255:
+            raise ConfigError(f"mavlink.ownship_component: {self.ownship_component} is not 0 (the autopilot's, "
+                              "from its HEARTBEAT) or a component id 1..255")
 
 
 def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
-    """mavlink.traffic_sources as (system, component or None for any); the default is (source_system, any)."""
-    if not m.traffic_sources:
-        return ((m.source_system, None),)
+    """mavlink.traffic_sources as (system, component or None for any); empty: discovered (avionics/io/senders.py)."""
     out = []
     for i, entry in enumerate(m.traffic_sources):
         system, sep, component = str(entry).strip().partition(":")

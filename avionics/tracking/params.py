@@ -19,9 +19,15 @@ class InputConfig:
     max_altitude_m: float = 20000.0
     ownship_timeout_s: float = 2.0  # no GLOBAL_POSITION_INT for this long: no advisories, status says so
     pressure_timeout_s: float = 3.0  # no SCALED_PRESSURE for this long: ownship pressure altitude unknown
+    # GLOBAL_POSITION_INT jump check (avionics/io/ownship_check.py): a fix farther than this (plus 10 m/s^2 over
+    # the interval) from the previous fix integrated with their velocities is rejected; rejections that go on for
+    # ownship_jump_persist_s make DAA unavailable (ownship_inconsistent), and a fix after that long without an
+    # accepted one starts the check again.
+    ownship_jump_m: float = 100.0
+    ownship_jump_persist_s: float = 5.0
 
     def validate(self) -> None:
-        require_positive("input", self, ("max_report_age_s",))
+        require_positive("input", self, ("max_report_age_s", "ownship_jump_m", "ownship_jump_persist_s"))
 
 
 TRACK_FILTERS = ("cv", "imm", "rmimm", "vb-imm", "vb-rmimm")
