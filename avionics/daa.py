@@ -8,7 +8,7 @@ published track states (geodetic and local) and the status with the counters.
 
 Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, without ownship
 pressure altitude while a pressure-altitude intruder is tracked, while an intruder or the step is in the failed
-state (pipeline.py), and once the process stops. A change is reported once (`availability_changed`); start-up
+state (pipeline.py), while its only traffic source is down (`traffic_down`), and once the process stops. A change is reported once (`availability_changed`); start-up
 without ownship, and the first fix after it, are not changes (HEARTBEAT and status say it).
 """
 
@@ -34,13 +34,27 @@ _UNSET = object()
 @dataclass(frozen=True, slots=True)
 class SourceStatus:
     """What the input side knows that the core cannot: intruders a second sender also reports (their reports
-    are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible, and the
+    are dropped: docs/mavlink.md, "Trusted sources"), our last ownship pressure rejected as implausible, the
     health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
-    last_report_s, warning, as_dict(); docs/traffic-inputs.md)."""
+    last_report_s, warning, as_dict(); docs/traffic-inputs.md), and whether the MAVLink link has delivered traffic
+    (an accepted ADSB_VEHICLE) since start."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
     feeds: tuple = ()
+    mavlink_traffic: bool = False
+
+
+def traffic_down(sources: SourceStatus) -> tuple:
+    """The receiver feeds, when they are the only traffic source and every one of them is down (FeedHealth of
+    each); () otherwise. A feed is down once it has failed (refused, closed, timed out: `error`) and is not
+    connected again; one still making its first connection is not. The MAVLink link counts as a traffic source
+    once it has delivered traffic: an autopilot's ADSB_VEHICLE path says nothing of its receiver's health, and
+    silence on it is also an empty sky (docs/mavlink.md, Availability)."""
+    feeds = sources.feeds
+    if not feeds or sources.mavlink_traffic or any(f.connected or f.error is None for f in feeds):
+        return ()
+    return feeds
 
 
 NO_SOURCE_STATUS = SourceStatus()
@@ -80,9 +94,10 @@ class DaaResult:
     assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (each built when read)
     active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
     callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active (read when asked)
-    unavailable_reason: str | None  # no_ownship | no_pressure_altitude | fault | shutdown; None: DAA available
+    unavailable_reason: str | None  # no_ownship | no_pressure_altitude | no_traffic_source | fault | shutdown; None:
+    # DAA available
     availability_changed: bool  # announce it (STATUSTEXT, log)
-    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault
+    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault; the feed down for no_traffic_source
     sensitivity_level: int | None
     tracks: tuple[TrackView, ...] | None = None  # when asked for: every track, predicted to time_s
     status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
@@ -137,7 +152,7 @@ class Daa:
     def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None) -> DaaResult:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
-            changed = self._check_availability(now_s)
+            changed = self._check_availability(now_s, sources)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
             track_views = self.tracks(now_s, sources) if tracks else None
@@ -158,7 +173,7 @@ class Daa:
             starting=self._unavailable == STARTUP)
 
     # -- availability ----------------------------------------------------------------------------------------
-    def _unavailable_reason(self, now_s: float, own=_UNSET) -> str | None:
+    def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:
         """Why DAA cannot protect now; None when it can. A faulty ownship pressure (status "pressure_fault")
         is no pressure altitude: no_pressure_altitude."""
         core = self._core
@@ -173,12 +188,20 @@ class Daa:
             return "no_ownship"
         if core.step_fault is not None or core.faults:
             return "fault"
+        if traffic_down(sources):
+            return "no_traffic_source"
         if own.pressure_altitude_m is None and any(t.datum is AltitudeDatum.PRESSURE
                                                    for t in core.tracker.tracks.values()):
             return "no_pressure_altitude"
         return None
 
-    def _detail(self) -> str:
+    def _detail(self, reason: str | None, sources: SourceStatus) -> str:
+        """What the availability text adds to reason: the failed stage and intruder, or the feed down."""
+        if reason == "no_traffic_source":
+            down = traffic_down(sources)
+            return down[0].path + (f" +{len(down) - 1}" if len(down) > 1 else "")
+        if reason != "fault":
+            return ""
         core = self._core
         if core.step_fault is not None:
             return "step"
@@ -188,17 +211,17 @@ class Daa:
             return f"{fault.stage} {key}{more}"
         return ""
 
-    def _check_availability(self, now_s: float) -> bool:
+    def _check_availability(self, now_s: float, sources: SourceStatus) -> bool:
         """Whether availability changed (to be announced once). Start-up without ownship is silent, and so is
         the first fix after it."""
-        reason = self._unavailable_reason(now_s)
+        reason = self._unavailable_reason(now_s, sources)
         previous = self._unavailable
         if reason == previous or previous == STARTUP and reason in ("no_ownship", None):
             if previous == STARTUP and reason is None:
                 self._unavailable = None
             return False
         self._unavailable = reason
-        self._fault_detail = self._detail() if reason == "fault" else ""
+        self._fault_detail = self._detail(reason, sources)
         return True
 
     # -- tracks and status -----------------------------------------------------------------------------------
@@ -236,7 +259,7 @@ class Daa:
         own = core.ownship.state_at(now_s)
         advisories = core.active.values()
         pressure_intruders = [str(k) for k, t in core.tracker.tracks.items() if t.datum is AltitudeDatum.PRESSURE]
-        unavailable = self._unavailable_reason(now_s, own)
+        unavailable = self._unavailable_reason(now_s, sources, own)
         # The cross-check's verdict (tracking/baro_check.py), or the decoder's when it rejected our last
         # SCALED_PRESSURE (not a number, or outside the range the ISA model inverts).
         pressure_fault = core.ownship.pressure_fault
@@ -259,6 +282,8 @@ class Daa:
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
+        if traffic_down(sources):
+            warnings.append("no traffic source: every receiver feed is down and MAVLink has delivered no traffic")
         ownship = None
         if own is not None:
             lat, lon, (ve, vn) = core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
@@ -278,7 +303,7 @@ class Daa:
                                                                                           AdvisoryLevel.RA)},
             "warnings": warnings,
             "daa_available": unavailable is None,
-            "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | fault | shutdown
+            "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | no_traffic_source | fault | shutdown
             "failed_intruders": {str(k): f.stage for k, f in sorted(core.faults.items())},
             "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # also sent by a second sender
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic

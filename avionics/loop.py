@@ -19,7 +19,7 @@ from typing import Iterable, Iterator, Protocol
 
 from avionics.config import Config
 from avionics.core.faults import FaultLog
-from avionics.core.types import Input
+from avionics.core.types import Input, IntruderReport
 from avionics.daa import Daa, DaaResult, SourceStatus
 from avionics.io.decode import MessageDecoder
 from avionics.ports import NOTHING, OutputPort
@@ -46,6 +46,7 @@ class MavlinkInput:
     def __init__(self, config: Config, counters: Counter):
         self.decoder = MessageDecoder(config, counters)
         self._fault = FaultLog(counters)
+        self.traffic = False  # an accepted ADSB_VEHICLE since start: MAVLink is a traffic source (daa.py traffic_down)
 
     def decode(self, msgs: Iterable, now_s: float) -> list[Input]:
         inputs = []
@@ -57,10 +58,12 @@ class MavlinkInput:
                 continue
             if item is not None:
                 inputs.append(item)
+                self.traffic = self.traffic or type(item) is IntruderReport
         return inputs
 
     def status(self) -> SourceStatus:
-        return SourceStatus(frozenset(self.decoder.spoof_suspected), self.decoder.pressure_rejection is not None)
+        return SourceStatus(frozenset(self.decoder.spoof_suspected), self.decoder.pressure_rejection is not None,
+                            mavlink_traffic=self.traffic)
 
 
 class LinkSource:

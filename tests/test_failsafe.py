@@ -96,9 +96,9 @@ class Autopilot:
 
 class Onboard:
     """`avionics run` as a child process on udpin:PORT with its zenoh session listening on loopback, and a zenoh
-    peer session subscribed to its advisories, status and liveliness token."""
+    peer session subscribed to its advisories, status and liveliness token. args: more `avionics run` arguments."""
 
-    def __init__(self, vehicle: str):
+    def __init__(self, vehicle: str, args: tuple = ()):
         self.vehicle = vehicle
         self.udp = free_port(socket.SOCK_DGRAM)
         tcp = free_port()
@@ -106,7 +106,7 @@ class Onboard:
         self.process = subprocess.Popen(
             [sys.executable, "-m", "avionics.cli", "run", "--connection", f"udpin:127.0.0.1:{self.udp}",
              "--set", f'zenoh.listen=["{self.endpoint}"]', "--set", f"vehicle.id={vehicle}",
-             "--duration", str(4 * DEADLINE_S)],  # ended by the test; a backstop only
+             "--duration", str(4 * DEADLINE_S), *args],  # ended by the test; a backstop only
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.samples: list = []
         self.alive: list = []
