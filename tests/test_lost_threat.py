@@ -189,8 +189,14 @@ def _lost_flagged(autopilot, level):
             if m.id == HEAD_ON and m.level == level and m.flags & 64]  # DAA_ADVISORY_FLAGS_TRAFFIC_LOST
 
 
-def _check_silence(autopilot, onboard, before: int, texts_before: int):
-    """What went out from the start of the silence until the threat was found again."""
+def _end_the_silence(autopilot, onboard, silent_at: float, resume, before: int, texts_before: int):
+    """The silence lasts SILENCE_S from silent_at; resume() ends it. Once the threat is found again (an RA that is
+    not lost), what went out from the start of the silence (`before` COLLISION, `texts_before` STATUSTEXT) is
+    checked."""
+    threading.Event().wait(max(0.0, silent_at + SILENCE_S - time.monotonic()))  # a stimulus of 10 s, not a wait
+    found_at = len(onboard.of("advisory"))
+    resume()
+    assert wait_for(lambda: any(p["level"] == "RA" and p["reason"] != "lost" for p in onboard.of("advisory")[found_at:]))
     texts = _texts(autopilot)[texts_before:]
     assert not any("CLEAR OF CONFLICT" in t for _, t in texts), texts
     assert (m2.MAV_SEVERITY_CRITICAL, "TRAFFIC LOST HEADON RA HELD") in texts, texts
@@ -216,12 +222,11 @@ def test_a_traffic_silence_during_an_ra_is_announced_as_traffic_lost_never_as_cl
         assert wait_for(lambda: ("RA", "lost") in [(p["level"], p["reason"]) for p in onboard.of("advisory")])
         # MAVLink delivered traffic before: its silence may be the sky's, DAA stays available (docs/mavlink.md)
         status_lost = onboard.of("status")[-1]
-        threading.Event().wait(max(0.0, silent_at + SILENCE_S - time.monotonic()))  # the silence lasts 10 s
-        found_at = len(onboard.of("advisory"))
-        autopilot.drop = None
-        assert wait_for(lambda: any(p["level"] == "RA" and p["reason"] != "lost"
-                                    for p in onboard.of("advisory")[found_at:]))
-        _check_silence(autopilot, onboard, before, texts_before)
+
+        def resume():
+            autopilot.drop = None
+
+        _end_the_silence(autopilot, onboard, silent_at, resume, before, texts_before)
     finally:
         if autopilot is not None:
             autopilot.stop()
@@ -238,34 +243,33 @@ def test_the_only_traffic_feed_down_during_an_ra_makes_daa_unavailable_and_the_t
     events = sbs_schedule(load_encounter("head-on"), PRESETS["none"], duration_s=100.0)
     clock = ScenarioClock(START_S)
     onboard = Onboard("feedlostuav", ("--traffic", f"sbs:127.0.0.1:{port}"))
-    autopilot = receiver = None
+    autopilot, receivers = None, []
     try:
         # ownship over MAVLink, the traffic only from the ground receiver's SBS feed
         autopilot = Autopilot(f"udpout:127.0.0.1:{onboard.udp}", head_on_events(start_s=START_S),
                               drop=lambda msg: msg.get_type() == "ADSB_VEHICLE")
-        receiver = SbsServer(events, port=port, start_s=START_S, clock=clock)
+        receivers.append(SbsServer(events, port=port, start_s=START_S, clock=clock))
         clock.start()
-        receiver.start()
+        receivers[-1].start()
         autopilot.start()
         assert wait_for(lambda: any(m.threat_level == m2.MAV_COLLISION_THREAT_LEVEL_HIGH for m in _collisions(autopilot)))
         before, texts_before = len(_collisions(autopilot)), len(_texts(autopilot))
         silent_at = time.monotonic()
-        receiver.stop()  # the receiver goes away: its connection ends, reconnections are refused
+        receivers[-1].stop()  # the receiver goes away: its connection ends, reconnections are refused
         want = f"DAA UNAVAILABLE traffic down sbs:127.0.0.1:{port}"
         assert wait_for(lambda: (m2.MAV_SEVERITY_WARNING, want) in _texts(autopilot))
         assert wait_for(lambda: autopilot.messages("HEARTBEAT")[-1].system_status == m2.MAV_STATE_CRITICAL)
         assert wait_for(lambda: onboard.of("status")[-1]["unavailable_reason"] == "no_traffic_source")
         assert wait_for(lambda: _lost_flagged(autopilot, 2))
         status_down = onboard.of("status")[-1]
-        threading.Event().wait(max(0.0, silent_at + SILENCE_S - time.monotonic()))  # the silence lasts 10 s
-        found_at = len(onboard.of("advisory"))
-        receiver = SbsServer(events, port=port, start_s=clock(), clock=clock).start()  # the receiver is back
+
+        def resume():  # the receiver is back on the same port
+            receivers.append(SbsServer(events, port=port, start_s=clock(), clock=clock).start())
+
+        _end_the_silence(autopilot, onboard, silent_at, resume, before, texts_before)
         assert wait_for(lambda: (m2.MAV_SEVERITY_NOTICE, "DAA AVAILABLE") in _texts(autopilot))
-        assert wait_for(lambda: any(p["level"] == "RA" and p["reason"] != "lost"
-                                    for p in onboard.of("advisory")[found_at:]))
-        _check_silence(autopilot, onboard, before, texts_before)
     finally:
-        if receiver is not None:
+        for receiver in receivers:
             receiver.stop()
         if autopilot is not None:
             autopilot.stop()

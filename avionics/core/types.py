@@ -109,7 +109,7 @@ class Advisory:
     intruder: IntruderKey
     level: AdvisoryLevel
     time_s: float
-    reason: str  # why the level is what it is: "tau", "range", "diverging", "stale", "no_ownship", ...
+    reason: str  # why the level is what it is: "tau", "range", "diverging", "stale", "lost", "no_ownship", ...
     sensitivity_level: int
     range_m: float
     closure_rate_mps: float  # positive when closing
