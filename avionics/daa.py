@@ -8,8 +8,9 @@ published track states (geodetic and local) and the status with the counters.
 
 Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, without ownship
 pressure altitude while a pressure-altitude intruder is tracked, while an intruder or the step is in the failed
-state (pipeline.py), while its only traffic source is down (`traffic_down`), and once the process stops. A change is reported once (`availability_changed`); start-up
-without ownship, and the first fix after it, are not changes (HEARTBEAT and status say it).
+state (pipeline.py), while its only traffic source is down (`traffic_down`), and once the process stops. A change
+is reported once (`availability_changed`); start-up without ownship, and the first fix after it, are not changes
+(HEARTBEAT and status say it).
 """
 
 from __future__ import annotations
@@ -303,7 +304,7 @@ class Daa:
                                                                                           AdvisoryLevel.RA)},
             "warnings": warnings,
             "daa_available": unavailable is None,
-            "unavailable_reason": unavailable,  # no_ownship | no_pressure_altitude | no_traffic_source | fault | shutdown
+            "unavailable_reason": unavailable,  # as DaaResult.unavailable_reason
             "failed_intruders": {str(k): f.stage for k, f in sorted(core.faults.items())},
             "spoof_suspected": sorted(str(k) for k in sources.spoof_suspected),  # also sent by a second sender
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
