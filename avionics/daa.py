@@ -9,9 +9,9 @@ published track states (geodetic and local) and the status with the counters.
 Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, while ownship fixes
 keep failing the jump check, without ownship pressure altitude while a pressure-altitude intruder is tracked,
 while an intruder or the step is in the failed state (pipeline.py), while an intruder is spoof-suspected (its
-real reports may be the ones dropped), and once the process stops. A change is reported once
-(`availability_changed`); start-up without ownship, and the first fix after it, are not changes (HEARTBEAT and
-status say it).
+real reports may be the ones dropped), while its only traffic source is down (`traffic_down`), and once the
+process stops. A change is reported once (`availability_changed`); start-up without ownship, and the first fix
+after it, are not changes (HEARTBEAT and status say it).
 """
 
 from __future__ import annotations
@@ -40,14 +40,28 @@ class SourceStatus:
     the health of the receiver feeds (avionics/io/feeds/source.py FeedHealth: path, connected, error, reports,
     last_report_s, warning, as_dict(); docs/traffic-inputs.md), the components of our vehicle whose claim to send
     the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
-    io/senders.py), and whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
-    (io/ownship_check.py)."""
+    io/senders.py), whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
+    (io/ownship_check.py), and whether the MAVLink link has delivered traffic (an accepted ADSB_VEHICLE) since
+    start."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
     feeds: tuple = ()
     rejected_senders: frozenset[tuple[int, int, str]] = frozenset()
     ownship_inconsistent: bool = False
+    mavlink_traffic: bool = False
+
+
+def traffic_down(sources: SourceStatus) -> tuple:
+    """The receiver feeds, when they are the only traffic source and every one of them is down (FeedHealth of
+    each); () otherwise. A feed is down once it has failed (refused, closed, timed out: `error`) and is not
+    connected again; one still making its first connection is not. The MAVLink link counts as a traffic source
+    once it has delivered traffic: an autopilot's ADSB_VEHICLE path says nothing of its receiver's health, and
+    silence on it is also an empty sky (docs/mavlink.md, Availability)."""
+    feeds = sources.feeds
+    if not feeds or sources.mavlink_traffic or any(f.connected or f.error is None for f in feeds):
+        return ()
+    return feeds
 
 
 NO_SOURCE_STATUS = SourceStatus()
@@ -87,10 +101,13 @@ class DaaResult:
     assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (each built when read)
     active: Mapping[IntruderKey, Advisory]  # the latest advisory of every intruder at TA or RA
     callsigns: Mapping[IntruderKey, str | None]  # of the intruders in changes and active (read when asked)
-    # no_ownship | ownship_inconsistent | no_pressure_altitude | fault | spoof_suspected | shutdown; None: available
+    # no_ownship | ownship_inconsistent | no_pressure_altitude | fault | spoof_suspected | no_traffic_source |
+    # shutdown; None: available
     unavailable_reason: str | None
     availability_changed: bool  # announce it (STATUSTEXT, log)
-    fault_detail: str  # "track 1090es-A10001 +1" while unavailable for a fault, "1090es-A10001" for a spoof
+    # "track 1090es-A10001 +1" while unavailable for a fault, "1090es-A10001" for a spoof, the feed down for
+    # no_traffic_source
+    fault_detail: str
     sensitivity_level: int | None
     tracks: tuple[TrackView, ...] | None = None  # when asked for: every track, predicted to time_s
     status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
@@ -188,15 +205,22 @@ class Daa:
             return "fault"
         if sources.spoof_suspected:  # the intruder's real reports may be the ones dropped: its alert may be lost
             return "spoof_suspected"
+        if traffic_down(sources):
+            return "no_traffic_source"
         if own.pressure_altitude_m is None and any(t.datum is AltitudeDatum.PRESSURE
                                                    for t in core.tracker.tracks.values()):
             return "no_pressure_altitude"
         return None
 
-    def _detail(self, reason: str, sources: SourceStatus) -> str:
+    def _detail(self, reason: str | None, sources: SourceStatus) -> str:
+        """What the availability text adds to reason: the failed stage and intruder, the spoofed intruder, or the
+        feed down."""
         if reason == "spoof_suspected":
             first, *more = sorted(str(k) for k in sources.spoof_suspected)
             return first + (f" +{len(more)}" if more else "")
+        if reason == "no_traffic_source":
+            down = traffic_down(sources)
+            return down[0].path + (f" +{len(down) - 1}" if len(down) > 1 else "")
         if reason != "fault":
             return ""
         core = self._core
@@ -284,6 +308,8 @@ class Daa:
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
+        if traffic_down(sources):
+            warnings.append("no traffic source: every receiver feed is down and MAVLink has delivered no traffic")
         ownship = None
         if own is not None:
             lat, lon, (ve, vn) = core.frame.to_true(own.x[0], own.x[1], own.x[3:5])

@@ -19,7 +19,7 @@ from typing import Iterable, Iterator, Protocol
 
 from avionics.config import Config
 from avionics.core.faults import FaultLog
-from avionics.core.types import Input
+from avionics.core.types import Input, IntruderReport
 from avionics.daa import Daa, DaaResult, SourceStatus
 from avionics.io.decode import MessageDecoder
 from avionics.ports import NOTHING, OutputPort
@@ -47,6 +47,7 @@ class MavlinkInput:
         self.decoder = MessageDecoder(config, counters)
         self._fault = FaultLog(counters)
         self._now_s = 0.0  # the last batch's time: how long ownship fixes have been rejected is judged at it
+        self.traffic = False  # an accepted ADSB_VEHICLE since start: MAVLink is a traffic source (daa.py traffic_down)
 
     def decode(self, msgs: Iterable, now_s: float) -> list[Input]:
         self._now_s = now_s
@@ -59,13 +60,15 @@ class MavlinkInput:
                 continue
             if item is not None:
                 inputs.append(item)
+                self.traffic = self.traffic or type(item) is IntruderReport
         return inputs
 
     def status(self) -> SourceStatus:
         decoder = self.decoder
         return SourceStatus(frozenset(decoder.spoof_suspected), decoder.pressure_rejection is not None,
                             rejected_senders=decoder.senders.active_suspects(self._now_s),
-                            ownship_inconsistent=decoder.ownship_check.failing(self._now_s))
+                            ownship_inconsistent=decoder.ownship_check.failing(self._now_s),
+                            mavlink_traffic=self.traffic)
 
 
 class LinkSource:

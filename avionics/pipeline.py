@@ -39,7 +39,7 @@ from typing import Iterable
 import numpy as np
 
 from avionics.advisory.alerting import Encounter
-from avionics.advisory.logic import AdvisoryStates
+from avionics.advisory.logic import AdvisoryStates, lost_hold
 from avionics.advisory.resolution import Threat
 from avionics.advisory.tables import SensitivityLevel
 from avionics.compose import Components, build_components
@@ -48,7 +48,7 @@ from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.frame import FrameChange, TrackingFrame
 from avionics.core.types import (
-    ASSESSMENT_FIELDS,
+    ASSESSMENT_FIELDS, LOST,
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.tracking.interface import Tracker
@@ -316,7 +316,8 @@ class DaaCore:
             for key in self.tracker.prune(now_s):
                 gone = self._latest.get(key)
                 if gone is not None and self.states.level_of(key) is not AdvisoryLevel.NONE:
-                    changes.append(_with_level(_advisory_of(gone), now_s, AdvisoryLevel.NONE, "deleted"))
+                    # still alerting when deleted: a lost threat held until now (advisory/logic.py lost_hold)
+                    changes.append(_with_level(_advisory_of(gone), now_s, AdvisoryLevel.NONE, LOST))
                 self._forget(key)
             self._expire_faults(now_s)
         periodic = self._slice(now_s, period, tick)
@@ -426,12 +427,18 @@ class DaaCore:
         candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
         live = np.array([i for i, k in enumerate(keys) if k not in failed], np.intp) if failed else \
             np.arange(len(keys))
-        alerts = np.where(stale, NONE, candidates)
         rows = self.states.rows([keys[i] for i in live])
         previous_level = self.states.level[rows].astype(int)
         previous_alert = self.states.alert[rows].astype(int)
+        # a stale track ends its alert at once, unless it is a lost threat whose coasted track still calls for it:
+        # that alert is held at its level (advisory/logic.py lost_hold), with the DMOD of that level
+        ra_dmod = level.ra_dmod_m if level.ra_dmod_m is not None else level.ta_dmod_m
+        dmod = np.where(previous_level == RA, ra_dmod, level.ta_dmod_m)
+        held, lost = lost_hold(previous_level, stale[live], geometry.s_dot_v[live] < 0.0, geometry.range_m[live], dmod)
+        alerts = np.where(stale, NONE, candidates)
+        alerts[live[held]] = previous_alert[held]
         ta_hold_s = self.alerter.level(int(AdvisoryLevel.TA)).min_duration_s  # TCAS II: a TA stays 8 s
-        self.states.next(rows, now_s, self._advisory_level[alerts[live]], ta_hold_s, force=stale[live])
+        self.states.next(rows, now_s, self._advisory_level[alerts[live]], ta_hold_s, force=stale[live] & ~held)
         levels = self.states.level[rows].astype(int)
         own_levels = self.alerter.own_levels
         self.states.alert[rows] = alerts[live] if own_levels else levels
@@ -473,7 +480,7 @@ class DaaCore:
                 continue
             try:
                 advisory = self._built(step, i, key, levels[j], candidates[i], stale[i], continued[i], level,
-                                       resolution, blocked)
+                                       resolution, blocked, lost[j])
             except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory)
                 self._fail(now_s, key, "advisory", exc, changes, failed)
                 continue
@@ -492,14 +499,17 @@ class DaaCore:
         return out
 
     def _built(self, step: _Rows, i, key, level_number, candidate_alert, stale, continued, level, resolution,
-               blocked) -> Advisory:
-        """Intruder i's advisory from the step's arrays, with its level's reason and its RA."""
+               blocked, lost) -> Advisory:
+        """Intruder i's advisory from the step's arrays, with its level's reason and its RA. lost: a lost threat
+        (held, or ending): its reason is LOST whatever else holds."""
         state = AdvisoryLevel(int(level_number))
         if blocked and state is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
             state = AdvisoryLevel.TA
             self.states.level[self.states.row(key)] = int(state)
         threat = self._ra_threats.get(key) if state is AdvisoryLevel.RA else None
-        if blocked and key in self._ra_threats:
+        if lost:
+            reason = LOST
+        elif blocked and key in self._ra_threats:
             reason = blocked
         elif threat is not None and resolution.reason:
             reason = resolution.reason
@@ -827,7 +837,7 @@ class DaaCore:
         return self._last_ownship
 
 
-NONE = int(AdvisoryLevel.NONE)
+NONE, RA = int(AdvisoryLevel.NONE), int(AdvisoryLevel.RA)
 
 
 def _ra_fields(r, threat) -> dict:

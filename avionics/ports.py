@@ -294,8 +294,8 @@ class ZenohOut:
 
 
 class LogOut:
-    """The process log: advisory changes (alerts and unavailability at WARNING, clear at INFO), changes of
-    availability and rejected senders."""
+    """The process log: advisory changes (alerts, unavailability and lost threats at WARNING, clear at INFO),
+    changes of availability and rejected senders."""
 
     def __init__(self, logger: logging.Logger | None = None):
         self.log = logger or logging.getLogger("avionics")
@@ -306,7 +306,7 @@ class LogOut:
 
     def publish(self, result: DaaResult) -> None:
         for advisory in result.changes:
-            alert = advisory.level is not AdvisoryLevel.NONE or advisory.reason in UNAVAILABLE_REASONS
+            alert = advisory.level is not AdvisoryLevel.NONE or advisory.reason in UNAVAILABLE_REASONS or advisory.lost
             self.log.log(logging.WARNING if alert else logging.INFO, "t=%7.2f %s", result.time_s,
                          encode.advisory_text(advisory, result.callsigns.get(advisory.intruder)))
         if result.availability_changed:

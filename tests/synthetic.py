@@ -54,6 +54,7 @@ class Encounter:
     pressure: bool = True  # ownship SCALED_PRESSURE available
     report_from_s: float = 0.0
     report_until_s: float = float("inf")
+    report_gap_s: tuple[float, float] | None = None  # (from, until): no intruder report in between
     ownship_until_s: float = float("inf")
     overrides: list[str] = field(default_factory=list)
     plane: LocalTangentPlane = PLANE  # where on Earth the encounter is flown
@@ -77,7 +78,8 @@ class Encounter:
                 inputs.append(OwnshipFix(t, float(lat), float(lon), alt, alt, (vn, ve, -vu)))
                 if self.pressure:
                     inputs.append(OwnshipPressure(t, alt))
-            if abs(t - round(t)) < 1e-6 and self.report_from_s <= t <= self.report_until_s:
+            gap = self.report_gap_s is not None and self.report_gap_s[0] < t < self.report_gap_s[1]
+            if abs(t - round(t)) < 1e-6 and self.report_from_s <= t <= self.report_until_s and not gap:
                 e, n, alt = self.intruder.at(t)
                 lat, lon = self.plane.to_geodetic(e, n)
                 ve, vn, vu = self.intruder.velocity(t)

@@ -87,15 +87,15 @@ def _threat_run(slice_: int, n_quiet: int = 200, dt: float = 0.01, until_s: floa
     return core, out
 
 
-def test_a_threat_among_many_quiet_intruders_alerts_as_with_one_full_pass_per_tick_and_goes_stale_on_time():
+def test_a_threat_among_many_quiet_intruders_alerts_as_with_one_full_pass_per_tick_and_is_lost_on_time():
     sliced_core, sliced = _threat_run(slice_=8)
     _, full = _threat_run(slice_=10**6)
     assert sliced_core.counters["assessment.pass_overrun"] == 0
     assert [(lvl, why) for _, lvl, why in sliced] == [(lvl, why) for _, lvl, why in full]
-    assert AdvisoryLevel.TA in [lvl for _, lvl, _ in full] and full[-1][1:] == (AdvisoryLevel.NONE, "stale")
+    assert AdvisoryLevel.TA in [lvl for _, lvl, _ in full] and full[-1][1:] == (AdvisoryLevel.TA, "lost")
     for (ts, _, _), (tf, _, _) in zip(sliced, full, strict=True):
         assert abs(ts - tf) <= PERIOD_S + 1e-6
-    # stale: no report for more than tracking.max_coast_s (6 s) after the last one at 25 s, seen within a period
+    # lost: no report for more than tracking.max_coast_s (6 s) after the last one at 25 s, seen within a period
     assert 31.0 < sliced[-1][0] <= 31.0 + PERIOD_S + 0.01 + 1e-6
 
 

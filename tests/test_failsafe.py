@@ -96,7 +96,7 @@ class Autopilot:
 
 class Onboard:
     """`avionics run` as a child process on udpin:PORT with its zenoh session listening on loopback, and a zenoh
-    peer session subscribed to its advisories, status and liveliness token."""
+    peer session subscribed to its advisories, status and liveliness token. args: more `avionics run` arguments."""
 
     def __init__(self, vehicle: str, args: tuple = ()):
         """args: more `avionics run` options (e.g. output files)."""

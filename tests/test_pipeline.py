@@ -92,14 +92,15 @@ def test_ta_stays_at_least_8_s():
     assert none.reason in ("diverging", "clear")
 
 
-def test_stale_track_drops_its_advisory_without_the_ta_hold():
+def test_stale_alerting_track_is_a_lost_threat_never_a_clear_one():
+    # (tests/test_lost_threat.py has the rule: held on the coasted track, then ended as lost)
     t_ta = onset(R0, 2 * V, 30, 0.48 * NM)
     last = math.ceil(t_ta) + 1  # reports stop just after the TA onset
     _, changes = head_on(report_until_s=last).run(110)
-    assert level_sequence(changes)[:2] == [AdvisoryLevel.TA, AdvisoryLevel.NONE]
-    t_drop, drop = changes[1]
-    assert drop.reason == "stale"
-    assert t_drop == pytest.approx(last + 6.0, abs=0.11)  # tracking.max_coast_s
+    t_lost, lost = changes[1]
+    assert (lost.level, lost.reason) == (AdvisoryLevel.TA, "lost")
+    assert t_lost == pytest.approx(last + 6.0, abs=0.11)  # tracking.max_coast_s
+    assert not any(c.reason in ("stale", "clear", "diverging") for _, c in changes)
 
 
 def test_lost_ownship_ends_advisories():

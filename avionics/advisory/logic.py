@@ -4,6 +4,9 @@
 
 One row per intruder (a key's row is reused after it is forgotten), so that a step moves every assessed
 intruder's state in a few numpy operations instead of a Python object per intruder (issue 13, item 2).
+
+A lost threat (`lost_hold`): an alerting intruder whose reports stopped for tracking.max_coast_s keeps its level on
+its coasted track until that track says the encounter is over, and then ends as lost, never as clear.
 """
 
 from __future__ import annotations
@@ -89,3 +92,21 @@ class AdvisoryStates:
         self.onset_s[rows] = math.nan
         self.alert[rows] = NONE
         return was
+
+
+def lost_hold(previous_level: np.ndarray, stale: np.ndarray, closing: np.ndarray, range_m: np.ndarray,
+              dmod_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lost threats among the rows, and those of them whose alert is held: (held, lost), (N,) bools.
+
+    Lost: an intruder alerting (TA or RA) whose track is stale (no report for tracking.max_coast_s). "Clear of
+    conflict" is a statement about the geometry, which a lost track no longer gives, so its alert neither ends as
+    clear nor changes level: it is held on the coasted track, whose state is the last one projected to now as
+    NASA DAIDALUS projects a traffic state that is not current (docs/index.md, "Dealing with Asynchronous
+    Inputs"), for as long as that track still calls for an alert by the test that ends one: closing, or within
+    the held level's DMOD (TCAS II: an RA ends once the range increases, "Clear of Conflict" — FAA, Introduction
+    to TCAS II v7.1; the horizontal test: range within DMOD, or closing within tau — DAIDALUS TCAS2D). Once the
+    coasted track has passed its closest point of approach and left DMOD, the alert ends, as lost. The track's
+    deletion (tracking.delete_after_s) ends it sooner (pipeline.py)."""
+    lost = np.asarray(stale, bool) & (np.asarray(previous_level) != NONE)
+    held = lost & (np.asarray(closing, bool) | (np.asarray(range_m) <= np.asarray(dmod_m)))
+    return held, lost

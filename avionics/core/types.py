@@ -109,7 +109,7 @@ class Advisory:
     intruder: IntruderKey
     level: AdvisoryLevel
     time_s: float
-    reason: str  # why the level is what it is: "tau", "range", "diverging", "stale", "no_ownship", ...
+    reason: str  # why the level is what it is: "tau", "range", "diverging", "stale", "lost", "no_ownship", ...
     sensitivity_level: int
     range_m: float
     closure_rate_mps: float  # positive when closing
@@ -148,8 +148,15 @@ class Advisory:
     alert_name: str | None = None
 
     def ra_key(self) -> tuple:
-        """What a pilot would hear change: level, sense, strength, reversal, the DO-365 alert level."""
-        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.ra_composite, self.alert_level)
+        """What a pilot would hear change: level, sense, strength, reversal, composite, the DO-365 alert level,
+        the traffic lost or found again."""
+        return (self.level, self.ra_sense, self.ra_strength, self.ra_reversed, self.ra_composite, self.alert_level,
+                self.lost)
+
+    @property
+    def lost(self) -> bool:
+        """A lost threat (advisory/logic.py lost_hold): held on its coasted track, or ended without a clear."""
+        return self.reason == LOST
 
     def assessment(self) -> tuple:
         """Its ASSESSMENT_FIELDS, in order."""
@@ -165,6 +172,9 @@ class Advisory:
 # An advisory that ends because DAA cannot work for the intruder (not because it is clear): announced as
 # "DAA UNAVAILABLE", at warning severity, never as "CLEAR OF CONFLICT".
 UNAVAILABLE_REASONS = ("no_ownship", "fault", "shutdown")
+# The reason of a lost threat's advisory: its reports stopped while it was alerting (advisory/logic.py lost_hold).
+# Announced as "TRAFFIC LOST", never as "CLEAR OF CONFLICT": a lost track says nothing about the geometry.
+LOST = "lost"
 
 
 # The fields of a track's latest assessment that its publications repeat (zenoh `traffic` and `tracks/`).

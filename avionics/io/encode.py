@@ -25,6 +25,9 @@ ACTION = {
     AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_REPORT,
 }
 ACTION_REQUEST = {**ACTION, AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND}
+# A lost threat held at its level (advisory/logic.py lost_hold) keeps that level's threat_level ("how concerned the
+# aircraft is about this collision", common.xml) and action: the concern and the manoeuvre are unchanged, and
+# MAV_COLLISION_ACTION has no value for "lost" (DAA_ADVISORY's TRAFFIC_LOST flag and STATUSTEXT say it).
 SEVERITY = {
     AdvisoryLevel.NONE: mavlink2.MAV_SEVERITY_INFO,
     AdvisoryLevel.TA: mavlink2.MAV_SEVERITY_WARNING,
@@ -33,8 +36,8 @@ SEVERITY = {
 STATUSTEXT_LEN = 50
 # Why DAA is unavailable (DaaResult.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
 UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude": "no pressure altitude",
-                     "fault": "fault", "shutdown": "shutdown", "ownship_inconsistent": "ownship jumps",
-                     "spoof_suspected": "spoof"}
+                     "no_traffic_source": "traffic down", "fault": "fault", "shutdown": "shutdown",
+                     "ownship_inconsistent": "ownship jumps", "spoof_suspected": "spoof"}
 
 
 def collision(advisory: Advisory, request_action: bool = False):
@@ -56,10 +59,15 @@ def collision(advisory: Advisory, request_action: bool = False):
 
 
 def advisory_text(advisory: Advisory, callsign: str | None = None) -> str:
-    """One line for a pilot's ground station, at most 50 characters: "RA CLIMB 1500 FPM ABC123"."""
+    """One line for a pilot's ground station, at most 50 characters: "RA CLIMB 1500 FPM ABC123". A lost threat
+    (advisory/logic.py lost_hold) is "TRAFFIC LOST <who> RA HELD" while held, "TRAFFIC LOST <who> (ended)" at its
+    end: never "CLEAR OF CONFLICT"."""
     who = callsign or str(advisory.intruder)
     if advisory.level is AdvisoryLevel.NONE and advisory.reason in UNAVAILABLE_REASONS:
         return f"DAA UNAVAILABLE {who} ({advisory.reason})"[:STATUSTEXT_LEN]
+    if advisory.lost:
+        state = "(ended)" if advisory.level is AdvisoryLevel.NONE else f"{advisory.level.name} HELD"
+        return f"TRAFFIC LOST {who} {state}"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.NONE:
         return f"CLEAR OF CONFLICT {who} ({advisory.reason})"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.RA and advisory.ra_words:
@@ -100,7 +108,8 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
              | (mavlink2.DAA_ADVISORY_FLAGS_DATUM_MISMATCH if advisory.datum_mismatch else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_ALTITUDE_UNKNOWN if advisory.vmd_m is None else 0)
              | (mavlink2.DAA_ADVISORY_FLAGS_UAT if advisory.intruder.source.value == "uat" else 0)
-             | (mavlink2.DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED if advisory.integrity != "ok" else 0))
+             | (mavlink2.DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED if advisory.integrity != "ok" else 0)
+             | (mavlink2.DAA_ADVISORY_FLAGS_TRAFFIC_LOST if advisory.lost else 0))
     return mavlink2.MAVLink_daa_advisory_message(
         id=advisory.intruder.address, level=int(advisory.level), sense=SENSE[advisory.ra_sense],
         strength=STRENGTH[advisory.ra_strength], flags=flags, sensitivity_level=advisory.sensitivity_level,
@@ -142,8 +151,9 @@ def daa_bands(bands) -> list:
 
 
 def advisory_severity(advisory: Advisory) -> int:
-    """STATUSTEXT severity of an advisory change: by level; an end for lack of DAA is a warning."""
-    if advisory.level is AdvisoryLevel.NONE and advisory.reason in UNAVAILABLE_REASONS:
+    """STATUSTEXT severity of an advisory change: by level; an end for lack of DAA, or of a lost threat, is a
+    warning (not the INFO of a clear of conflict)."""
+    if advisory.level is AdvisoryLevel.NONE and (advisory.reason in UNAVAILABLE_REASONS or advisory.lost):
         return mavlink2.MAV_SEVERITY_WARNING
     return SEVERITY[advisory.level]
 

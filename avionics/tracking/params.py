@@ -45,7 +45,7 @@ class TrackingConfig:
     vertical_rate_sigma_mps: float = 1.0  # 64 fpm quantisation
     horizontal_accel_sigma_mps2: float = 1.5  # CV model white-acceleration noise
     vertical_accel_sigma_mps2: float = 0.7
-    max_coast_s: float = 6.0  # without reports for longer: advisory dropped, reason "stale"
+    max_coast_s: float = 6.0  # without reports for longer: an alert is a lost threat (advisory/logic.py lost_hold)
     delete_after_s: float = 20.0  # without reports for longer: track deleted
     max_innovation_speed_mps: float = 400.0  # a report implying a jump faster than this is not this aircraft
     # Track filter (docs/tracking.md): cv = one Kalman CV filter per track; imm, rmimm (Hwang's residual-mean

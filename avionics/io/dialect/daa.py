@@ -441,10 +441,12 @@ DAA_ADVISORY_FLAGS_UAT = 16
 enums["DAA_ADVISORY_FLAGS"][16] = EnumEntry("DAA_ADVISORY_FLAGS_UAT", """The intruder address came from UAT (else 1090ES).""")
 DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED = 32
 enums["DAA_ADVISORY_FLAGS"][32] = EnumEntry("DAA_ADVISORY_FLAGS_INTEGRITY_DEGRADED", """The intruder's ADS-B integrity is degraded (field integrity says how): its uncertainty is widened and, inside DMOD and ZTHR by its reported position, it gets at least a TA.""")
-DAA_ADVISORY_FLAGS_COMPOSITE = 64
-enums["DAA_ADVISORY_FLAGS"][64] = EnumEntry("DAA_ADVISORY_FLAGS_COMPOSITE", """A composite RA against threats above and below (DON'T CLIMB DON'T DESCEND, or LEVEL OFF): one manoeuvre, level flight; sense is the sense away from this intruder. The same RA is reported against every threat.""")
-DAA_ADVISORY_FLAGS_ENUM_END = 65
-enums["DAA_ADVISORY_FLAGS"][65] = EnumEntry("DAA_ADVISORY_FLAGS_ENUM_END", """""")
+DAA_ADVISORY_FLAGS_TRAFFIC_LOST = 64
+enums["DAA_ADVISORY_FLAGS"][64] = EnumEntry("DAA_ADVISORY_FLAGS_TRAFFIC_LOST", """The intruder's reports stopped while it was a threat (a lost threat, not a clear one): at TA or RA, the advisory is held on its coasted track, geometry fields dead-reckoned; at level NONE, it ended without a clear of conflict (the coasted track passed its closest approach, or the track was deleted).""")
+DAA_ADVISORY_FLAGS_COMPOSITE = 128
+enums["DAA_ADVISORY_FLAGS"][128] = EnumEntry("DAA_ADVISORY_FLAGS_COMPOSITE", """A composite RA against threats above and below (DON'T CLIMB DON'T DESCEND, or LEVEL OFF): one manoeuvre, level flight; sense is the sense away from this intruder. The same RA is reported against every threat.""")
+DAA_ADVISORY_FLAGS_ENUM_END = 129
+enums["DAA_ADVISORY_FLAGS"][129] = EnumEntry("DAA_ADVISORY_FLAGS_ENUM_END", """""")
 
 # DAA_INTEGRITY
 enums["DAA_INTEGRITY"] = Enum()
