@@ -294,3 +294,173 @@ def test_readsb_json_nac_reaches_the_tracks_measurement_noise(transport, tmp_pat
     assert np.trace(precise.p[3:5, 3:5]) < np.trace(coarse.p[3:5, 3:5])
     assert counters["traffic.readsb-json.reports"] >= 10 and counters["traffic.readsb-json.documents"] >= 5
     assert position_sigma_per_axis(3.0) < 1.3  # NACp 11's sigma, the precise track's measurement noise
+
+
+# --- a readsb HTTP source that stalls, or serves too much, is a feed fault (issue 25) --------------------------------
+
+TRICKLE_S = 0.5  # a byte every 0.5 s: each read returns well within the 2 s socket timeout (readsb_json.py)
+
+
+def aircraft_json_server(body: bytes, length: bool = True):
+    """A threaded HTTP server on 127.0.0.1 serving `handler.body` whole, or a byte every TRICKLE_S from its headers
+    (`handler.mode = "headers"`) or its body ("body"): a source that keeps the connection alive and never completes
+    a document. Returns (server, handler class, URL)."""
+
+    class Handler(http.server.BaseHTTPRequestHandler):
+        mode = "whole"
+        stop = threading.Event()
+
+        def do_GET(self):  # noqa: N802
+            cls = type(self)
+            size = f"Content-Length: {len(cls.body)}\r\n" if length else ""
+            head = f"HTTP/1.0 200 OK\r\nContent-Type: application/json\r\n{size}\r\n".encode()
+            data, start = head + cls.body, {"whole": None, "body": len(head), "headers": 0}[cls.mode]
+            try:
+                if start is None:
+                    self.wfile.write(data)
+                    return
+                self.wfile.write(data[:start])
+                for i in range(start, len(data)):
+                    if cls.stop.wait(TRICKLE_S):
+                        return
+                    self.wfile.write(data[i:i + 1])
+            except OSError:
+                pass  # the client gave up (its deadline cut the connection)
+
+        def log_message(self, *args):
+            pass
+
+    Handler.body = body
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server, Handler, f"http://127.0.0.1:{server.server_address[1]}/data/aircraft.json"
+
+
+def stop_server(server, handler) -> None:
+    handler.stop.set()
+    server.shutdown()
+    server.server_close()
+
+
+@pytest.mark.live
+@pytest.mark.parametrize("stalls", ["body", "headers"])
+def test_a_readsb_http_source_that_never_completes_a_document_is_down_with_a_warning(stalls):
+    """Before: a byte a second kept the feed "connected", without a warning, while it delivered nothing. Now a fetch
+    that has not completed within input.max_report_age_s (3 s) fails the session: the status warns, the source is
+    retried and reads again once the server answers whole documents."""
+    config = load_config(None, ["zenoh.enabled=false", "traffic.readsb_poll_s=0.2"])
+    t0 = time.monotonic()
+
+    def clock():
+        return time.monotonic() - t0
+
+    server, handler, url = aircraft_json_server(readsb_document(1.7e9, 0.0))
+    counters = Counter()
+    feeds = FeedSet.open([f"readsb-json:{url}"], config, clock, counters)
+    feeds.start()
+    try:
+        def delivering() -> bool:
+            handler.body = readsb_document(1.7e9 + clock(), clock())
+            before = counters["traffic.readsb-json.reports"]
+            feeds.drain(clock())
+            return feeds.health[0].connected and counters["traffic.readsb-json.reports"] > before
+
+        assert wait_for(delivering, period_s=0.1)
+        handler.mode = stalls
+        stalled_at = time.monotonic()
+        assert wait_for(lambda: not feeds.drain(clock()) and not feeds.health[0].connected)
+        health = feeds.health[0]
+        print(json.dumps({"stalls": stalls, "down_after_s": round(time.monotonic() - stalled_at, 2),
+                          "error": health.error}))
+        assert health.error.startswith("TimeoutError") and "within 3 s" in health.error
+        assert health.warning.startswith(f"traffic source readsb-json:{url} down (TimeoutError")
+        assert counters["traffic.readsb-json.document_timeouts"] >= 1
+        handler.mode = "whole"
+        assert wait_for(delivering, period_s=0.1)  # retried: reads again
+    finally:
+        feeds.close()
+        stop_server(server, handler)
+    assert not feeds.feeds[0]._thread.is_alive()
+
+
+@pytest.mark.live
+@pytest.mark.parametrize("transport", ["http", "http-without-length", "file"])
+def test_a_readsb_document_above_the_size_limit_is_refused_with_a_warning(transport, tmp_path):
+    """Before: a 50 MB aircraft.json was read and parsed (the loop stalled 2.2-4.8 s, 290 MB kept). Now a document
+    above MAX_DOCUMENT_BYTES (4 MiB: 4000 aircraft, the merge's limit, at 1 KiB) is refused: the source is down
+    with a warning and a count, and is read again once the document is back to size."""
+    config = load_config(None, ["zenoh.enabled=false", "traffic.readsb_poll_s=0.2"])
+    t0 = time.monotonic()
+
+    def clock():
+        return time.monotonic() - t0
+
+    good = readsb_document(1.7e9, 0.0)
+    big = good[:-1] + b', "padding": "' + b"x" * (4 * 2**20) + b'"}'
+    server = handler = None
+    if transport == "file":
+        target = tmp_path / "aircraft.json"
+        target.write_bytes(big)
+    else:
+        server, handler, target = aircraft_json_server(big, length=transport == "http")
+    counters = Counter()
+    feeds = FeedSet.open([f"readsb-json:{target}"], config, clock, counters)
+    feeds.start()
+    try:
+        assert wait_for(lambda: counters["traffic.readsb-json.rejected.document_too_large"] >= 2
+                        or feeds.drain(clock()) is None)
+        health = feeds.health[0]
+        print(json.dumps({"transport": transport, "error": health.error}))
+        assert not health.connected and health.error.startswith("DocumentTooLarge")
+        assert health.warning.startswith("traffic source readsb-json:") and "down (DocumentTooLarge" in health.warning
+        assert counters["traffic.readsb-json.reports"] == 0 and not counters["traffic.readsb-json.documents"]
+        if handler is not None:
+            handler.body = good
+        else:
+            target.write_bytes(good)
+        assert wait_for(lambda: feeds.drain(clock()) is None or counters["traffic.readsb-json.reports"] > 0)
+        assert feeds.health[0].connected
+    finally:
+        feeds.close()
+        if server is not None:
+            stop_server(server, handler)
+
+
+@pytest.mark.live
+def test_a_readsb_document_with_a_400_digit_number_and_a_unicode_squawk_still_tracks_the_good_aircraft():
+    """Before: one such entry made every poll fail (document() raised), and no aircraft of the receiver was
+    tracked while `reports` counted them. Now each bad field is its entry's: counted, the good aircraft tracked."""
+    config = load_config(None, ["zenoh.enabled=false", "traffic.readsb_poll_s=0.2"])
+    t0 = time.monotonic()
+
+    def clock():
+        return time.monotonic() - t0
+
+    def document(t: float) -> bytes:
+        doc = json.loads(readsb_document(1.7e9 + t, t))
+        good = doc["aircraft"][0]
+        doc["aircraft"] = [dict(good, hex="c00003", alt_baro=int("9" * 400)), good, dict(good, hex="c00004",
+                                                                                          squawk="²")]
+        return json.dumps(doc).encode()
+
+    server, handler, url = aircraft_json_server(document(0.0))
+    counters = Counter()
+    daa = Daa(config, counters)
+    feeds = FeedSet.open([f"readsb-json:{url}"], config, clock, counters)
+    feeds.start()
+    try:
+        def tracked() -> bool:
+            now = clock()
+            handler.body = document(now)
+            daa.step(now, feeds.drain(now))
+            track = daa._core.tracker.tracks.get(IntruderKey(0xC00001, INTRUDER.address_source))
+            return track is not None and track.n_updates >= 5
+
+        assert wait_for(tracked, period_s=0.1)
+    finally:
+        feeds.close()
+        stop_server(server, handler)
+    assert feeds.health[0].connected and not counters["traffic.readsb-json.errors"]
+    assert counters["traffic.readsb-json.rejected.altitude_out_of_range"] >= 5
+    assert counters["traffic.readsb-json.rejected.squawk_invalid"] >= 5
+    assert counters["traffic.readsb-json.reports"] == feeds.feeds[0].reports  # counted = delivered
