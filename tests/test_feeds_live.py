@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import http.server
 import json
+import math
+import random
 import threading
 import time
 from collections import Counter
@@ -21,8 +23,10 @@ from collections import Counter
 import avionics.io  # noqa: F401  (MAVLink 2)
 import numpy as np
 import pytest
+from pyModeS import Message
 
 from avionics.config import load_config
+from avionics.core.geodesy import WGS84_A
 from avionics.core.types import IntruderKey
 from avionics.daa import Daa
 from avionics.io.feeds.sbs import SbsParser
@@ -31,7 +35,8 @@ from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.tracking.integrity import position_sigma_per_axis
 from avionics_sitl.autopilot import AutopilotConfig, Packer, schedule
-from avionics_sitl.beast import BeastServer, beast_schedule
+from avionics_sitl.beast import CLOCK_HZ as BEAST_CLOCK_HZ, BeastConfig, BeastEvent, BeastServer, beast_frame, \
+    beast_schedule, df17
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.sbs import SbsServer, sbs_schedule
@@ -464,3 +469,71 @@ def test_a_readsb_document_with_a_400_digit_number_and_a_unicode_squawk_still_tr
     assert counters["traffic.readsb-json.rejected.altitude_out_of_range"] >= 5
     assert counters["traffic.readsb-json.rejected.squawk_invalid"] >= 5
     assert counters["traffic.readsb-json.reports"] == feeds.feeds[0].reports  # counted = delivered
+
+
+# --- CRC-valid Beast junk under a real aircraft's address cannot own its track (issue 25) ----------------------------
+
+def beast_junk(address: int, hz: float, duration_s: float, seed: int) -> list[BeastEvent]:
+    """CRC-valid DF17 airborne positions with random content under `address`, `hz` a second: TC 9-18 and the other
+    51 ME bits random (surveillance status, altitude, CPR format, latitude, longitude), the parity the CRC-24 of ICAO
+    Annex 10 Vol IV §3.1.2.3.3 (avionics_sitl.beast.df17; checked with pyModeS below), stamped as received."""
+    rng = random.Random(seed)
+    events = []
+    for k in range(int(duration_s * hz)):
+        t = (k + rng.random()) / hz
+        message = df17(address, rng.randint(9, 18) << 51 | rng.getrandbits(51))
+        ticks = BeastConfig().clock_start_ticks + int(round(t * BEAST_CLOCK_HZ))
+        events.append(BeastEvent(t, beast_frame(message, ticks), t, "junk"))
+    return events
+
+
+def metres_between(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    north = math.radians(lat2 - lat1) * WGS84_A
+    east = math.radians(lon2 - lon1) * WGS84_A * math.cos(math.radians(lat1))
+    return math.hypot(east, north)
+
+
+@pytest.mark.live
+def test_crc_valid_beast_junk_at_8_hz_under_the_intruders_address_never_moves_its_track(tcp_port):
+    """The head-on's intruder over Beast (no noise: the truth is exact to the CPR quantum) and, on the same TCP
+    connection, 8 junk positions a second under its address. Before: at 8 Hz the track restarted from junk, its
+    samples tens to thousands of km off, no TA or RA. Now every junk position is rejected before the tracker: at every
+    batch the track is within 3 sigma of the truth, its sigma what the real reports give, and the TA and RA come when
+    the ADSB_VEHICLE path gives them."""
+    reference = mavlink_reference()
+    _, (truth, *_) = SCENARIO.trajectories()
+    real = beast_schedule(SCENARIO, PRESETS["none"], duration_s=DURATION_S)
+    junk = beast_junk(INTRUDER.icao_address, 8.0, DURATION_S, seed=25)
+    assert all(Message(e.frame[2:].replace(b"\x1a\x1a", b"\x1a")[-14:]).crc_valid for e in junk)  # pyModeS agrees
+    t0 = time.monotonic()
+
+    def clock():
+        return (time.monotonic() - t0) * SPEED
+
+    counters = Counter()
+    with BeastServer(real + junk, port=tcp_port, clock=clock) as server:
+        feeds = FeedSet.open([f"beast:127.0.0.1:{server.port}"], CONFIG, clock, counters)
+        source = TrafficSource(OwnshipOverMavlink(MavlinkInput(CONFIG, counters), clock, DURATION_S), feeds)
+        daa = Daa(CONFIG, counters)
+        loop = Loop(daa, source, [])
+        changes, samples = [], []  # (time, error m, sigma m) of the intruder's track at each batch
+        for batch in source:
+            result = loop.step(batch)
+            changes += [(batch.now_s, a.level) for a in result.changes if a.intruder == KEY]
+            for view in daa.tracks(batch.now_s):
+                state = truth.state_at(batch.now_s)
+                samples.append((batch.now_s, metres_between(state.lat_deg, state.lon_deg, view.lat_deg, view.lon_deg),
+                                math.sqrt(view.p[0, 0] + view.p[1, 1])))
+    got = onsets(changes)
+    worst = max(samples, key=lambda s: s[1] / s[2])
+    print(json.dumps({"samples": len(samples), "worst_error_m": round(worst[1], 2), "its_sigma_m": round(worst[2], 2),
+                      "max_sigma_m": round(max(s[2] for s in samples[20:]), 2), "onsets_s": got, "reference_s": reference,
+                      "beast": {k: v for k, v in counters.items() if k.startswith("traffic.beast.cpr")}}))
+    assert len(samples) >= 0.9 * DURATION_S / TICK_S and len({s[0] for s in samples}) == len(samples)  # one track
+    assert all(error <= 3.0 * sigma for _, error, sigma in samples), worst
+    settled = [sigma for t, _, sigma in samples if t >= samples[0][0] + 2.0]  # after its first reports' 2 s
+    assert max(settled) <= 30.0  # the NACp 9 reports' bound (EPU 30 m): a track as good as its reports
+    assert abs(got["TA"] - reference["TA"]) <= 1.0 and abs(got["RA"] - reference["RA"]) <= 1.0
+    assert counters["traffic.beast.cpr_global"] == 1  # one reference for the whole encounter
+    assert counters["traffic.beast.cpr_implausible"] >= 0.5 * len(junk)  # the junk was heard, and rejected
+    assert counters["traffic.beast.reports"] >= 0.95 * sum(e.kind == "position" for e in real)
