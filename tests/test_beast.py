@@ -7,6 +7,7 @@ quantisation, and agreeing with our decoder on the same messages."""
 from __future__ import annotations
 
 import math
+import random
 from collections import Counter
 
 import pyModeS as pms
@@ -357,3 +358,43 @@ def test_a_malformed_beast_spec_is_a_configuration_error_before_anything_connect
 
     with pytest.raises(ConfigError, match="HOST:PORT"):
         open_feed(spec, load_config(), clock=lambda: 0.0)
+
+
+def test_a_second_position_stream_under_a_heard_aircrafts_address_cannot_take_its_reference():
+    """Forged messages at 48.8 N, consistent among themselves (a pair, then both formats), interleaved with the real
+    aircraft's at 47.3 N: the forged candidate is confirmed but contested (the real messages keep confirming the
+    reference), and no forged position is ever used."""
+    def pos(lat, odd):
+        return df17(0x123456, airborne_position_me(lat, 8.5, 5000, odd=odd)).hex()
+
+    hexes = [pos(47.3, i % 2 == 1) for i in range(4)]
+    for i in range(12):
+        hexes += [pos(48.8, i % 2 == 1), pos(47.3, i % 2 == 1)]
+    data = b"".join(beast_frame(bytes.fromhex(h), 1000 + int(i * 0.25 * CLOCK_HZ)) for i, h in enumerate(hexes))
+    out, counters, _ = decode_stream(data, received=lambda i: 0.25 * i)
+    assert {round(o.lat_deg, 3) for o in out if o is not None} == {47.3}
+    assert sum(o is not None for o in out[4:]) == 12  # every real message after the lock
+    assert counters["traffic.beast.cpr_global"] == 1 and counters["traffic.beast.cpr_contested"] >= 1
+
+
+def test_random_crc_valid_positions_under_an_aircrafts_address_never_give_a_position():
+    """600 junk positions (random ME of TC 9-18, valid parity) around a real aircraft flying north at 200 m/s: every
+    position used is the aircraft's (within the CPR quantum and 1 m of its motion)."""
+    rng = random.Random(7)
+    frames, truth = [], []
+    for k in range(80):  # the aircraft: 2 Hz, even and odd alternating
+        t = 0.5 * k
+        lat = 47.3 + 200.0 * t / 111_195.0
+        frames.append((t, df17(0x123456, airborne_position_me(lat, 8.5, 5000, odd=k % 2 == 1))))
+        truth.append(lat)
+    frames += [(rng.uniform(0.0, 40.0), df17(0x123456, rng.randint(9, 18) << 51 | rng.getrandbits(51)))
+               for _ in range(600)]
+    frames.sort(key=lambda f: f[0])
+    data = b"".join(beast_frame(m, 1000 + int(t * CLOCK_HZ)) for t, m in frames)
+    out, counters, _ = decode_stream(data, received=lambda i: frames[i][0])
+    used = [(frames[i][0], o) for i, o in enumerate(out) if o is not None]
+    assert len(used) >= 75  # every real message from the fourth on
+    for t, o in used:
+        lat = 47.3 + 200.0 * t / 111_195.0
+        assert o.lat_deg == pytest.approx(lat, abs=CPR_QUANTUM_LAT_DEG + 1e-5) and o.lon_deg == pytest.approx(8.5, abs=1e-4)
+    assert counters["traffic.beast.cpr_implausible"] > 500 and counters["traffic.beast.cpr_global"] == 1
