@@ -396,5 +396,6 @@ def test_random_crc_valid_positions_under_an_aircrafts_address_never_give_a_posi
     assert len(used) >= 75  # every real message from the fourth on
     for t, o in used:
         lat = 47.3 + 200.0 * t / 111_195.0
-        assert o.lat_deg == pytest.approx(lat, abs=CPR_QUANTUM_LAT_DEG + 1e-5) and o.lon_deg == pytest.approx(8.5, abs=1e-4)
+        assert o.lat_deg == pytest.approx(lat, abs=CPR_QUANTUM_LAT_DEG + 1e-5)
+        assert o.lon_deg == pytest.approx(8.5, abs=1e-4)
     assert counters["traffic.beast.cpr_implausible"] > 500 and counters["traffic.beast.cpr_global"] == 1

@@ -527,7 +527,8 @@ def test_crc_valid_beast_junk_at_8_hz_under_the_intruders_address_never_moves_it
     got = onsets(changes)
     worst = max(samples, key=lambda s: s[1] / s[2])
     print(json.dumps({"samples": len(samples), "worst_error_m": round(worst[1], 2), "its_sigma_m": round(worst[2], 2),
-                      "max_sigma_m": round(max(s[2] for s in samples[20:]), 2), "onsets_s": got, "reference_s": reference,
+                      "max_sigma_m": round(max(s[2] for s in samples[20:]), 2), "onsets_s": got,
+                      "reference_s": reference,
                       "beast": {k: v for k, v in counters.items() if k.startswith("traffic.beast.cpr")}}))
     assert len(samples) >= 0.9 * DURATION_S / TICK_S and len({s[0] for s in samples}) == len(samples)  # one track
     assert all(error <= 3.0 * sigma for _, error, sigma in samples), worst

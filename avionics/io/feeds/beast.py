@@ -29,8 +29,8 @@ Observations for the shared per-aircraft merge (feeds/aircraft.py):
 - TC 31 airborne operational status (BDS 6,5): ADS-B version, NIC supplement-A, NACp (versions 1 and 2);
   TC 29 target state and status (BDS 6,2, subtype 1, version 2): NACp.
 
-Positions (DO-260B §A.1.7, "The 1090 MHz Riddle", Junzi Sun, chapter "Airborne position"): a CRC-valid message
-is not a true one (a parity collision, or a transmitter that forges an aircraft's address: issue 25), and one CPR
+Positions (DO-260B §A.1.7, "The 1090 MHz Riddle", Junzi Sun, chapter "Airborne position"): a CRC-valid message is
+not a true one (a parity collision, or a transmitter that forges an aircraft's address: issue 25), and one CPR
 message is ambiguous by whole zones, so a position must agree with the aircraft's other messages before it is used:
 
 - While the aircraft has a reference (its last accepted position, at most `LOCAL_REFERENCE_MAX_S` old), each message
@@ -42,14 +42,14 @@ message is ambiguous by whole zones, so a position must agree with the aircraft'
   globally into a candidate, when the two decode to positions the aircraft can have flown between
   (`cpr_pair_inconsistent` otherwise). The candidate becomes the reference, and its position is used, only once
   later messages of both formats, decoded locally against it, have confirmed it (`cpr_global`; until then
-  `cpr_held`), and the reference it replaces has had no message since its pair (else `cpr_contested`: two
-  position streams under one address, the one heard first kept). Both formats, because the even and odd zones differ (6 and 6.1 degrees of latitude): a pair with one
-  junk half decodes to an image of the aircraft whole zones away, which the aircraft's messages of one format
-  confirm and of the other never do. pyModeS's PipeDecoder waits for three consistent positions the same way
-  (pyModeS/_pipe.py, bootstrap), readsb for its `pos_reliable` count.
+  `cpr_held`), and the reference it replaces has had no message since its pair (else `cpr_contested`: two position
+  streams under one address, the one heard first kept). Both formats, because the even and odd zones differ (6 and
+  6.1 degrees of latitude): a pair with one junk half decodes to an image of the aircraft whole zones away, which
+  the aircraft's messages of one format confirm and of the other never do. pyModeS's PipeDecoder waits for three
+  consistent positions the same way (pyModeS/_pipe.py, bootstrap), readsb for its `pos_reliable` count.
 
-A position message that is not accepted says nothing else either (its altitude and NIC are the same junk): it
-makes no observation.
+A position message that is not accepted says nothing else either (its altitude and NIC are the same junk): it makes
+no observation.
 
 DF18 (extended squitter / non-transponder, ICAO Annex 10 Vol IV §3.1.2.8.7; DO-260B's CF field of DF18): CF 0
 (ADS-B from a non-transponder device with an ICAO 24-bit address) is decoded as DF17. CF 1 (non-ICAO address),
@@ -401,7 +401,8 @@ class BeastDecoder:
             self._count("cpr_implausible")  # the reference is kept; the message may still start a candidate
         for candidate in state.candidates:
             lat, lon = _local(fmt, lat_raw, lon_raw, candidate.lat, candidate.lon)
-            if t - candidate.t <= PAIR_MAX_S and self._reachable(candidate.lat, candidate.lon, candidate.t, lat, lon, t):
+            if t - candidate.t <= PAIR_MAX_S and self._reachable(candidate.lat, candidate.lon, candidate.t,
+                                                                 lat, lon, t):
                 candidate.lat, candidate.lon, candidate.t = lat, lon, t
                 candidate.confirmed.add(fmt)
                 if len(candidate.confirmed) < 2:
