@@ -174,8 +174,8 @@ class ReadsbParser:
 def make_session(path: str, target: str, config):
     """The session of one readsb-json:PATH_OR_URL source: poll every traffic.readsb_poll_s until a read fails or
     the document goes stale (source.py retries it). A fetch must complete within input.max_report_age_s: a document
-    that takes longer arrives with every position older than the age at which a report is rejected as stale
-    (aircraft.py), and a source that keeps the connection alive without completing one (a byte a second) delivers
+    that takes longer is older on arrival than a report may be (the age at which the MAVLink path and the merge
+    reject a report as stale), and a source that keeps the connection alive without completing one (a byte a second) delivers
     nothing while it would look connected. Such a fetch, or a document above transport.MAX_DOCUMENT_BYTES, fails
     the session: the status warns that the source is down, and it is retried."""
     poll_s, deadline_s = config.traffic.readsb_poll_s, config.input.max_report_age_s
