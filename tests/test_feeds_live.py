@@ -392,8 +392,8 @@ def test_a_readsb_http_source_that_never_completes_a_document_is_down_with_a_war
 @pytest.mark.parametrize("transport", ["http", "http-without-length", "file"])
 def test_a_readsb_document_above_the_size_limit_is_refused_with_a_warning(transport, tmp_path):
     """Before: a 50 MB aircraft.json was read and parsed (the loop stalled 2.2-4.8 s, 290 MB kept). Now a document
-    above MAX_DOCUMENT_BYTES (4 MiB: 4000 aircraft, the merge's limit, at 1 KiB) is refused: the source is down
-    with a warning and a count, and is read again once the document is back to size."""
+    above MAX_DOCUMENT_BYTES (4,096,000 bytes: 4000 aircraft, the merge's limit, at 1 KiB) is refused: the source is
+    down with a warning and a count, and is read again once the document is back to size."""
     config = load_config(None, ["zenoh.enabled=false", "traffic.readsb_poll_s=0.2"])
     t0 = time.monotonic()
 

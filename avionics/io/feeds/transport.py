@@ -16,7 +16,7 @@ CONNECT_TIMEOUT_S = 2.0  # a refused loopback connection fails at once; an unrea
 READ_TIMEOUT_S = 0.25  # how often a quiet stream looks at ctx.stop (shutdown joins the thread within this)
 RECV_BYTES = 65536
 # A larger aircraft.json is refused unread: readsb writes at most ~0.8 kB per aircraft (every field of its
-# README-json.md, no spaces), and the merge takes at most MAX_AIRCRAFT of one source, so MAX_AIRCRAFT x 1 KiB (4 MiB)
+# README-json.md, no spaces), and the merge takes at most MAX_AIRCRAFT of one source, so MAX_AIRCRAFT x 1 KiB (4.1 MB)
 # holds every aircraft it would use. json.loads holds the GIL while it parses (0.1 s for 3 MB here): a 50 MB
 # document stalled the loop 2.2-4.8 s and kept 290 MB (issue 25).
 MAX_DOCUMENT_BYTES = MAX_AIRCRAFT * 1024
