@@ -7,6 +7,7 @@ quantisation, and agreeing with our decoder on the same messages."""
 from __future__ import annotations
 
 import math
+import random
 from collections import Counter
 
 import pyModeS as pms
@@ -44,19 +45,21 @@ def decode_stream(data: bytes, received=lambda i: float(i)):
 
 # --- the Riddle's messages --------------------------------------------------------------------------------------
 def test_the_riddles_position_pair_velocity_and_identification():
-    out, counters, _ = decode_stream(frames_of([RIDDLE_ODD, RIDDLE_EVEN, RIDDLE_VELOCITY, RIDDLE_IDENTIFICATION],
-                                               step_s=2.0), received=lambda i: 2.0 * i + 0.1)
-    odd, even, velocity, ident = out
-    assert odd.lat_deg is None and odd.altitude_m == pytest.approx(38000 * FT)  # one message: no position yet
-    assert odd.altitude_datum is AltitudeDatum.PRESSURE and odd.nic == 8  # TC 11, version unknown: NIC 8
+    # the pair twice (5 s apart: its two positions are 1.6 km apart), a position once both formats confirmed it
+    out, counters, _ = decode_stream(frames_of([RIDDLE_ODD, RIDDLE_EVEN, RIDDLE_ODD, RIDDLE_EVEN, RIDDLE_VELOCITY,
+                                                RIDDLE_IDENTIFICATION], step_s=5.0), received=lambda i: 5.0 * i + 0.1)
+    *held, even, velocity, ident = out
+    assert held == [None] * 3  # one message, then the pair, then one format's confirmation: no position yet
     assert (even.lat_deg, even.lon_deg) == (pytest.approx(52.2572, abs=1e-4), pytest.approx(3.9194, abs=1e-4))
+    assert even.altitude_m == pytest.approx(38000 * FT)
+    assert even.altitude_datum is AltitudeDatum.PRESSURE and even.nic == 8  # TC 11, version unknown: NIC 8
     east, north = velocity.velocity_en_mps
     assert math.hypot(east, north) / KT == pytest.approx(159.2, abs=0.05)
     assert math.degrees(math.atan2(east, north)) % 360 == pytest.approx(182.88, abs=0.01)
     assert velocity.vertical_rate_mps == pytest.approx(-832 * FPM)
     assert ident.callsign == "KLM1023" and ident.emitter_type == 0  # category 0: no information
     assert counters["traffic.beast.cpr_global"] == 1 and counters["traffic.beast.cpr_no_pair"] == 1
-    assert counters["traffic.beast.frames"] == 4
+    assert counters["traffic.beast.cpr_held"] == 2 and counters["traffic.beast.frames"] == 6
 
 
 def test_our_encoder_writes_the_riddles_even_message_bit_for_bit():
@@ -65,35 +68,39 @@ def test_our_encoder_writes_the_riddles_even_message_bit_for_bit():
     assert crc24(bytes.fromhex(RIDDLE_VELOCITY[:22])) == int(RIDDLE_VELOCITY[22:], 16)
 
 
-def test_a_pair_more_than_10_s_apart_is_not_decoded_then_local_decoding_follows_a_global_one():
+def test_a_pair_more_than_10_s_apart_is_not_decoded_then_local_decoding_follows_a_confirmed_global_one():
     lat, lon = 47.3, 8.55
     even = df17(0xABCDEF, airborne_position_me(lat, lon, 5000, odd=False)).hex()
     odd = df17(0xABCDEF, airborne_position_me(lat, lon, 5000, odd=True)).hex()
-    # even at 0 s, odd at 10.5 s: no pair; even at 11 s pairs with the odd at 10.5 s; then each alone, locally
-    times = [0.0, 10.5, 11.0, 11.5, 12.0]
+    # even at 0 s, odd at 10.5 s: no pair; the even at 11 s pairs with the odd at 10.5 s; the odd at 11.5 s and the
+    # even at 12 s confirm it (both formats): the reference; then each message alone, locally
+    times = [0.0, 10.5, 11.0, 11.5, 12.0, 12.5, 13.0]
     data = b"".join(beast_frame(bytes.fromhex(h), 1000 + int(t * CLOCK_HZ))
-                    for h, t in zip([even, odd, even, odd, even], times))
+                    for h, t in zip([even, odd] * 3 + [even], times))
     out, counters, _ = decode_stream(data, received=lambda i: times[i] + 0.05)
-    assert [o.lat_deg is not None for o in out] == [False, False, True, True, True]
-    assert counters["traffic.beast.cpr_no_pair"] == 2 and counters["traffic.beast.cpr_global"] == 1
-    assert counters["traffic.beast.cpr_local"] == 2
-    for o in out[2:]:
+    assert [o is not None for o in out] == [False, False, False, False, True, True, True]
+    assert counters["traffic.beast.cpr_no_pair"] == 2 and counters["traffic.beast.cpr_held"] == 2
+    assert counters["traffic.beast.cpr_global"] == 1 and counters["traffic.beast.cpr_local"] == 2
+    for o in out[4:]:
         assert o.lat_deg == pytest.approx(lat, abs=CPR_QUANTUM_LAT_DEG) and o.lon_deg == pytest.approx(lon, abs=1e-4)
 
 
-def test_a_position_farther_than_the_aircraft_can_fly_is_rejected_and_a_new_pair_is_needed():
-    def pos(lat, lon, odd):
-        return df17(0x123456, airborne_position_me(lat, lon, 5000, odd=odd)).hex()
+def test_a_position_farther_than_the_aircraft_can_fly_is_rejected_and_the_reference_kept():
+    def pos(lat, odd):
+        return df17(0x123456, airborne_position_me(lat, 8.5, 5000, odd=odd)).hex()
 
-    # a pair at 47.3 N, then 1 s later a message 1.5 degrees north (local decoding puts it there: half a zone)
-    hexes = [pos(47.3, 8.5, False), pos(47.3, 8.5, True), pos(48.8, 8.5, False), pos(48.8, 8.5, True)]
+    # the reference at 47.3 N; a message 1.5 degrees north (local decoding puts it there: half a zone) is rejected,
+    # and the next true message is decoded against the kept reference. When the aircraft is really at 48.8 N (say
+    # heard again after a gap), its new messages replace the reference once both formats confirm their pair.
+    hexes = [pos(47.3, False), pos(47.3, True)] * 2 + [pos(48.8, False), pos(47.3, True)] + [
+        pos(48.8, False), pos(48.8, True)] * 2
     data = b"".join(beast_frame(bytes.fromhex(h), 1000 + int(i * 0.5 * CLOCK_HZ)) for i, h in enumerate(hexes))
     out, counters, _ = decode_stream(data, received=lambda i: 0.5 * i)
-    assert out[1].lat_deg == pytest.approx(47.3, abs=1e-4)
-    assert out[2].lat_deg is None and counters["traffic.beast.cpr_implausible"] == 1
-    # the next message pairs with it (a consistent even/odd pair from new messages), decoded globally
-    assert out[3].lat_deg == pytest.approx(48.8, abs=1e-4) and counters["traffic.beast.cpr_global"] == 2
-    assert counters["traffic.beast.cpr_no_pair"] == 1
+    assert [None if o is None else round(o.lat_deg, 3) for o in out] == [
+        None, None, None, 47.3, None, 47.3, None, None, None, 48.8]
+    assert counters["traffic.beast.cpr_implausible"] == 5  # the lone 48.8, then the four before the new reference
+    assert counters["traffic.beast.cpr_local"] == 1 and counters["traffic.beast.cpr_global"] == 2
+    assert counters["traffic.beast.cpr_zone_mismatch"] == 2  # 48.8 N even with a 47.3 N odd: not one aircraft
 
 
 def test_the_12_mhz_counter_wrapping_at_2_48_keeps_time_running():
@@ -137,10 +144,10 @@ def test_nic_from_the_type_code_and_supplements(tc, version, nic_a, nic_b, nic):
 
 def test_nic_and_nacp_reach_the_observation_from_the_operational_status():
     me_status = operational_status_me(nacp=10, version=2, nic_a=1)
-    position = airborne_position_me(40.0, -3.0, 3000, odd=False, nic=8)  # TC 11, NIC supplement-B 0
+    positions = [airborne_position_me(40.0, -3.0, 3000, odd=odd, nic=8) for odd in (False, True)]  # TC 11, NIC-B 0
     out, _, _ = decode_stream(b"".join(beast_frame(df17(0xA00001, me), 1000 * (i + 1))
-                                       for i, me in enumerate([me_status, position])))
-    assert out[0].nacp == 10 and out[1].nic == 8
+                                       for i, me in enumerate([me_status] + positions * 2)))
+    assert out[0].nacp == 10 and out[-1].nic == 8
 
 
 # --- encoder vs pyModeS, decoder vs pyModeS (hypothesis) ----------------------------------------------------------
@@ -168,13 +175,15 @@ def test_positions_we_encode_decode_with_pymodes_within_the_cpr_quantum(lat, lon
     lon_zones = max(cprNL(lat) - (0 if even_newer else 1), 1)
     assert abs(decoded[0] - lat) <= d_lat / 2**17  # one quantum: 5.1 m (even), 5.2 m (odd)
     assert abs((decoded[1] - lon + 180) % 360 - 180) <= 360.0 / lon_zones / 2**17
-    # our decoder, through Beast frames and the receiver clock, gives pyModeS's position
+    # our decoder, through Beast frames and the receiver clock, gives pyModeS's position (the pair's, once the
+    # next two messages confirmed it, is the last message's local decoding: the same zone, the same position)
     frames = [df17(0x3C6586, airborne_position_me(lat, lon, alt_ft, odd=o)) for o in ([True, False] if even_newer
                                                                                       else [False, True])]
-    out, _, _ = decode_stream(b"".join(beast_frame(f, 5000 + i * 6_000_000) for i, f in enumerate(frames)),
+    out, _, _ = decode_stream(b"".join(beast_frame(f, 5000 + i * 6_000_000) for i, f in enumerate(frames * 2)),
                               received=lambda i: 0.5 * i)
-    assert (out[1].lat_deg, out[1].lon_deg) == pytest.approx(decoded, abs=1e-9)
-    assert out[1].altitude_m == pytest.approx(alt_ft * FT)
+    assert out[3].lat_deg == pytest.approx(decoded[0], abs=1e-9)
+    assert abs((out[3].lon_deg - decoded[1] + 180) % 360 - 180) <= 1e-9  # -180 is 180
+    assert out[3].altitude_m == pytest.approx(alt_ft * FT)
 
 
 def test_our_nl_is_the_standards_nl():
@@ -349,3 +358,44 @@ def test_a_malformed_beast_spec_is_a_configuration_error_before_anything_connect
 
     with pytest.raises(ConfigError, match="HOST:PORT"):
         open_feed(spec, load_config(), clock=lambda: 0.0)
+
+
+def test_a_second_position_stream_under_a_heard_aircrafts_address_cannot_take_its_reference():
+    """Forged messages at 48.8 N, consistent among themselves (a pair, then both formats), interleaved with the real
+    aircraft's at 47.3 N: the forged candidate is confirmed but contested (the real messages keep confirming the
+    reference), and no forged position is ever used."""
+    def pos(lat, odd):
+        return df17(0x123456, airborne_position_me(lat, 8.5, 5000, odd=odd)).hex()
+
+    hexes = [pos(47.3, i % 2 == 1) for i in range(4)]
+    for i in range(12):
+        hexes += [pos(48.8, i % 2 == 1), pos(47.3, i % 2 == 1)]
+    data = b"".join(beast_frame(bytes.fromhex(h), 1000 + int(i * 0.25 * CLOCK_HZ)) for i, h in enumerate(hexes))
+    out, counters, _ = decode_stream(data, received=lambda i: 0.25 * i)
+    assert {round(o.lat_deg, 3) for o in out if o is not None} == {47.3}
+    assert sum(o is not None for o in out[4:]) == 12  # every real message after the lock
+    assert counters["traffic.beast.cpr_global"] == 1 and counters["traffic.beast.cpr_contested"] >= 1
+
+
+def test_random_crc_valid_positions_under_an_aircrafts_address_never_give_a_position():
+    """600 junk positions (random ME of TC 9-18, valid parity) around a real aircraft flying north at 200 m/s: every
+    position used is the aircraft's (within the CPR quantum and 1 m of its motion)."""
+    rng = random.Random(7)
+    frames, truth = [], []
+    for k in range(80):  # the aircraft: 2 Hz, even and odd alternating
+        t = 0.5 * k
+        lat = 47.3 + 200.0 * t / 111_195.0
+        frames.append((t, df17(0x123456, airborne_position_me(lat, 8.5, 5000, odd=k % 2 == 1))))
+        truth.append(lat)
+    frames += [(rng.uniform(0.0, 40.0), df17(0x123456, rng.randint(9, 18) << 51 | rng.getrandbits(51)))
+               for _ in range(600)]
+    frames.sort(key=lambda f: f[0])
+    data = b"".join(beast_frame(m, 1000 + int(t * CLOCK_HZ)) for t, m in frames)
+    out, counters, _ = decode_stream(data, received=lambda i: frames[i][0])
+    used = [(frames[i][0], o) for i, o in enumerate(out) if o is not None]
+    assert len(used) >= 75  # every real message from the fourth on
+    for t, o in used:
+        lat = 47.3 + 200.0 * t / 111_195.0
+        assert o.lat_deg == pytest.approx(lat, abs=CPR_QUANTUM_LAT_DEG + 1e-5)
+        assert o.lon_deg == pytest.approx(8.5, abs=1e-4)
+    assert counters["traffic.beast.cpr_implausible"] > 500 and counters["traffic.beast.cpr_global"] == 1

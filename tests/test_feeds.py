@@ -299,3 +299,62 @@ def test_readsb_garbage_documents_never_cost_the_next_valid_one(garbage):
     now = 10.0 + len(garbage)
     reports = p.document(aircraft_json(2e9, hex="c00001", lat=46.0), now)
     assert [r.key.address for r in reports] == [0xC00001]
+
+
+# --- one bad readsb entry costs only itself (issue 25) -------------------------------------------------------------
+
+HUGE = int("9" * 400)  # a JSON integer of 400 digits: beyond a float (float(), math.isfinite() raise OverflowError)
+
+
+def test_a_400_digit_number_or_a_unicode_digit_squawk_costs_only_its_entry():
+    """Before: document() raised out (OverflowError, ValueError from int("²")), every poll failed and no aircraft
+    of the receiver was delivered while `reports` counted them."""
+    c = Counter()
+    p = ReadsbParser("readsb-json:aircraft.json", CONFIG, c)
+    good = {"hex": "c00001", "lat": 47.0, "lon": 8.0, "alt_baro": 3000, "seen_pos": 0.2, "seen": 0.1}
+    bad = [dict(good, hex="c00002", alt_baro=HUGE), dict(good, hex="c00003", squawk="²"),
+           dict(good, hex="c00004", lat=HUGE), dict(good, hex="c00005", baro_rate=-HUGE, gs=HUGE, track=1),
+           dict(good, hex="c00006", seen_pos=HUGE, seen=HUGE), dict(good, hex="c00007", squawk="7" * 5000)]
+    reports = p.document(json.dumps({"now": 1.7e9, "aircraft": [*bad[:3], good, *bad[3:]]}).encode(), 10.0)
+    by_address = {r.key.address: r for r in reports}
+    assert by_address[0xC00001].altitude_m == pytest.approx(3000 * 0.3048)
+    # each bad field dropped and counted, the rest of its entry used
+    assert by_address[0xC00002].altitude_m is None and by_address[0xC00003].squawk is None
+    assert 0xC00004 not in by_address and by_address[0xC00005].velocity_en_mps is None
+    assert c["traffic.readsb-json.rejected.altitude_out_of_range"] == 1
+    assert c["traffic.readsb-json.rejected.squawk_invalid"] == 2
+    assert c["traffic.readsb-json.rejected.position_invalid"] == 1
+    assert c["traffic.readsb-json.rejected.velocity_invalid"] == 1
+    assert c["traffic.readsb-json.rejected.vertical_rate_out_of_range"] == 1
+    assert c["traffic.readsb-json.reports"] == len(reports) == 6  # counted = delivered
+    assert not c["traffic.readsb-json.decode_errors"]
+    # a 400-digit `now` is a document without a time: positions at their receipt
+    (r,) = p.document(json.dumps({"now": HUGE, "aircraft": [dict(good, lat=47.1)]}).encode(), 11.0)
+    assert r.time_s == 11.0
+
+
+JSON_VALUE = st.recursive(
+    st.none() | st.booleans() | st.floats() | st.integers() | st.just(HUGE) | st.just(-HUGE)
+    | st.text(max_size=6) | st.sampled_from(["²", "٣٤", "1e400", "ground", "7700", "~a1"]),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=4), inner, max_size=3),
+    max_leaves=8)
+FIELDS = ["hex", "flight", "alt_baro", "gs", "track", "baro_rate", "geom_rate", "lat", "lon", "squawk", "category",
+          "nac_p", "nac_v", "nic", "seen_pos", "seen"]
+
+
+@settings(max_examples=200)
+@given(st.lists(st.dictionaries(st.sampled_from(FIELDS), JSON_VALUE, max_size=6), max_size=6),
+       st.integers(0, 6), st.one_of(st.none(), st.floats(0.0, 4e9), st.just(HUGE), st.text(max_size=4)))
+def test_any_mutated_entry_beside_a_good_aircraft_never_costs_it(mutations, position, now):
+    """Entries of a good aircraft with any fields replaced by any JSON value, in one document with a good one:
+    document() never raises and the good aircraft is always delivered, counted once. (`now` is the document's, not
+    an entry's: any POSIX time, or none usable; a `now` of 1e17 s makes every position stale, rightly.)"""
+    c = Counter()
+    p = ReadsbParser("readsb-json:aircraft.json", CONFIG, c)
+    base = {"hex": "c00002", "lat": 46.0, "lon": 7.0, "alt_baro": 3000, "gs": 100, "track": 90, "squawk": "1200",
+            "seen_pos": 0.2, "seen": 0.1}
+    entries = [dict(base, **m) for m in mutations]
+    entries.insert(min(position, len(entries)), {"hex": "c00001", "lat": 47.0, "lon": 8.0, "seen_pos": 0.2})
+    reports = p.document(json.dumps({"now": 1.7e9 if now is None else now, "aircraft": entries}).encode(), 10.0)
+    assert [r.key.address for r in reports].count(0xC00001) == 1
+    assert c["traffic.readsb-json.reports"] == len(reports) and not c["traffic.readsb-json.decode_errors"]

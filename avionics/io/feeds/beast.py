@@ -29,11 +29,27 @@ Observations for the shared per-aircraft merge (feeds/aircraft.py):
 - TC 31 airborne operational status (BDS 6,5): ADS-B version, NIC supplement-A, NACp (versions 1 and 2);
   TC 29 target state and status (BDS 6,2, subtype 1, version 2): NACp.
 
-Positions (DO-260B §A.1.7, "The 1090 MHz Riddle", Junzi Sun, chapter "Airborne position"): an aircraft's first
-position is decoded globally from an even and an odd message at most `PAIR_MAX_S` (10 s) apart, the newer one
-giving the position; while the last decoded position is at most `LOCAL_REFERENCE_MAX_S` old, each message is
-decoded locally against it. A result farther from the last position than the aircraft can have flown
-(input.max_ground_speed_mps) is rejected and the next position needs a new pair.
+Positions (DO-260B §A.1.7, "The 1090 MHz Riddle", Junzi Sun, chapter "Airborne position"): a CRC-valid message is
+not a true one (a parity collision, or a transmitter that forges an aircraft's address: issue 25), and one CPR
+message is ambiguous by whole zones, so a position must agree with the aircraft's other messages before it is used:
+
+- While the aircraft has a reference (its last accepted position, at most `LOCAL_REFERENCE_MAX_S` old), each message
+  is decoded locally against it (DO-260B §A.1.7.5) and accepted when the aircraft can have flown there
+  (input.max_ground_speed_mps x elapsed + `POSITION_MARGIN_M`, dump1090-fa/readsb's speed check); a message that
+  fails is rejected (`cpr_implausible`) and the reference is kept: junk cannot reset it.
+- Without one (or for a message the reference rejected: a reference that no message confirms any more is replaced
+  this way), an even and an odd message at most `PAIR_MAX_S` (10 s) apart (DO-260B §A.1.7.3; pyModeS) decode
+  globally into a candidate, when the two decode to positions the aircraft can have flown between
+  (`cpr_pair_inconsistent` otherwise). The candidate becomes the reference, and its position is used, only once
+  later messages of both formats, decoded locally against it, have confirmed it (`cpr_global`; until then
+  `cpr_held`), and the reference it replaces has had no message since its pair (else `cpr_contested`: two position
+  streams under one address, the one heard first kept). Both formats, because the even and odd zones differ (6 and
+  6.1 degrees of latitude): a pair with one junk half decodes to an image of the aircraft whole zones away, which
+  the aircraft's messages of one format confirm and of the other never do. pyModeS's PipeDecoder waits for three
+  consistent positions the same way (pyModeS/_pipe.py, bootstrap), readsb for its `pos_reliable` count.
+
+A position message that is not accepted says nothing else either (its altitude and NIC are the same junk): it makes
+no observation.
 
 DF18 (extended squitter / non-transponder, ICAO Annex 10 Vol IV §3.1.2.8.7; DO-260B's CF field of DF18): CF 0
 (ADS-B from a non-transponder device with an ICAO 24-bit address) is decoded as DF17. CF 1 (non-ICAO address),
@@ -48,7 +64,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass
 
 from pyModeS import Message
@@ -68,6 +84,8 @@ CLOCK_WRAP_S = 2**48 / CLOCK_HZ  # ... of 48 bits (wraps every 271 days)
 PAIR_MAX_S = 10.0  # an even/odd pair further apart may straddle a latitude zone (DO-260B §A.1.7.3; pyModeS)
 LOCAL_REFERENCE_MAX_S = 30.0  # local decoding needs the reference within half a zone (~180 NM); 30 s is far inside
 POSITION_MARGIN_M = 1000.0  # plausibility: the distance flown at max speed, plus this (CPR quantum, noise)
+FRAMES_KEPT = 8  # position messages kept per format for pairing: 8 s of one aircraft's 1 Hz per format
+MAX_CANDIDATES = 5  # unconfirmed candidate positions per aircraft (pyModeS's bootstrap keeps five)
 
 # Identification type code and category -> MAVLink ADSB_EMITTER_TYPE (DO-260B §2.2.3.2.5: TC 4 set A, 3 set B,
 # 2 set C; set A 1 light, 2 small, 3 large, 4 high vortex large, 5 heavy, 6 high performance, 7 rotorcraft; set B
@@ -233,15 +251,33 @@ class BeastDeframer:
             p = s + 1
 
 
+class _Candidate:
+    """A position decoded from an even/odd pair, waiting for later messages of both formats to confirm it."""
+
+    __slots__ = ("lat", "lon", "t", "since", "confirmed")
+
+    def __init__(self, lat: float, lon: float, t: float) -> None:
+        self.lat, self.lon, self.t = lat, lon, t  # its position, as last confirmed
+        self.since = t  # when its pair decoded
+        self.confirmed: set[int] = set()  # the CPR formats (0 even, 1 odd) of the messages that confirmed it
+
+
 class _CprState:
-    __slots__ = ("frames", "position", "version", "nic_a", "heard_s")
+    __slots__ = ("frames", "position", "candidates", "version", "nic_a", "heard_s")
 
     def __init__(self) -> None:
-        self.frames: list[tuple[int, int, float] | None] = [None, None]  # even, odd: (lat, lon raw, time)
-        self.position: tuple[float, float, float] | None = None  # the last decoded (lat, lon, time)
+        self.frames = (deque(maxlen=FRAMES_KEPT), deque(maxlen=FRAMES_KEPT))  # even, odd: (lat, lon raw, time)
+        self.position: tuple[float, float, float] | None = None  # the reference: the last accepted (lat, lon, time)
+        self.candidates: list[_Candidate] = []
         self.version: int | None = None  # ADS-B version from the operational status
         self.nic_a = 0
         self.heard_s = -math.inf
+
+
+def _local(fmt: int, lat_raw: int, lon_raw: int, lat_ref: float, lon_ref: float) -> tuple[float, float]:
+    """One CPR message decoded against a reference within half a zone of it (DO-260B §A.1.7.5; pyModeS)."""
+    lat, lon = airborne_position_with_ref(fmt, lat_raw, lon_raw, lat_ref, lon_ref)
+    return lat, (lon + 180.0) % 360.0 - 180.0
 
 
 def _distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
@@ -330,8 +366,13 @@ class BeastDecoder:
         emitter = EMITTER_TYPE.get((tc, category), 0) if category else 0
         return Observation(address, t, received_s, callsign=callsign, emitter_type=emitter)
 
-    def _position(self, address, t, received_s, tc, decoded, state: _CprState) -> Observation:
-        obs = Observation(address, t, received_s,
+    def _position(self, address, t, received_s, tc, decoded, state: _CprState) -> Observation | None:
+        fmt, lat_raw, lon_raw = decoded["cpr_format"], decoded["cpr_lat"], decoded["cpr_lon"]
+        position = self._cpr(state, fmt, lat_raw, lon_raw, t)
+        state.frames[fmt].append((lat_raw, lon_raw, t))
+        if position is None:
+            return None  # not (yet) consistent with the aircraft's other messages: nothing of it is used
+        obs = Observation(address, t, received_s, lat_deg=position[0], lon_deg=position[1],
                           nic=nic_of_type_code(tc, state.version, state.nic_a, decoded.get("nic_b", 0)))
         if tc <= 18:
             altitude_ft = decoded.get("altitude")
@@ -341,41 +382,66 @@ class BeastDecoder:
                 obs.altitude_m, obs.altitude_datum = altitude_ft * FT, AltitudeDatum.PRESSURE
         else:
             self._count("gnss_height_unused")
-        fmt, lat_raw, lon_raw = decoded["cpr_format"], decoded["cpr_lat"], decoded["cpr_lon"]
-        state.frames[fmt] = (lat_raw, lon_raw, t)
-        position = self._cpr(state, fmt, lat_raw, lon_raw, t)
-        if position is not None:
-            obs.lat_deg, obs.lon_deg = position
         return obs
 
+    def _reachable(self, lat1: float, lon1: float, t1: float, lat2: float, lon2: float, t2: float) -> bool:
+        """Can the aircraft have flown from one position to the other in the time between them?"""
+        reach = self.max_ground_speed_mps * abs(t2 - t1) + POSITION_MARGIN_M
+        return _distance_m(lat1, lon1, lat2, lon2) <= reach
+
     def _cpr(self, state: _CprState, fmt: int, lat_raw: int, lon_raw: int, t: float) -> tuple[float, float] | None:
+        """The message's position if it is accepted (module docstring, "Positions"), else None (counted)."""
         ref = state.position
         if ref is not None and abs(t - ref[2]) <= LOCAL_REFERENCE_MAX_S:
-            lat, lon = airborne_position_with_ref(fmt, lat_raw, lon_raw, ref[0], ref[1])
-            lon = (lon + 180.0) % 360.0 - 180.0
-            how = "cpr_local"
-        else:
-            other = state.frames[1 - fmt]
-            if other is None or abs(t - other[2]) > PAIR_MAX_S:
-                self._count("cpr_no_pair")  # an aircraft's first position needs an even and an odd message
-                return None
-            even, odd = ((lat_raw, lon_raw), other[:2]) if fmt == 0 else (other[:2], (lat_raw, lon_raw))
-            pair = airborne_position_pair(even[0], even[1], odd[0], odd[1], even_is_newer=fmt == 0)
-            if pair is None:
-                self._count("cpr_zone_mismatch")  # the two straddle a longitude-zone boundary
-                return None
-            lat, lon = pair
-            how = "cpr_global"
-        if ref is not None:
-            reach = self.max_ground_speed_mps * abs(t - ref[2]) + POSITION_MARGIN_M
-            if _distance_m(ref[0], ref[1], lat, lon) > reach:
-                self._count("cpr_implausible")  # farther than it can have flown: the next position needs a pair
-                state.position = None
-                state.frames[1 - fmt] = None
-                return None
-        self._count(how)
-        state.position = (lat, lon, t)
-        return lat, lon
+            lat, lon = _local(fmt, lat_raw, lon_raw, ref[0], ref[1])
+            if self._reachable(ref[0], ref[1], ref[2], lat, lon, t):
+                self._count("cpr_local")
+                state.position = (lat, lon, t)
+                return lat, lon
+            self._count("cpr_implausible")  # the reference is kept; the message may still start a candidate
+        for candidate in state.candidates:
+            lat, lon = _local(fmt, lat_raw, lon_raw, candidate.lat, candidate.lon)
+            if t - candidate.t <= PAIR_MAX_S and self._reachable(candidate.lat, candidate.lon, candidate.t,
+                                                                 lat, lon, t):
+                candidate.lat, candidate.lon, candidate.t = lat, lon, t
+                candidate.confirmed.add(fmt)
+                if len(candidate.confirmed) < 2:
+                    return self._count("cpr_held")
+                if ref is not None and abs(t - ref[2]) <= LOCAL_REFERENCE_MAX_S and ref[2] >= candidate.since:
+                    state.candidates.remove(candidate)  # the reference is alive: messages confirmed it meanwhile
+                    return self._count("cpr_contested")
+                self._count("cpr_global")  # confirmed by both formats: the aircraft's reference
+                state.position = (lat, lon, t)
+                state.candidates.clear()
+                return lat, lon
+        pair = self._pair(state, fmt, lat_raw, lon_raw, t)
+        if pair is not None:
+            self._count("cpr_held")
+            candidates = [c for c in state.candidates if t - c.t <= PAIR_MAX_S]
+            if len(candidates) >= MAX_CANDIDATES:  # the least confirmed, then the oldest, makes room
+                candidates.remove(min(candidates, key=lambda c: (len(c.confirmed), c.t)))
+            state.candidates = candidates + [_Candidate(pair[0], pair[1], t)]
+        return None
+
+    def _pair(self, state: _CprState, fmt: int, lat_raw: int, lon_raw: int, t: float) -> tuple[float, float] | None:
+        """The message's position decoded globally with the newest message of the other format at most PAIR_MAX_S
+        away whose own position (the same pair decoded at its time) the aircraft can have flown from; None (counted
+        by why) when there is none."""
+        why = "cpr_no_pair"  # an aircraft's first position needs an even and an odd message
+        for other_lat, other_lon, other_t in reversed(state.frames[1 - fmt]):
+            if abs(t - other_t) > PAIR_MAX_S:
+                continue
+            even, odd = ((lat_raw, lon_raw), (other_lat, other_lon)) if fmt == 0 else ((other_lat, other_lon),
+                                                                                        (lat_raw, lon_raw))
+            this = airborne_position_pair(even[0], even[1], odd[0], odd[1], even_is_newer=fmt == 0)
+            other = airborne_position_pair(even[0], even[1], odd[0], odd[1], even_is_newer=fmt == 1)
+            if this is None or other is None:
+                why = "cpr_zone_mismatch"  # the two straddle a longitude-zone boundary
+                continue
+            if self._reachable(other[0], other[1], other_t, this[0], this[1], t):
+                return this
+            why = "cpr_pair_inconsistent"  # two positions farther apart than it can fly: one of them is not true
+        return self._count(why)
 
     def _velocity(self, address, t, received_s, message: bytes, decoded) -> Observation | None:
         obs = Observation(address, t, received_s)

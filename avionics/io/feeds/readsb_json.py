@@ -12,13 +12,17 @@ Times: the position is applicable at `now - seen_pos`, the other fields at `now 
 aligned to ours by clock.py. A position already delivered (the same lat/lon at the same receiver time, within
 readsb's 0.1 s resolution of seen_pos) is counted `unchanged`, not reported again. A document that does not
 parse is counted `rejected.malformed_json`, an entry that is not an aircraft object `rejected.malformed`; the next
-poll goes on. A document whose `now` has not advanced for STALE_AFTER_S is a dead source (readsb stopped: its
+poll goes on. Each entry is the entry's own: a value of any JSON type or size in any field is counted and dropped
+with its field (an integer of 400 digits is not a float, "²" is not a squawk), never costing the other aircraft of
+the document; an entry whose decoding raises anyway is counted `decode_errors` (a bug, logged once). A document
+whose `now` has not advanced for STALE_AFTER_S is a dead source (readsb stopped: its
 last file stays behind): the session ends and is retried, and the status warns.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections import Counter
 
@@ -26,17 +30,33 @@ from avionics.core.types import AltitudeDatum, IntruderReport
 from avionics.core.units import FPM, FT, KT
 from avionics.io.feeds.aircraft import AircraftMerge, Observation, emitter_type_of_category
 from avionics.io.feeds.clock import ReceiverClock
-from avionics.io.feeds.transport import read_document
+from avionics.io.feeds.transport import DocumentTooLarge, read_document
 
+log = logging.getLogger("avionics.traffic")
 SEEN_POS_RESOLUTION_S = 0.15  # readsb writes seen_pos with one decimal (0.1 s), `now` with more: 0.1 s + margin
 STALE_AFTER_S = 10.0  # readsb rewrites aircraft.json every second (--write-json-every 1): ten missed writes
-FETCH_TIMEOUT_S = 2.0
+FETCH_TIMEOUT_S = 2.0  # each connect or read of an HTTP fetch (a socket timeout)
 
 
 def _num(value) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    """A JSON number as a finite float; None for anything else (a string, a bool, an integer beyond a float's
+    range: float() and math.isfinite() raise OverflowError on one of 400 digits)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         return None
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _squawk(value) -> int:
+    """readsb's squawk ("7700", four octal digits) as the int the merge checks; -1 (counted `squawk_invalid` by the
+    merge) for anything else. ASCII digits only: str.isdigit() also accepts "²" and other Unicode digits, which
+    int() refuses."""
+    if isinstance(value, str) and 1 <= len(value) <= 4 and value.isascii() and value.isdigit():
+        return int(value)
+    return -1
 
 
 class ReadsbParser:
@@ -49,6 +69,7 @@ class ReadsbParser:
         self.prefix = self.merge.prefix
         self._last_position: dict[str, tuple[float, float, float]] = {}  # hex -> (receiver time, lat, lon)
         self.document_now: float | None = None  # the last document's `now`
+        self._logged = False  # the first entry that raised is logged with its traceback, the others counted
 
     def document(self, data: bytes, received_s: float) -> list[IntruderReport]:
         """One aircraft.json; the reports it completes. Never raises on the document's content."""
@@ -71,7 +92,14 @@ class ReadsbParser:
             if not isinstance(entry, dict) or not isinstance(entry.get("hex"), str):
                 self.counters[p + "rejected.malformed"] += 1
                 continue
-            report = self._entry(entry, now, received_s)
+            try:
+                report = self._entry(entry, now, received_s)
+            except Exception:  # noqa: BLE001  (one entry's fault: counted and logged; the other aircraft go on)
+                self.counters[p + "decode_errors"] += 1
+                if not self._logged:
+                    self._logged = True
+                    log.exception("readsb-json: an aircraft entry could not be decoded: %.200r", entry)
+                continue
             if report is not None:
                 out.append(report)
         return out
@@ -99,7 +127,8 @@ class ReadsbParser:
         if alt == "ground":
             self.counters[p + "on_ground"] += 1
         elif alt is not None:
-            fields.altitude_m = alt * FT if _num(alt) is not None else math.nan  # NaN: counted by the merger
+            feet = _num(alt)
+            fields.altitude_m = feet * FT if feet is not None else math.nan  # NaN: counted by the merger
             fields.altitude_datum = AltitudeDatum.PRESSURE
         gs, track = _num(e.get("gs")), _num(e.get("track"))
         if gs is not None and track is not None:
@@ -109,10 +138,11 @@ class ReadsbParser:
             self.counters[p + "rejected.velocity_invalid"] += 1
         rate = e.get("baro_rate", e.get("geom_rate"))
         if rate is not None:
-            fields.vertical_rate_mps = rate * FPM if _num(rate) is not None else math.nan
+            fpm = _num(rate)
+            fields.vertical_rate_mps = fpm * FPM if fpm is not None else math.nan
         squawk = e.get("squawk")
         if squawk is not None:
-            fields.squawk = int(squawk) if isinstance(squawk, str) and squawk.isdigit() else -1
+            fields.squawk = _squawk(squawk)
         category = e.get("category")
         if category is not None:
             emitter = emitter_type_of_category(category)
@@ -143,14 +173,25 @@ class ReadsbParser:
 
 def make_session(path: str, target: str, config):
     """The session of one readsb-json:PATH_OR_URL source: poll every traffic.readsb_poll_s until a read fails or
-    the document goes stale (source.py retries it)."""
-    poll_s = config.traffic.readsb_poll_s
+    the document goes stale (source.py retries it). A fetch must complete within input.max_report_age_s: a document
+    that takes longer is older on arrival than a report may be (the age at which the MAVLink path and the merge
+    reject a report as stale), and a source that keeps the connection alive without completing one (a byte a second) delivers
+    nothing while it would look connected. Such a fetch, or a document above transport.MAX_DOCUMENT_BYTES, fails
+    the session: the status warns that the source is down, and it is retried."""
+    poll_s, deadline_s = config.traffic.readsb_poll_s, config.input.max_report_age_s
 
     def session(ctx) -> None:
         parser = ReadsbParser(path, config, ctx.counters)
         last_now, advanced_s = None, ctx.clock()
         while not ctx.stop.is_set():
-            data = read_document(target, FETCH_TIMEOUT_S)
+            try:
+                data = read_document(target, FETCH_TIMEOUT_S, deadline_s)
+            except DocumentTooLarge:
+                ctx.counters[parser.prefix + "rejected.document_too_large"] += 1
+                raise
+            except TimeoutError:
+                ctx.counters[parser.prefix + "document_timeouts"] += 1
+                raise
             received_s = ctx.clock()
             ctx.connected()
             for report in parser.document(data, received_s):
