@@ -51,6 +51,11 @@ class MavlinkConfig:
     signing_required: bool = True  # with a key: unsigned frames rejected (false: accepted, counted)
     # Whose ADSB_VEHICLE is used: "SYS" (any component) or "SYS:COMP" ids; empty = source_system, any component.
     traffic_sources: tuple[int | str, ...] = ()
+    # tcpin (avionics/io/tcpin.py): a connection that sends no valid frame of source_system for this long is closed,
+    # so an idle or garbage-only client cannot hold the link. mavlink.io/en/services/heartbeat.html: "components
+    # typically publish their heartbeat at 1 Hz and consider another system to have disconnected if four or five
+    # messages are not received".
+    tcpin_idle_timeout_s: float = 5.0
 
     def validate(self) -> None:
         traffic_source_ids(self)
@@ -64,7 +69,8 @@ class MavlinkConfig:
                 load_key(self.signing_key_file)
             except SigningKeyError as exc:
                 raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
-        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz"))
+        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz",
+                                           "tcpin_idle_timeout_s"))
         if not 1 <= self.traffic_rebroadcast_component <= 255 or \
                 self.traffic_rebroadcast_component == self.source_component:
             raise ConfigError("mavlink.traffic_rebroadcast_component must be in 1..255 and differ from "
