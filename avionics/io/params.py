@@ -102,6 +102,15 @@ def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
 ZENOH_MODES = ("peer", "client", "router")
 
 
+def read_password(path: str) -> str:
+    """The first line of a password file, without its line end ("" when it is empty or unreadable)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline().rstrip("\r\n")
+    except (OSError, UnicodeDecodeError):
+        return ""
+
+
 @dataclass(frozen=True)
 class ZenohConfig:
     enabled: bool = True
@@ -125,6 +134,12 @@ class ZenohConfig:
     tls_connect_private_key: str = ""
     tls_enable_mtls: bool = False
     tls_verify_name_on_connect: bool = True
+    # Authentication and access control (docs/zenoh.md, "Security"): zenoh's usrpwd authentication
+    # (transport/auth/usrpwd) and a zenoh JSON5 file read first, for what has no key here (access_control, ...).
+    auth_user: str = ""  # our user name when we open a link (with auth_password_file)
+    auth_password_file: str = ""  # a file whose first line is that user's password (not on a command line)
+    auth_dictionary_file: str = ""  # "user:password" lines: a link opened to us must log in as one of them
+    config_file: str = ""  # zenoh JSON5 configuration; the keys of this section are set on top of it
 
     def validate(self) -> None:
         z = self
@@ -141,7 +156,8 @@ class ZenohConfig:
         if not 0.0 < z.reconnect_max_s <= 60.0:
             raise ConfigError(f"zenoh.reconnect_max_s: must be in (0, 60], got {z.reconnect_max_s}")
         files = ("tls_root_ca_certificate", "tls_listen_certificate", "tls_listen_private_key",
-                 "tls_connect_certificate", "tls_connect_private_key")
+                 "tls_connect_certificate", "tls_connect_private_key", "auth_password_file", "auth_dictionary_file",
+                 "config_file")
         for name in files:
             path = getattr(z, name)
             if path and not Path(path).is_file():
@@ -158,6 +174,17 @@ class ZenohConfig:
         if z.tls_enable_mtls and not (z.tls_root_ca_certificate and (z.tls_connect_certificate
                                                                      or z.tls_listen_certificate)):
             raise ConfigError("zenoh.tls_enable_mtls needs tls_root_ca_certificate and our own certificate and key")
+        if bool(z.auth_user) != bool(z.auth_password_file):
+            raise ConfigError("zenoh.auth_user and auth_password_file go together")
+        if z.auth_password_file and not read_password(z.auth_password_file):
+            raise ConfigError(f"zenoh.auth_password_file: {z.auth_password_file!r} holds no password on its first line")
+        if z.config_file:
+            import zenoh  # noqa: PLC0415  (only a configuration that names a file needs zenoh here)
+
+            try:
+                zenoh.Config.from_file(z.config_file)
+            except zenoh.ZError as exc:
+                raise ConfigError(f"zenoh.config_file: {z.config_file!r} is not a zenoh configuration: {exc}") from None
         require_positive("zenoh", z, ("tracks_hz", "status_hz"))
 
 
