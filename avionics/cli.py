@@ -142,11 +142,13 @@ def cmd_config(args) -> int:
 
 
 def _security_args(parser: argparse.ArgumentParser) -> None:
-    """zenoh security of `monitor` and `router`: the [zenoh] keys of the same names (docs/zenoh.md, "Security")."""
+    """zenoh security of `monitor` and `router`: the [zenoh] keys of the same meaning (docs/zenoh.md,
+    "Security recipes")."""
     parser.add_argument("--tls-root-ca", metavar="PEM", default="", help="CA certificate for tls/ connect endpoints")
     parser.add_argument("--tls-cert", metavar="PEM", default="", help="our certificate (tls/ listen; mutual TLS)")
     parser.add_argument("--tls-key", metavar="PEM", default="", help="our private key (with --tls-cert)")
-    parser.add_argument("--mtls", action="store_true", help="mutual TLS: certificates on both sides (zenoh.tls_enable_mtls)")
+    parser.add_argument("--mtls", action="store_true",
+                        help="mutual TLS: certificates on both sides (zenoh.tls_enable_mtls)")
     parser.add_argument("--user", default="", help="zenoh user name to log in with (with --password-file)")
     parser.add_argument("--password-file", metavar="FILE", default="", help="file whose first line is the password")
     parser.add_argument("--auth-dictionary", metavar="FILE", default="",
@@ -186,7 +188,8 @@ def cmd_monitor(args) -> int:
     from avionics.monitor.app import run_monitor  # checks the endpoints and --http before opening anything
     from avionics.monitor.feed import monitor_zenoh_config
 
-    cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen, **_security(args, False))
+    cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen,
+                               **_security(args, False))
     validate(Config(zenoh=cfg))
     return run_monitor(cfg, prefix=args.prefix, http=args.http, tui=args.tui, vehicle=args.vehicle,
                        duration_s=args.duration)

@@ -35,7 +35,8 @@ def make_pki(d):
         "-subj", "/CN=daa-test-ca")
     (d / "ext.cnf").write_text("subjectAltName=IP:127.0.0.1,DNS:localhost\nbasicConstraints=CA:FALSE\n")
     for name in ("router", "uav1", "monitor", "stolen"):  # "stolen": a certificate of ours without a password
-        run("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}.key", "-out", f"{name}.csr", "-subj", f"/CN={name}")
+        run("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}.key", "-out", f"{name}.csr",
+            "-subj", f"/CN={name}")
         run("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
             "-out", f"{name}.pem", "-days", "2", "-extfile", "ext.cnf")
     (d / "users.txt").write_text("uav1:uav1-secret\nmonitor:monitor-secret\n")
@@ -60,8 +61,8 @@ def test_unauthenticated_peers_can_neither_publish_nor_read_daa(tmp_path, tcp_po
     make_pki(tmp_path)
     endpoint = f"tls/127.0.0.1:{tcp_port}"
     router = subprocess.Popen(
-        [sys.executable, "-m", "avionics.cli", "router", "--listen", endpoint, "--tls-root-ca", str(tmp_path / "ca.pem"),
-         "--tls-cert", str(tmp_path / "router.pem"), "--tls-key", str(tmp_path / "router.key"), "--mtls",
+        [sys.executable, "-m", "avionics.cli", "router", "--listen", endpoint,
+         "--tls-root-ca", str(tmp_path / "ca.pem"), "--tls-cert", str(tmp_path / "router.pem"), "--tls-key", str(tmp_path / "router.key"), "--mtls",
          "--auth-dictionary", str(tmp_path / "users.txt"), "--zenoh-config", str(tmp_path / "acl.json5")],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     onboard = load_config(overrides=[

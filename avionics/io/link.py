@@ -1,7 +1,8 @@
 """A MAVLink link from any pymavlink connection string, with robust framing and an optional .tlog record.
 
-pymavlink supplies the transports (udpin/udpout/tcp/serial/.tlog; tcpin is avionics/io/tcpin.py); frames are extracted by our
-FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbage never costs valid frames.
+pymavlink supplies the transports (udpin/udpout/tcp/serial/.tlog; tcpin is avionics/io/tcpin.py); frames are
+extracted by our FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbage never costs
+valid frames.
 With a MAVLink 2 signing key, every frame we send is signed and every frame received is checked
 (avionics/io/signing.py) before it is used; a replayed log's timestamps are checked before they become time.
 """

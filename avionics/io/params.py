@@ -134,7 +134,7 @@ class ZenohConfig:
     tls_connect_private_key: str = ""
     tls_enable_mtls: bool = False
     tls_verify_name_on_connect: bool = True
-    # Authentication and access control (docs/zenoh.md, "Security"): zenoh's usrpwd authentication
+    # Authentication and access control (docs/zenoh.md, "Security recipes"): zenoh's usrpwd authentication
     # (transport/auth/usrpwd) and a zenoh JSON5 file read first, for what has no key here (access_control, ...).
     auth_user: str = ""  # our user name when we open a link (with auth_password_file)
     auth_password_file: str = ""  # a file whose first line is that user's password (not on a command line)
