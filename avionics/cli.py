@@ -142,16 +142,28 @@ def cmd_config(args) -> int:
     return 0
 
 
-def _tls_args(parser: argparse.ArgumentParser) -> None:
+def _security_args(parser: argparse.ArgumentParser) -> None:
+    """zenoh security of `monitor` and `router`: the [zenoh] keys of the same meaning (docs/zenoh.md,
+    "Security recipes")."""
     parser.add_argument("--tls-root-ca", metavar="PEM", default="", help="CA certificate for tls/ connect endpoints")
     parser.add_argument("--tls-cert", metavar="PEM", default="", help="our certificate (tls/ listen; mutual TLS)")
     parser.add_argument("--tls-key", metavar="PEM", default="", help="our private key (with --tls-cert)")
+    parser.add_argument("--mtls", action="store_true",
+                        help="mutual TLS: certificates on both sides (zenoh.tls_enable_mtls)")
+    parser.add_argument("--user", default="", help="zenoh user name to log in with (with --password-file)")
+    parser.add_argument("--password-file", metavar="FILE", default="", help="file whose first line is the password")
+    parser.add_argument("--auth-dictionary", metavar="FILE", default="",
+                        help="user:password lines: who may open a link to us (zenoh.auth_dictionary_file)")
+    parser.add_argument("--zenoh-config", metavar="FILE.json5", default="",
+                        help="a zenoh configuration read first, e.g. access_control (zenoh.config_file)")
 
 
-def _tls(args, listening: bool) -> dict:
+def _security(args, listening: bool) -> dict:
     side = "listen" if listening else "connect"
     return {"tls_root_ca_certificate": args.tls_root_ca, f"tls_{side}_certificate": args.tls_cert,
-            f"tls_{side}_private_key": args.tls_key}
+            f"tls_{side}_private_key": args.tls_key, "tls_enable_mtls": args.mtls, "auth_user": args.user,
+            "auth_password_file": args.password_file, "auth_dictionary_file": args.auth_dictionary,
+            "config_file": args.zenoh_config}
 
 
 def cmd_warmup(args) -> int:
@@ -177,7 +189,8 @@ def cmd_monitor(args) -> int:
     from avionics.monitor.app import run_monitor  # checks the endpoints and --http before opening anything
     from avionics.monitor.feed import monitor_zenoh_config
 
-    cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen, **_tls(args, False))
+    cfg = monitor_zenoh_config(args.connect or ["tcp/127.0.0.1:7447"], args.mode, args.listen,
+                               **_security(args, False))
     validate(Config(zenoh=cfg))
     return run_monitor(cfg, prefix=args.prefix, http=args.http, tui=args.tui, vehicle=args.vehicle,
                        duration_s=args.duration)
@@ -188,7 +201,7 @@ def cmd_router(args) -> int:
     from avionics.monitor.app import check_endpoints
     from avionics.monitor.router import router_config, run_router
 
-    cfg = router_config(args.listen or ["tcp/127.0.0.1:7447"], args.connect, **_tls(args, True))
+    cfg = router_config(args.listen or ["tcp/127.0.0.1:7447"], args.connect, **_security(args, True))
     check_endpoints(cfg)
     validate(Config(zenoh=cfg))
     return run_router(cfg)
@@ -237,14 +250,14 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
     p.add_argument("--tui", action="store_true", help="terminal view instead of the web page")
     p.add_argument("--vehicle", help="vehicle shown first (default: the first online)")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    _tls_args(p)
+    _security_args(p)
     p.set_defaults(func=cmd_monitor)
 
     p = sub.add_parser("router", help="a zenoh router in Python (stand-in for zenohd) for monitors and vehicles")
     p.add_argument("--listen", action="append", metavar="ENDPOINT",
                    help="endpoint to listen on (repeatable; default tcp/127.0.0.1:7447)")
     p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="another router to join")
-    _tls_args(p)
+    _security_args(p)
     p.set_defaults(func=cmd_router)
     return parser
 

@@ -46,7 +46,8 @@ class Runner:
         cfg = config.mavlink
         self.link = MavlinkLink(cfg.connection, self.counters, cfg.source_system, cfg.source_component,
                                 baud=cfg.baud, tlog_out=tlog_out, signing_key_file=cfg.signing_key_file,
-                                signing_required=cfg.signing_required, sinks=self.sinks)
+                                signing_required=cfg.signing_required, sinks=self.sinks,
+                                tcpin_idle_timeout_s=cfg.tcpin_idle_timeout_s)
         self.bus = bus
         if self.bus is None and config.zenoh.enabled:
             from avionics.io.zenoh_bus import ZenohBus

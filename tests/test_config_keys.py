@@ -159,6 +159,11 @@ VALIDATION_ONLY: dict[str, str] = {
     "zenoh.tls_connect_certificate": "a PEM file path, used only by a zenoh session",
     "zenoh.tls_connect_private_key": "a PEM file path, used only by a zenoh session",
     "zenoh.tls_enable_mtls": "needs the certificate files, used only by a zenoh session",
+    "zenoh.auth_user": "goes with auth_password_file, used only by a zenoh session",
+    "zenoh.auth_password_file": "a file path, used only by a zenoh session",
+    "zenoh.auth_dictionary_file": "a file path, used only by a zenoh session",
+    "zenoh.config_file": "a zenoh configuration file, read only by a zenoh session",
+    "mavlink.tcpin_idle_timeout_s": "the replay has no link (tcpin connections: tests/test_link.py)",
 }
 
 # (key, value) cases that may legitimately end the replay without any alert, with the reason. None today.
@@ -358,6 +363,31 @@ def test_validation_only_keys(tmp_path):
             load_config(overrides=[f"zenoh.{name}={cert}"])
     with pytest.raises(ConfigError, match="zenoh.tls_enable_mtls"):
         load_config(overrides=["zenoh.tls_enable_mtls=true"])
+    # zenoh.auth_*, config_file: a user with a password file whose first line is the password, existing files,
+    # a file zenoh reads as its configuration.
+    password, users, conf = tmp_path / "pw", tmp_path / "users.txt", tmp_path / "z.json5"
+    password.write_text("s3cret\n")
+    users.write_text("uav1:s3cret\n")
+    conf.write_text("{ access_control: { enabled: false } }")
+    cfg = load_config(overrides=["zenoh.auth_user=uav1", f"zenoh.auth_password_file={password}",
+                                 f"zenoh.auth_dictionary_file={users}", f"zenoh.config_file={conf}"])
+    assert (cfg.zenoh.auth_user, cfg.zenoh.config_file) == ("uav1", str(conf))
+    for override in ("zenoh.auth_user=uav1", f"zenoh.auth_password_file={password}"):
+        with pytest.raises(ConfigError, match="go together"):
+            load_config(overrides=[override])
+    for name in ("auth_password_file", "auth_dictionary_file", "config_file"):
+        with pytest.raises(ConfigError, match=f"zenoh.{name}: no such file"):
+            load_config(overrides=[f"zenoh.{name}={tmp_path / 'missing'}"])
+    (tmp_path / "empty").write_text("\n")
+    with pytest.raises(ConfigError, match="holds no password"):
+        load_config(overrides=["zenoh.auth_user=uav1", f"zenoh.auth_password_file={tmp_path / 'empty'}"])
+    (tmp_path / "bad.json5").write_text("{ mode: ")
+    with pytest.raises(ConfigError, match="zenoh.config_file: .* is not a zenoh configuration"):
+        load_config(overrides=[f"zenoh.config_file={tmp_path / 'bad.json5'}"])
+    # mavlink.tcpin_idle_timeout_s: > 0.
+    assert load_config(overrides=["mavlink.tcpin_idle_timeout_s=0.5"]).mavlink.tcpin_idle_timeout_s == 0.5
+    with pytest.raises(ConfigError, match="mavlink.tcpin_idle_timeout_s"):
+        load_config(overrides=["mavlink.tcpin_idle_timeout_s=0"])
 
 
 # --- each component validates its own section --------------------------------------------------------------------

@@ -108,3 +108,32 @@ def test_head_on_over_udp_gives_ta_ra_clear_on_mavlink_and_zenoh(udp_port, tcp_p
     assert status["counters"]["adsb.lat_out_of_range"] == 3
     assert status["counters"]["frame.skipped_bytes"] > 0
     assert status["ownship_valid"] and status["sensitivity_level"] == 4
+
+
+def test_head_on_over_tcpin_reaches_the_autopilot_behind_an_idle_client(tcp_port):
+    """An idle TCP client connects to `avionics run --connection tcpin:...` first, then the autopilot: the
+    autopilot gets the link (ownship, TA and RA), and the idle client is closed after
+    mavlink.tcpin_idle_timeout_s. pymavlink's tcpin gave the only slot to the idle client."""
+    onboard = subprocess.Popen(
+        [sys.executable, "-m", "avionics.cli", "run", "--connection", f"tcpin:127.0.0.1:{tcp_port}", "--no-zenoh",
+         "--counters", "--duration", str(25 + 2 * DEADLINE_S)],  # ended by the test; a backstop only
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    idle = None
+    try:
+        _wait_for_tcp(tcp_port, onboard)  # (the probe's connection closes at once)
+        idle = socket.create_connection(("127.0.0.1", tcp_port), timeout=DEADLINE_S)  # connects, says nothing
+        recording = fly(load_encounter("head-on"), f"tcp:127.0.0.1:{tcp_port}", PRESETS["default"], seed=3,
+                        start_s=START_S, duration_s=70.0 - START_S)  # TA ~55 s, RA ~65 s
+        idle.settimeout(DEADLINE_S)
+        closed_by_onboard = idle.recv(4096) == b""
+    finally:
+        if idle is not None:
+            idle.close()
+        onboard.terminate()
+        out, err = onboard.communicate(timeout=DEADLINE_S)
+    levels = {m.threat_level for m in (r.msg for r in recording.of_type("COLLISION")) if m.id == 0xA10001}
+    assert {mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW, mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH} <= levels, err
+    assert recording.of_type("HEARTBEAT")
+    assert closed_by_onboard
+    counters = json.loads(out)
+    assert counters["link.tcpin_idle_closed"] >= 1 and counters["link.tcpin_owner"] == 1, counters

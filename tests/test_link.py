@@ -15,7 +15,7 @@ import avionics.io  # noqa: F401  (MAVLINK20=1 before pymavlink is imported)
 import pytest
 from pymavlink.dialects.v20 import common as m2
 
-import avionics.io.link as link_module
+import avionics.io.tcpin as tcpin_module
 from avionics.io.framing import FrameScanner
 from avionics.io.link import LinkError, MavlinkLink
 from tests.conftest import DEADLINE_S
@@ -205,7 +205,7 @@ def test_tcpin_hears_an_autopilot_that_reconnects_and_does_not_spin_meanwhile(mo
         # for ever); waiting out the timeout is select() finding nothing readable. Counted, not timed.
         spy = SelectSpy()
         with monkeypatch.context() as m:
-            m.setattr(link_module, "select", spy)
+            m.setattr(tcpin_module, "select", spy)
             for _ in range(6):
                 assert rx.receive(0.05) == []
         assert len(spy.readable) >= 6  # it waited in select() on every call
@@ -273,10 +273,70 @@ def test_tcp_client_survives_the_autopilot_going_away_and_reconnects(monkeypatch
                 peer.close()
 
 
+def heartbeat(n: int = 0) -> bytes:
+    """The autopilot's (system OUR_SYSTEM, component 1) HEARTBEAT number n."""
+    return bytes(m2.MAVLink_heartbeat_message(2, 12, 81, n, 4, 3).pack(m2.MAVLink(None, OUR_SYSTEM, 1)))
+
+
+def test_tcpin_idle_and_garbage_clients_first_do_not_keep_the_autopilot_out():
+    """pymavlink's tcpin gave the only slot to whoever connected first: the autopilot behind an idle client was
+    never read. Now the autopilot's first valid frame owns the link, and the others are closed after the
+    idle timeout (mavlink.tcpin_idle_timeout_s)."""
+    port = free_port(socket.SOCK_STREAM)
+    counters = Counter()
+    with closing(link(f"tcpin:{HOST}:{port}", counters, tcpin_idle_timeout_s=1.0)) as rx, \
+            closing(socket.create_connection((HOST, port), timeout=DEADLINE_S)) as idle:
+        for _ in range(3):
+            assert rx.receive(0.05) == []  # the idle client is accepted (and sends nothing)
+        with closing(socket.create_connection((HOST, port), timeout=DEADLINE_S)) as junk, \
+                closing(socket.create_connection((HOST, port), timeout=DEADLINE_S)) as autopilot:
+            junk.sendall(bytes(range(256)) * 4 + heartbeat()[:-1])  # no valid frame
+            autopilot.sendall(heartbeat(1))
+            assert [m.custom_mode for m in receive_until(rx, 1)] == [1]
+            rx.send(our_reply())  # to the autopilot, the link's owner
+            assert_is_our_reply(recv_exactly(autopilot, len(bytes(our_reply().pack(
+                m2.MAVLink(None, srcSystem=OUR_SYSTEM, srcComponent=OUR_COMPONENT))))))
+            # The idle and the garbage client are closed after the timeout; the autopilot, talking, is not.
+            deadline, n, got = time.monotonic() + DEADLINE_S, 2, []
+            while counters["link.tcpin_idle_closed"] < 2 and time.monotonic() < deadline:
+                autopilot.sendall(heartbeat(n))
+                got += rx.receive(0.1)
+                n += 1
+            assert counters["link.tcpin_idle_closed"] == 2 and counters["link.tcpin_owner"] == 1
+            assert [m.custom_mode for m in got] == list(range(2, 2 + len(got)))
+            for client in (idle, junk):
+                client.settimeout(DEADLINE_S)
+                assert client.recv(4096) == b""  # closed by us, and nothing sent to it
+            assert counters["frame.skipped_bytes"] > 0
+
+
+def test_tcpin_autopilot_reconnecting_replaces_its_silent_connection():
+    """The autopilot rebooted without closing its connection (half-open): the new connection's frames wait while
+    the old one is within the idle timeout, then the new one owns the link."""
+    port = free_port(socket.SOCK_STREAM)
+    counters = Counter()
+    with closing(link(f"tcpin:{HOST}:{port}", counters, tcpin_idle_timeout_s=1.0)) as rx, \
+            closing(socket.create_connection((HOST, port), timeout=DEADLINE_S)) as old:
+        old.sendall(heartbeat(1))
+        assert [m.custom_mode for m in receive_until(rx, 1)] == [1]
+        with closing(socket.create_connection((HOST, port), timeout=DEADLINE_S)) as new:
+            deadline, n, got = time.monotonic() + DEADLINE_S, 100, []
+            while not got and time.monotonic() < deadline:
+                new.sendall(heartbeat(n))
+                got += rx.receive(0.1)
+                n += 1
+            assert got and got[0].custom_mode > 100  # not the first: it waited for the old one's timeout
+            assert counters["link.tcpin_idle_closed"] == 1 and counters["link.tcpin_owner"] == 2
+            assert counters["link.tcpin_standby_frames"] >= 1
+            rx.send(our_reply())
+            assert_is_our_reply(recv_exactly(new, len(bytes(our_reply().pack(
+                m2.MAVLink(None, srcSystem=OUR_SYSTEM, srcComponent=OUR_COMPONENT))))))
+
+
 def test_tcpin_and_tcp_links_talk_to_each_other():
     port = free_port(socket.SOCK_STREAM)
     with closing(link(f"tcpin:{HOST}:{port}")) as server:
-        client = MavlinkLink(f"tcp:{HOST}:{port}", Counter(), 7, 1)
+        client = MavlinkLink(f"tcp:{HOST}:{port}", Counter(), OUR_SYSTEM, 1)  # the vehicle's autopilot: owns tcpin
         try:
             beats = [m2.MAVLink_heartbeat_message(2, 12, 81, n, 4, 3) for n in range(3)]
             server.receive(0.2)  # accepts the connection
@@ -284,7 +344,7 @@ def test_tcpin_and_tcp_links_talk_to_each_other():
                 client.send(b)
             got = receive_until(server, len(beats))
             assert [(m.get_type(), m.custom_mode, m.get_srcSystem()) for m in got] == \
-                [("HEARTBEAT", n, 7) for n in range(3)]
+                [("HEARTBEAT", n, OUR_SYSTEM) for n in range(3)]
             server.send(our_reply())
             back = receive_until(client, 1)
             assert [(m.get_type(), m.get_srcSystem(), m.get_srcComponent()) for m in back] == \

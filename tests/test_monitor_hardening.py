@@ -21,7 +21,7 @@ from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
 from avionics.monitor.schema import MAX_UNKNOWN_FIELDS, Rejected, check_id, clean_sample, clean_snapshot
 from avionics.monitor.state import NM, FleetState
 from avionics.monitor.tui import TuiView, render_text, run_tui
-from avionics.monitor.web import MonitorServer
+from avionics.monitor.web import MAX_CONNECTIONS, MonitorServer
 from tests.conftest import free_port
 
 DEADLINE_S = float(os.environ.get("AVIONICS_TEST_DEADLINE_S", "60"))
@@ -380,6 +380,16 @@ def _handler_threads() -> int:
 
 
 @pytest.mark.live
+def _event_stream(port: int) -> socket.socket:
+    """A page's event stream, open: its request is served (the slot is not a slow one's)."""
+    sock = socket.create_connection(("127.0.0.1", port))
+    sock.sendall(f"GET /events HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+    sock.settimeout(DEADLINE_S)
+    assert sock.recv(4096).startswith(b"HTTP/1.0 200 ")
+    return sock
+
+
+@pytest.mark.live
 def test_connection_cap_holds_and_extra_connections_get_503_without_a_thread():
     cap = 4
     server = MonitorServer(FleetState(), port=0, max_connections=cap, request_timeout_s=DEADLINE_S * 2).start()
@@ -387,7 +397,7 @@ def test_connection_cap_holds_and_extra_connections_get_503_without_a_thread():
     try:
         threads_before = _handler_threads()
         for _ in range(cap):
-            held.append(socket.create_connection(("127.0.0.1", server.port)))
+            held.append(_event_stream(server.port))
         assert wait_for(lambda: server.connections == cap, DEADLINE_S)
         for _ in range(50):
             extra.append(socket.create_connection(("127.0.0.1", server.port)))
@@ -396,13 +406,36 @@ def test_connection_cap_holds_and_extra_connections_get_503_without_a_thread():
         assert all(a == b"" or a.startswith(b"HTTP/1.0 503 ") for a in answers)  # ... with a 503, never served
         assert sum(a.startswith(b"HTTP/1.0 503 ") for a in answers) >= 1
         assert server.connections == cap and _handler_threads() - threads_before <= cap
-        assert server.http_stats()["refused_busy"] == 50
+        assert server.http_stats()["refused_busy"] == 50 and server.http_stats()["evicted_slow"] == 0
         for s in held:
             s.close()
         assert wait_for(lambda: server.connections == 0, DEADLINE_S)
         assert _get(server.port)[0] == 200  # and it serves again
     finally:
         for s in held + extra:
+            s.close()
+        server.close()
+
+
+@pytest.mark.live
+def test_slow_connections_holding_every_slot_do_not_keep_the_page_from_its_user():
+    """64 connections that never finish their request (slowloris, within request_timeout_s) took every slot and the
+    page's own user got 503 until they timed out. Now a new connection takes the oldest slow one's slot."""
+    server = MonitorServer(FleetState(), port=0, request_timeout_s=DEADLINE_S * 2).start()
+    slow = []
+    try:
+        for _ in range(MAX_CONNECTIONS):
+            sock = socket.create_connection(("127.0.0.1", server.port))
+            sock.sendall(f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nX-Slow: ".encode())
+            slow.append(sock)
+        assert wait_for(lambda: server.connections == MAX_CONNECTIONS, DEADLINE_S)
+        for _ in range(3):
+            assert _get(server.port)[0] == 200
+        # one slow connection made room; the page's requests, once answered, give their slot back
+        assert server.http_stats()["evicted_slow"] == 1 and server.http_stats()["refused_busy"] == 0
+        assert _closed_by_peer(slow[0], DEADLINE_S) == b""  # the oldest slow one lost its slot: closed, no answer
+    finally:
+        for s in slow:
             s.close()
         server.close()
 

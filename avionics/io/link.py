@@ -1,7 +1,8 @@
 """A MAVLink link from any pymavlink connection string, with robust framing and an optional .tlog record.
 
-pymavlink supplies the transports (udpin/udpout/tcp/tcpin/serial/.tlog); frames are extracted by our
-FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbage never costs valid frames.
+pymavlink supplies the transports (udpin/udpout/tcp/serial/.tlog; tcpin is avionics/io/tcpin.py); frames are
+extracted by our FrameScanner (per datagram on UDP, as a stream on TCP and serial) so that garbage never costs
+valid frames.
 With a MAVLink 2 signing key, every frame we send is signed and every frame received is checked
 (avionics/io/signing.py) before it is used; a replayed log's timestamps are checked before they become time.
 """
@@ -24,8 +25,10 @@ from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DA
 
 from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
+from avionics.io.params import MavlinkConfig
 from avionics.io.signing import Signing, SigningKeyError, load_key
 from avionics.io.sinks import FileSink, SinkHealth
+from avionics.io.tcpin import TcpInServer
 
 READ_CHUNK = 65536
 MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
@@ -220,7 +223,8 @@ class LogClock:
 class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
-                 signing_required: bool = True, sinks: SinkHealth | None = None):
+                 signing_required: bool = True, sinks: SinkHealth | None = None,
+                 tcpin_idle_timeout_s: float = MavlinkConfig.tcpin_idle_timeout_s):
         """sinks: where a failing record (tlog_out) or endpoint write is reported (avionics/io/sinks.py)."""
         connection, baud = translate_connection(connection, baud)  # MAVSDK/MAVROS URLs; a bad one: ConfigError
         self.connection = connection
@@ -237,8 +241,14 @@ class MavlinkLink:
             self.signing = Signing(key, counters, signing_required, clock=None if self.is_log else time.time)
         _check_udp_port_free(connection)
         try:
-            self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
-                                                   source_component=source_component, autoreconnect=True)
+            if connection.startswith("tcpin:"):  # ours, not pymavlink's one-connection mavtcpin (tcpin.py)
+                host, _, port = connection[len("tcpin:"):].rpartition(":")
+                self.conn = TcpInServer(host, int(port), counters, source_system,
+                                        lambda: FrameScanner(counters, source_system, source_component),
+                                        tcpin_idle_timeout_s)
+            else:
+                self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
+                                                       source_component=source_component, autoreconnect=True)
         except Exception as exc:  # noqa: BLE001  (pymavlink raises anything from socket to serial errors)
             raise LinkError(f"cannot open MAVLink connection {connection!r}: {exc}") from exc
         self.datagrams = isinstance(self.conn, mavutil.mavudp)
@@ -268,6 +278,10 @@ class MavlinkLink:
         msg._timestamp set from the log."""
         if self.is_log:
             return self._receive_log()
+        if isinstance(self.conn, TcpInServer):
+            received, msgs = self.conn.receive(timeout_s, self._authentic)
+            self._record(received)
+            return msgs
         fd = self._wait_fd()
         if fd is None:
             time.sleep(timeout_s)
@@ -285,7 +299,6 @@ class MavlinkLink:
                 self.counters["link.receive_error"] += 1
                 break
             if not data:
-                self._drop_closed_tcpin_peer()
                 break
             msgs = self.scanner.feed(bytes(data) if isinstance(data, (bytes, bytearray)) else data.encode(),
                                      end_of_datagram=self.datagrams)
@@ -407,24 +420,6 @@ class MavlinkLink:
                 self.counters["link.reconnected"] += 1
             conn.fd = conn.port.fileno()
         return conn.fd
-
-    def _drop_closed_tcpin_peer(self) -> None:
-        """pymavlink's tcpin keeps a connection its peer has closed: select() then returns at once for ever
-        and a reconnecting peer is never accepted. Go back to listening instead."""
-        conn = self.conn
-        if not isinstance(conn, mavutil.mavtcpin) or conn.port is None:
-            return
-        try:
-            closed = conn.port.recv(1, socket.MSG_PEEK) == b""
-        except BlockingIOError:
-            return  # nothing queued yet: still connected
-        except OSError:
-            closed = True
-        if closed:
-            conn.port.close()
-            conn.port = None
-            conn.fd = conn.listen.fileno()
-            self.counters["link.disconnected"] += 1
 
     def _record(self, msgs) -> None:
         """pymavlink's setup_logfile() writes nothing on UDP links, so the tlog is written here."""

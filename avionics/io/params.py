@@ -55,6 +55,11 @@ class MavlinkConfig:
     # The component of source_system whose GLOBAL_POSITION_INT and SCALED_PRESSURE are the ownship; 0 = the first
     # one whose HEARTBEAT names an autopilot (autopilot != MAV_AUTOPILOT_INVALID), MAV_COMP_ID_AUTOPILOT1 until then.
     ownship_component: int = 0
+    # tcpin (avionics/io/tcpin.py): a connection that sends no valid frame of source_system for this long is closed,
+    # so an idle or garbage-only client cannot hold the link. mavlink.io/en/services/heartbeat.html: "components
+    # typically publish their heartbeat at 1 Hz and consider another system to have disconnected if four or five
+    # messages are not received".
+    tcpin_idle_timeout_s: float = 5.0
 
     def validate(self) -> None:
         traffic_source_ids(self)
@@ -68,7 +73,8 @@ class MavlinkConfig:
                 load_key(self.signing_key_file)
             except SigningKeyError as exc:
                 raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
-        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz"))
+        require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz",
+                                           "tcpin_idle_timeout_s"))
         if not 1 <= self.traffic_rebroadcast_component <= 255 or \
                 self.traffic_rebroadcast_component == self.source_component:
             raise ConfigError("mavlink.traffic_rebroadcast_component must be in 1..255 and differ from "
@@ -101,6 +107,15 @@ def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
 ZENOH_MODES = ("peer", "client", "router")
 
 
+def read_password(path: str) -> str:
+    """The first line of a password file, without its line end ("" when it is empty or unreadable)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline().rstrip("\r\n")
+    except (OSError, UnicodeDecodeError):
+        return ""
+
+
 @dataclass(frozen=True)
 class ZenohConfig:
     enabled: bool = True
@@ -124,6 +139,12 @@ class ZenohConfig:
     tls_connect_private_key: str = ""
     tls_enable_mtls: bool = False
     tls_verify_name_on_connect: bool = True
+    # Authentication and access control (docs/zenoh.md, "Security recipes"): zenoh's usrpwd authentication
+    # (transport/auth/usrpwd) and a zenoh JSON5 file read first, for what has no key here (access_control, ...).
+    auth_user: str = ""  # our user name when we open a link (with auth_password_file)
+    auth_password_file: str = ""  # a file whose first line is that user's password (not on a command line)
+    auth_dictionary_file: str = ""  # "user:password" lines: a link opened to us must log in as one of them
+    config_file: str = ""  # zenoh JSON5 configuration; the keys of this section are set on top of it
 
     def validate(self) -> None:
         z = self
@@ -140,7 +161,8 @@ class ZenohConfig:
         if not 0.0 < z.reconnect_max_s <= 60.0:
             raise ConfigError(f"zenoh.reconnect_max_s: must be in (0, 60], got {z.reconnect_max_s}")
         files = ("tls_root_ca_certificate", "tls_listen_certificate", "tls_listen_private_key",
-                 "tls_connect_certificate", "tls_connect_private_key")
+                 "tls_connect_certificate", "tls_connect_private_key", "auth_password_file", "auth_dictionary_file",
+                 "config_file")
         for name in files:
             path = getattr(z, name)
             if path and not Path(path).is_file():
@@ -157,6 +179,17 @@ class ZenohConfig:
         if z.tls_enable_mtls and not (z.tls_root_ca_certificate and (z.tls_connect_certificate
                                                                      or z.tls_listen_certificate)):
             raise ConfigError("zenoh.tls_enable_mtls needs tls_root_ca_certificate and our own certificate and key")
+        if bool(z.auth_user) != bool(z.auth_password_file):
+            raise ConfigError("zenoh.auth_user and auth_password_file go together")
+        if z.auth_password_file and not read_password(z.auth_password_file):
+            raise ConfigError(f"zenoh.auth_password_file: {z.auth_password_file!r} holds no password on its first line")
+        if z.config_file:
+            import zenoh  # noqa: PLC0415  (only a configuration that names a file needs zenoh here)
+
+            try:
+                zenoh.Config.from_file(z.config_file)
+            except zenoh.ZError as exc:
+                raise ConfigError(f"zenoh.config_file: {z.config_file!r} is not a zenoh configuration: {exc}") from None
         require_positive("zenoh", z, ("tracks_hz", "status_hz"))
 
 

@@ -31,7 +31,7 @@ from collections import Counter, deque
 import zenoh
 
 from avionics.core.jsonsafe import dumps
-from avionics.io.params import ZenohConfig
+from avionics.io.params import ZenohConfig, read_password
 from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import ARROW_STREAM, TrafficBatch
 
@@ -59,7 +59,8 @@ class ZenohBusError(RuntimeError):
 
 
 def session_config(cfg: ZenohConfig) -> zenoh.Config:
-    config = zenoh.Config()
+    """zenoh's configuration: zenoh.config_file (if any), then every [zenoh] key on top of it."""
+    config = zenoh.Config.from_file(cfg.config_file) if cfg.config_file else zenoh.Config()  # checked by validate()
     config.insert_json5("mode", json.dumps(cfg.mode))
     config.insert_json5("scouting/multicast/enabled", json.dumps(cfg.scouting))
     config.insert_json5("scouting/gossip/enabled", json.dumps(cfg.scouting))
@@ -83,6 +84,11 @@ def session_config(cfg: ZenohConfig) -> zenoh.Config:
         config.insert_json5("transport/link/tls/enable_mtls", "true")
     if not cfg.tls_verify_name_on_connect:
         config.insert_json5("transport/link/tls/verify_name_on_connect", "false")
+    if cfg.auth_user:  # zenoh DEFAULT_CONFIG.json5, transport/auth/usrpwd
+        config.insert_json5("transport/auth/usrpwd/user", json.dumps(cfg.auth_user))
+        config.insert_json5("transport/auth/usrpwd/password", json.dumps(read_password(cfg.auth_password_file)))
+    if cfg.auth_dictionary_file:
+        config.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(cfg.auth_dictionary_file))
     return config
 
 

@@ -29,10 +29,10 @@ INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pus
 
 
 def monitor_zenoh_config(connect: list[str] | tuple[str, ...] = ("tcp/127.0.0.1:7447",), mode: str = "client",
-                         listen: list[str] | tuple[str, ...] = (), **tls) -> ZenohConfig:
+                         listen: list[str] | tuple[str, ...] = (), **security) -> ZenohConfig:
     """A monitor's session: client of a router (or of the onboard peer) by default, scouting off.
-    tls: ZenohConfig's tls_* keys, e.g. tls_root_ca_certificate="ca.pem"."""
-    return ZenohConfig(mode=mode, listen=tuple(listen), connect=tuple(connect), scouting=False, **tls)
+    security: ZenohConfig's tls_*, auth_* and config_file keys, e.g. tls_root_ca_certificate="ca.pem"."""
+    return ZenohConfig(mode=mode, listen=tuple(listen), connect=tuple(connect), scouting=False, **security)
 
 
 class ZenohFeed:

@@ -12,8 +12,9 @@ from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import open_session
 
 
-def router_config(listen: list[str], connect: list[str] = (), **tls) -> ZenohConfig:
-    return ZenohConfig(mode="router", listen=tuple(listen), connect=tuple(connect), scouting=False, **tls)
+def router_config(listen: list[str], connect: list[str] = (), **security) -> ZenohConfig:
+    """security: ZenohConfig's tls_*, auth_* and config_file keys."""
+    return ZenohConfig(mode="router", listen=tuple(listen), connect=tuple(connect), scouting=False, **security)
 
 
 def run_router(cfg: ZenohConfig, stop: threading.Event | None = None, ready=None) -> int:

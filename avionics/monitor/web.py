@@ -16,7 +16,10 @@ Hardening (the page has no authentication; keep it on loopback):
     Origin header must come from one of those origins (403 otherwise), which covers the event stream;
   - a request has `request_timeout_s` to arrive in full, and each socket operation after that `io_timeout_s`
     (an event stream whose reader stops reading is closed); at most `max_connections` connections are served at
-    once, one more is answered 503 and closed at once, without a thread;
+    once. When they are all taken, a new connection takes the slot of the oldest one whose request has not
+    arrived in full yet (a browser sends its request at once; a held slow one is what slowloris is), so 64 slow
+    connections cannot keep the page from its own user; only when every slot serves a request is the new one
+    answered 503 and closed at once, without a thread;
   - the page is sent with a Content-Security-Policy that allows only its own inline script and style (by hash):
     even markup that got into the page could not run script. The page itself renders payload data as text.
 """
@@ -69,8 +72,9 @@ def _host_name(host: str) -> str:
 
 
 class _HttpServer(ThreadingHTTPServer):
-    """ThreadingHTTPServer with a cap on concurrent connections: one more is answered 503 and closed by the
-    accepting thread itself (no handler thread)."""
+    """ThreadingHTTPServer with a cap on concurrent connections. One more takes the slot of the oldest connection
+    still sending its request (closed, counted `evicted_slow`); when every connection is serving a request, it is
+    answered 503 and closed by the accepting thread itself (no handler thread)."""
 
     daemon_threads = True
     block_on_close = False  # close() does not wait for a connection's timeout
@@ -78,20 +82,41 @@ class _HttpServer(ThreadingHTTPServer):
 
     def __init__(self, address, handler, max_connections: int):
         self.max_connections = max_connections
-        self.active = 0
+        self._slots: dict[socket.socket, bool] = {}  # connection -> its request has arrived; oldest first
         self.refused = 0
+        self.evicted_slow = 0
         self.served = 0
         self._count_lock = threading.Lock()
         super().__init__(address, handler)
 
-    def process_request(self, request, client_address):
+    @property
+    def active(self) -> int:
+        return len(self._slots)
+
+    def request_arrived(self, request) -> None:
         with self._count_lock:
-            full = self.active >= self.max_connections
+            if request in self._slots:
+                self._slots[request] = True
+
+    def process_request(self, request, client_address):
+        slow = None
+        with self._count_lock:
+            if len(self._slots) >= self.max_connections:
+                slow = next((sock for sock, arrived in self._slots.items() if not arrived), None)
+                if slow is not None:
+                    del self._slots[slow]  # its thread ends on the shutdown below; the slot is the new one's
+                    self.evicted_slow += 1
+            full = len(self._slots) >= self.max_connections
             if full:
                 self.refused += 1
             else:
-                self.active += 1
+                self._slots[request] = False
                 self.served += 1
+        if slow is not None:
+            try:
+                slow.shutdown(socket.SHUT_RDWR)  # its handler's read ends at once
+            except OSError:
+                pass
         if full:
             try:
                 request.setblocking(False)
@@ -107,18 +132,18 @@ class _HttpServer(ThreadingHTTPServer):
         try:
             super().process_request(request, client_address)  # starts the handler thread
         except BaseException:
-            self._release()
+            self._release(request)
             raise
 
     def process_request_thread(self, request, client_address):
         try:
             super().process_request_thread(request, client_address)
         finally:
-            self._release()
+            self._release(request)
 
-    def _release(self) -> None:
+    def _release(self, request) -> None:
         with self._count_lock:
-            self.active -= 1
+            self._slots.pop(request, None)
 
     def handle_error(self, request, client_address) -> None:
         if not isinstance(sys.exc_info()[1], OSError):  # a client that went away is not worth a traceback
@@ -187,6 +212,7 @@ class MonitorServer:
     def http_stats(self) -> dict:
         return {"connections": self.httpd.active, "max_connections": self.httpd.max_connections,
                 "served": self.httpd.served, "refused_busy": self.httpd.refused,
+                "evicted_slow": self.httpd.evicted_slow,
                 "rejected_host": self.rejected_host, "rejected_origin": self.rejected_origin,
                 "event_streams": self.clients}
 
@@ -260,6 +286,7 @@ class _Handler(BaseHTTPRequestHandler):
         self._send(code, dumps(obj).encode(), "application/json")
 
     def do_GET(self):  # noqa: N802
+        self.server.request_arrived(self.connection)  # from now on this slot is not a slow one's
         self.connection.settimeout(self.monitor.io_timeout_s)  # the request is in: now the send timeout
         try:
             if not self._allowed():
