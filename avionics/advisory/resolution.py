@@ -8,10 +8,12 @@ target rate and holds it; each intruder keeps its vertical rate. Against threat 
     sep_k(RA)   = sigma_k * miss_k(RA)                     sigma_k = +1 passing above the threat, -1 below
 
 The rules, in the order they apply (docs/advisories.md has the table with sources and worked examples):
-1. Never worse than doing nothing: a first or weakened RA whose least |miss_k| over the threats is smaller
-   than that of the path ownship was on when the RA began (at the first RA: keeping the current vertical
-   rate), or a strengthened or reversed RA whose least |miss_k| is smaller than that of the RA being flown
-   (projected from ownship's present state), is never issued.
+1. Never worse than doing nothing, threat by threat: a first or weakened RA (or a composite) that leaves a
+   threat less |miss_k| than its reference (the path ownship was on when the threat joined: its vertical rate
+   before any RA, the RA being flown during one), or a strengthened or reversed RA that leaves a threat less
+   than the RA being flown, is never issued; against several threats a miss may shrink to ALIM, never below.
+   Nor does any climb or descend word point at a threat that level flight or the RA being flown clears by
+   ALIM (v7.1 booklet, "Multiple threat encounters").
 2. Sense: the sense that crosses no threat's altitude when it achieves ALIM; otherwise, against threats
    above and below, a composite RA (Don't Climb + Don't Descend: level) when it does better than either
    sense; otherwise the sense with the larger least separation. Ties within TIE_M go to descend (DO-185B
@@ -26,6 +28,10 @@ The rules, in the order they apply (docs/advisories.md has the table with source
    issued, or none (the threat stays a TA), and `reason` says why.
 5. Reversal (CLIMB NOW / DESCEND NOW, strengthened response 2.5 s, 0.35 g): when the current sense cannot
    reach ALIM even increased, the other sense can, and CPA is more than MIN_REVERSAL_TIME_S away; once.
+6. Floors (advisory/inhibits.py Floors): a commanded descent is projected levelled off in time to stop above
+   the descend floor, is not issued when it could not fly until the next assessment and still stop there, and
+   levels off at once when flown into that state; an INCREASE DESCENT that would reach its inhibit height
+   before CPA is not issued (booklet, "RA inhibits": a Descend RA in progress there becomes a Don't Climb).
 """
 
 from __future__ import annotations
