@@ -25,10 +25,9 @@ from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DA
 
 from avionics.core.params import ConfigError
 from avionics.io.framing import FrameScanner
-from avionics.io.params import MavlinkConfig
 from avionics.io.signing import Signing, SigningKeyError, load_key
 from avionics.io.sinks import FileSink, SinkHealth
-from avionics.io.tcpin import TcpInServer
+from avionics.io.tcpin import IDLE_TIMEOUT_S, TcpInServer
 
 READ_CHUNK = 65536
 MAX_DATAGRAMS_PER_RECEIVE = 256  # drained per wake-up, so that a flood never starves the loop's clock
@@ -224,7 +223,7 @@ class MavlinkLink:
     def __init__(self, connection: str, counters: Counter, source_system: int, source_component: int,
                  baud: int = 57600, tlog_out: str | Path | None = None, signing_key_file: str = "",
                  signing_required: bool = True, sinks: SinkHealth | None = None,
-                 tcpin_idle_timeout_s: float = MavlinkConfig.tcpin_idle_timeout_s):
+                 tcpin_idle_timeout_s: float = IDLE_TIMEOUT_S):
         """sinks: where a failing record (tlog_out) or endpoint write is reported (avionics/io/sinks.py)."""
         connection, baud = translate_connection(connection, baud)  # MAVSDK/MAVROS URLs; a bad one: ConfigError
         self.connection = connection

@@ -56,9 +56,8 @@ class MavlinkConfig:
     # one whose HEARTBEAT names an autopilot (autopilot != MAV_AUTOPILOT_INVALID), MAV_COMP_ID_AUTOPILOT1 until then.
     ownship_component: int = 0
     # tcpin (avionics/io/tcpin.py): a connection that sends no valid frame of source_system for this long is closed,
-    # so an idle or garbage-only client cannot hold the link. mavlink.io/en/services/heartbeat.html: "components
-    # typically publish their heartbeat at 1 Hz and consider another system to have disconnected if four or five
-    # messages are not received".
+    # so an idle or garbage-only client cannot hold the link: tcpin.IDLE_TIMEOUT_S, with its source (not imported:
+    # this module stays free of pymavlink, and link.py imports it)
     tcpin_idle_timeout_s: float = 5.0
 
     def validate(self) -> None:

@@ -28,6 +28,9 @@ from avionics.io.framing import FrameScanner
 READ_CHUNK = 65536
 LISTEN_BACKLOG = 8
 MAX_CONNECTIONS = 8  # the owner and the connections waiting for it
+# mavlink.tcpin_idle_timeout_s's default. mavlink.io/en/services/heartbeat.html: "components typically publish their
+# heartbeat at 1 Hz and consider another system to have disconnected if four or five messages are not received".
+IDLE_TIMEOUT_S = 5.0
 
 
 class _Connection:
