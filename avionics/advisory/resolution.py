@@ -251,6 +251,7 @@ class ResolutionLogic:
         self._command_s = -math.inf  # when the manoeuvre being flown was commanded
         self._command_delay_s = 0.0
         self._references: dict = {}  # threat key -> _Reference: its "doing nothing"
+        self._floored = False  # this RA levelled off at a floor: it never descends again (no DESCEND/LEVEL OFF flicker)
         self._intervals: deque = deque(maxlen=4)  # between the last calls: the period actually seen
         self._last_s: float | None = None
         self.blocked = ""  # why the last resolve() gave no RA although there were threats
@@ -428,6 +429,7 @@ class ResolutionLogic:
         if not threats:
             self.current = None
             self._references.clear()
+            self._floored = False
             return None
         threats = [th if th.key is not None else replace(th, key=i) for i, th in enumerate(threats)]
         self._threats, self._v0, self._alim, self._floors = threats, v0_mps, alim_m, floors
@@ -545,6 +547,7 @@ class ResolutionLogic:
         # is the one weakening every response model flies the same way).
         floor = self._floor_stop(sense, current.strength, delay_s=delay_left)
         if floor:
+            self._floored = True
             self._changed_s = self._command_s = now_s
             self._command_delay_s = r.delay_s
             return self._resolution(sense, Strength.LEVEL_OFF, current.reversed,
@@ -559,6 +562,7 @@ class ResolutionLogic:
         if dwell_over and now_sep < alim:  # strengthen one step
             stronger = STRONGER.get(current.strength)
             if stronger is not None and self._allowed(sense, stronger, inhibits) and \
+                    not (self._floored and sense is Sense.DESCEND) and \
                     not self._floor_stop(sense, stronger, issuing=True) and not self._points_at_cleared_threat(sense, misses_now):
                 misses = self._misses(sense, stronger)
                 if self._helps(misses, keep) and self._separation(sense, misses) > now_sep:
