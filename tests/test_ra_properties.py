@@ -8,7 +8,7 @@ nothing"), flown by the point-mass vertical simulation tests/ra_sim.py (written 
    from where ownship is, e.g. a composite LEVEL OFF between a threat below and one above).
 2. The first RA never crosses a threat's altitude when the non-crossing sense reaches ALIM with the
    corrective standard response (hand-coded closed form, ra_sim.corrective_separation) and that is no worse
-   than doing nothing.
+   than doing nothing, and the descend floor (advisory/inhibits.py Floors) would not cut that descent short.
 Thirty such encounters also go through the whole stack (`sitl replay --fly-ras`) in
 tests/test_closed_loop.py.
 """
@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.tables import load_profile
 from avionics.core.units import FPM, FT
+from avionics.advisory.resolution import Threat
 from ra_sim import Encounter, Intruder, corrective_separation, fly, non_crossing_sense
 
 TCAS = load_profile("tcas2")
@@ -79,5 +80,9 @@ def test_flying_the_ras_is_never_worse_than_not_flying_them(enc):
         return
     do_nothing = min(abs(v0 * th.t_cpa_s - th.sz_m - th.vz_intruder_mps * th.t_cpa_s) for th in threats)
     reach = corrective_separation(TCAS, threats, sense, v0)
+    own_z = out.issued[0][3]  # ground at 0: a descent that the descend floor would cut short is not this rule's
+    descent = corrective_separation(TCAS, [Threat(0.0, 0.0, max(th.t_cpa_s for th in threats))], sense, v0)
+    if sense.sign < 0 and own_z - descent < TCAS.descend_inhibit_below_agl_m - TCAS.inhibit_hysteresis_m:
+        return
     if reach >= alim and reach >= do_nothing:
         assert ra.sense is sense, (ra, threats)
