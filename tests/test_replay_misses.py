@@ -8,7 +8,7 @@ import pytest
 from avionics.advisory.tables import load_profile
 from avionics_sitl.cli import main
 
-MISS_HEADER = ["intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m"]
+MISS_HEADER = ["intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m", "min_agl_m"]
 # The built-in head-on is co-altitude at 3000 ft MSL over 0 ft ground: TCAS II SL4 (ceiling 5000 ft), ALIM 300 ft.
 HEAD_ON_SL = 4
 TOLERANCE_M = 0.5
