@@ -15,7 +15,7 @@ import pytest
 from avionics.config import load_config
 from avionics.io.zenoh_bus import ZenohBus, open_session
 from avionics.monitor.feed import monitor_zenoh_config
-from tests.conftest import DEADLINE_S
+from tests.conftest import DEADLINE_S, wait_for
 
 pytestmark = [pytest.mark.live,
               pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl CLI needed to make certificates")]
@@ -72,23 +72,31 @@ def test_unauthenticated_peers_can_neither_publish_nor_read_daa(tmp_path, tcp_po
         'zenoh.auth_user="uav1"', f'zenoh.auth_password_file="{tmp_path}/uav1.password"']).zenoh
     received: dict[str, list[str]] = {}
     lock = threading.Lock()
+    arrived = threading.Event()  # a sample reached the authenticated subscriber
     sessions, bus = {}, None
 
     def listen(name, session):
         sessions[name] = session
         received[name] = []
-        session.declare_subscriber("daa/**", lambda s: (lock.acquire(), received[name].append(str(s.key_expr)),
-                                                        lock.release()))
+
+        def on_sample(sample):
+            with lock:
+                received[name].append(str(sample.key_expr))
+            if name == "subscriber":
+                arrived.set()
+        session.declare_subscriber("daa/**", on_sample)
+
+    def log_in():  # the router is up once the onboard client can log in
+        nonlocal bus
+        assert router.poll() is None, router.communicate()[1]
+        try:
+            bus = ZenohBus(onboard, "uav1")
+        except Exception:  # noqa: BLE001  (ZenohBusError while the router starts)
+            return False
+        return True
 
     try:
-        deadline = time.monotonic() + DEADLINE_S
-        while bus is None:  # the router is up once the onboard client can log in
-            assert router.poll() is None, router.communicate()[1]
-            try:
-                bus = ZenohBus(onboard, "uav1")
-            except Exception:  # noqa: BLE001  (ZenohBusError while the router starts)
-                assert time.monotonic() < deadline, "the onboard bus never logged in to the router"
-                time.sleep(0.2)
+        assert wait_for(log_in, DEADLINE_S, 0.2), "the onboard bus never logged in to the router"
         listen("subscriber", client(tmp_path, endpoint, cert="monitor", user="monitor", password="monitor"))
         listen("read_only", client(tmp_path, endpoint, cert="monitor", user="monitor", password="monitor"))
         listen("no_certificate", client(tmp_path, endpoint, user="monitor", password="monitor"))
@@ -111,7 +119,8 @@ def test_unauthenticated_peers_can_neither_publish_nor_read_daa(tmp_path, tcp_po
                 sessions[name].put(f"daa/uav1/advisories/1090es-{name}", b'{"level": "RA"}')
                 sessions[name].put(f"daa/fake-{name}/status", b"{}")
             n += 1
-            time.sleep(0.1)  # pacing of the publishers, not a wait for a condition
+            arrived.wait(1.0)  # the next round once this one reached the subscriber (or a second went by)
+            arrived.clear()
         with lock:
             got = {name: set(keys) for name, keys in received.items()}
     finally:
