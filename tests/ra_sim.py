@@ -47,7 +47,6 @@ class Outcome:
     vmd_unflown_m: list[float]  # |vertical separation| at each intruder's true horizontal CPA
     vmd_flown_m: list[float]
     first_ra: object = None  # (time, Resolution, threats, inhibits) of the first RA
-    words: list[str] = field(default_factory=list)
     threats: set[int] = field(default_factory=set)  # intruders that were RA threats at some time
     # per RA threat, |vertical miss| at its CPA on the path ownship was flying when it became a threat, flown on
     # by this pilot with no new command (the RA logic's "never worse than doing nothing" reference: before the
@@ -59,6 +58,11 @@ class Outcome:
     min_agl_m: float = math.inf  # the lowest height above ground ownship flew
     # every RA as issued: (time, Resolution, the RA threats' intruder indices, ownship altitude and rate then)
     issued: list = field(default_factory=list)
+
+    @property
+    def words(self) -> list[str]:
+        """The RAs' words in the order they changed."""
+        return [ra.words() for _, ra, _, _, _ in self.issued]
 
 
 def true_cpa_time(intr: Intruder) -> float:
@@ -172,8 +176,6 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
                         out.joined_miss_m[j] = abs(at_cpa_z - (own_z + pilot.flown_on(t, t_cpa[j], dt)))
                 if out.first_ra is None:
                     out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
-            if ra is not None and (not out.words or out.words[-1] != ra.words()):
-                out.words.append(ra.words())
             if ra is not None and (not out.issued or out.issued[-1][1].words() != ra.words()):
                 out.issued.append((t, ra, tuple(ra_now), own_z, pilot.vz))
             pilot.receive(t, ra)

@@ -79,7 +79,7 @@ def check(enc: Encounter, profile_name: str, misses: bool = True) -> None:
                         / (i.vx_mps**2 + i.vy_mps**2))
             intruder_z = enc.agl_m + i.sz_m + i.vz_mps * (t + t_cpa)
             miss = own_z + level_off_dz(t_cpa, vz, r.delay_s, r.accel_mps2) - intruder_z
-            toward = ra.sense.sign * (intruder_z - own_z - level_off_dz(t_cpa, vz, r.delay_s, r.accel_mps2)) > 0.0
+            toward = -ra.sense.sign * miss > 0.0  # the threat on the word's side at its CPA
             assert not (toward and abs(miss) >= alim + 1.0), (profile_name, t, ra.words(), j, miss / FT)
     for j in out.threats if misses else ():  # property 2
         reference = out.joined_miss_m[j]
