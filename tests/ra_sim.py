@@ -52,9 +52,14 @@ class Outcome:
     # by this pilot with no new command (the RA logic's "never worse than doing nothing" reference: before the
     # first RA, the unflown path; during an RA, the RA being flown)
     joined_miss_m: dict[int, float] = field(default_factory=dict)
+    # threats whose reference, flown on, goes below the descend floor: no RA may fly it (the ground ranks first)
+    reference_below_floor: set[int] = field(default_factory=set)
     # the TCAS II v7.1 HMD filter ended an RA while the range still closed: (its threats' HMD, the filter's HMD),
     # [B71] "the HMD filter can terminate an RA prior to ALIM being obtained"
     hmd_filter_ended: tuple | None = None
+    # per RA threat, the least ALIM in force while it was one: ALIM is the sensitivity level's, and the level
+    # follows ownship's altitude (an RA begun at 20,100 ft is judged with SL 6's ALIM once below 20,000 ft)
+    alim_m: dict[int, float] = field(default_factory=dict)
     min_agl_m: float = math.inf  # the lowest height above ground ownship flew
     # every RA as issued: (time, Resolution, the RA threats' intruder indices, ownship altitude and rate then)
     issued: list = field(default_factory=list)
@@ -99,16 +104,22 @@ class Pilot:
         else:
             rate = self.r.strengthen_rate_mps if ra.strength is Strength.INCREASE else self.r.rate_mps
             command = ("at_least", rate, ra.sense.sign)
-        self.command, self.key = (*command, accel, t + delay), key
+        if self.command is not None and command[0] == "target" and self.command[:2] == command[:2]:
+            start = self.command[4]  # the same level-off (a LEVEL OFF turned composite): already being flown
+        else:
+            start = t + delay
+        self.command, self.key = (*command, accel, start), key
 
-    def flown_on(self, t: float, until: float, dt: float) -> float:
-        """The altitude change from t to until of this pilot given no new command (a copy flies it)."""
+    def flown_on(self, t: float, until: float, dt: float) -> tuple[float, float]:
+        """The altitude change from t to until of this pilot given no new command (a copy flies it), and the
+        lowest altitude change on the way."""
         copy = Pilot.__new__(Pilot)
         copy.__dict__.update(self.__dict__)
-        dz, n = 0.0, int(round((until - t) / dt))
+        dz, lowest, n = 0.0, 0.0, int(round((until - t) / dt))
         for k in range(max(n, 0)):
             dz += copy.step(t + k * dt, dt)
-        return dz
+            lowest = min(lowest, dz)
+        return dz, lowest
 
     def step(self, t: float, dt: float) -> float:
         """Advance dt; return the altitude change."""
@@ -161,7 +172,8 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             candidate, _ = ALERTER.hold(pairs, level, np.where(was_ra, int(AdvisoryLevel.RA), 0), candidate, most)
             ra_now = [j for j in range(len(intr)) if candidate[j] == int(AdvisoryLevel.RA)]
             threats = [Threat(float(g.sz_m[j]), float(ivz[j]), float(g.t_cpa_s[j]), j) for j in ra_now]
-            ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z, inhibits.floors(own_z, own_z))
+            floors = inhibits.floors(own_z, own_z)
+            ra = logic.resolve(t, threats, pilot.vz, level.alim_m or 0.0, inh, own_z, floors)
             ended = [j for j in np.flatnonzero(was_ra) if j not in ra_now and g.s_dot_v[j] < 0.0]
             if ended and level.ra_hmd_m is not None and all(g.hmd_m[j] > level.ra_hmd_m for j in ended):
                 out.hmd_filter_ended = (min(float(g.hmd_m[j]) for j in ended), level.ra_hmd_m)
@@ -169,11 +181,16 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
             if ra is not None:
                 out.threats.update(ra_now)
                 for j in ra_now:
+                    out.alim_m[j] = min(out.alim_m.get(j, math.inf), level.alim_m or 0.0)
+                for j in ra_now:
                     if j not in out.joined_miss_m and at_cpa[j] is not None:  # joined after its CPA: the miss is past
                         out.joined_miss_m[j] = abs(at_cpa[j])
                     elif j not in out.joined_miss_m:
                         at_cpa_z = encounter.agl_m + intr[j].sz_m + intr[j].vz_mps * t_cpa[j]
-                        out.joined_miss_m[j] = abs(at_cpa_z - (own_z + pilot.flown_on(t, t_cpa[j], dt)))
+                        dz, lowest = pilot.flown_on(t, t_cpa[j], dt)
+                        out.joined_miss_m[j] = abs(at_cpa_z - (own_z + dz))
+                        if own_z + lowest < floors.descend_m:
+                            out.reference_below_floor.add(j)
                 if out.first_ra is None:
                     out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
             if ra is not None and (not out.issued or out.issued[-1][1].words() != ra.words()):

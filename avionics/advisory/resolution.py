@@ -16,7 +16,8 @@ The rules, in the order they apply (docs/advisories.md has the table with source
    ALIM (v7.1 booklet, "Multiple threat encounters").
 2. Sense: the sense that crosses no threat's altitude when it achieves ALIM; otherwise, against threats
    above and below, a composite RA (Don't Climb + Don't Descend: level) when it does better than either
-   sense; otherwise the sense with the larger least separation. Ties within TIE_M go to descend (DO-185B
+   sense (one in progress is projected with the response delay it has left and kept until a sense RA does
+   better: an RA never ends while it has threats); otherwise the sense with the larger least separation. Ties within TIE_M go to descend (DO-185B
    sense selection, as publicly described), or to climb where descend is inhibited. A threat within
    COALTITUDE_M of ownship's altitude is crossed by neither sense, so exact co-altitude is a tie, not noise.
 3. Strength: the weakest that achieves ALIM of preventive (Don't Climb / Don't Descend, ownship already
@@ -31,7 +32,8 @@ The rules, in the order they apply (docs/advisories.md has the table with source
 6. Floors (advisory/inhibits.py Floors): a commanded descent is projected levelled off in time to stop above
    the descend floor, is not issued when it could not fly until the next assessment and still stop there, and
    levels off at once when flown into that state; an INCREASE DESCENT that would reach its inhibit height
-   before CPA is not issued (booklet, "RA inhibits": a Descend RA in progress there becomes a Don't Climb).
+   before CPA is not issued, and one in progress levels off there and is projected so (booklet, "RA
+   inhibits": a Descend RA in progress there becomes a Don't Climb).
 """
 
 from __future__ import annotations
@@ -294,12 +296,26 @@ class ResolutionLogic:
 
     def _path(self, sense: Sense | None, strength: Strength, reversal: bool = False, delay_s: float | None = None):
         """Ownship's projected path with this RA flown: the response model, and for a commanded descent the
-        LEVEL OFF its floor forces, commanded as late as still stops ownship above the floor."""
+        LEVEL OFFs its floors force (_update): an INCREASE DESCENT's once it could no longer slow to the
+        corrective rate above its inhibit height, any descent's as late as still stops ownship above the descend
+        floor. A threat that joins an INCREASE DESCENT is owed no more than that path will give it."""
         path = self._commanded(sense, strength, reversal, delay_s)
         if not self._descends(sense, strength):
             return path
         r = self.profile.response
+        if strength is Strength.INCREASE:
+            cut = cut_at_floor(path, self._floor_dz["increase_descent"], -r.rate_mps, r.accel_mps2, r.delay_s,
+                               self._horizon())
+            if isinstance(cut, _Cut):
+                path = _Cut(path, cut.commanded_s, cut.t_cut, _Command(path.rate(cut.t_cut), 0.0, r.accel_mps2, 0.0))
         return cut_at_floor(path, self._floor_dz["descend"], 0.0, r.accel_mps2, r.delay_s, self._horizon())
+
+    def _descend_cut(self, sense: Sense, strength: Strength, reversal: bool = False,
+                     delay_s: float | None = None) -> _Command | _Cut:
+        """The descent with only the descend floor's LEVEL OFF: when it is due is the descend floor's question."""
+        r = self.profile.response
+        return cut_at_floor(self._commanded(sense, strength, reversal, delay_s), self._floor_dz["descend"], 0.0,
+                            r.accel_mps2, r.delay_s, self._horizon())
 
     def _misses(self, sense: Sense | None, strength: Strength, reversal: bool = False,
                 delay_s: float | None = None) -> list[float]:
@@ -354,7 +370,7 @@ class ResolutionLogic:
         then stays what it flies."""
         if not self._descends(sense, strength):
             return ""
-        path = self._path(sense, strength, reversal, delay_s)
+        path = self._descend_cut(sense, strength, reversal, delay_s)
         if isinstance(path, _Cut) and path.commanded_s < self._period():
             return "descend"
         if strength is Strength.INCREASE:
@@ -448,7 +464,13 @@ class ResolutionLogic:
         self._do_nothing = [abs(references[th.key].displacement(now_s, own_altitude_m, max(th.t_cpa_s, 0.0))
                                 - th.intruder_dz()) for th in threats]
         if self.current is None or self.current.composite:
-            chosen = self._select(alim_m, inhibits)
+            # A composite being flown is projected with only the rest of its response delay, and kept when no
+            # sense RA does better: an RA in progress never ends while it still has threats.
+            flying = None
+            if self.current is not None:
+                flying = self._composite(alim_m, delay_s=max(0.0, self._command_s + self._command_delay_s - now_s),
+                                         judged=False)
+            chosen = self._select(alim_m, inhibits, flying)
             if chosen is None:
                 self.current = None
                 return None
@@ -470,7 +492,9 @@ class ResolutionLogic:
         return Resolution(sense, strength, target, reversed_, min(seps), self._crossing(self._threats, sense), reason,
                           tuple((th.key, sep) for th, sep in zip(self._threats, seps)))
 
-    def _select(self, alim: float, inhibits: Inhibits) -> Resolution | None:
+    def _select(self, alim: float, inhibits: Inhibits, flying: Resolution | None = None) -> Resolution | None:
+        """The RA to fly now; flying: the composite being flown, if one is (it competes as the composite does and
+        is the fallback)."""
         options = {}
         for sense in (Sense.DESCEND, Sense.CLIMB):
             reason = "descend inhibited (low altitude): no corrective descent" if sense is Sense.DESCEND and inhibits.descend else ""
@@ -490,7 +514,7 @@ class ResolutionLogic:
             sense = best(non_crossing)
             strength, _, reason, _ = options[sense]
             return self._resolution(sense, strength, reason=reason)
-        composite = self._composite(alim)
+        composite = flying or self._composite(alim)
         if composite is not None and (composite.separation_m >= alim or not options or
                                       composite.separation_m > max(options[s][1] for s in options)):
             return composite
@@ -501,15 +525,17 @@ class ResolutionLogic:
         strength, _, reason, _ = options[sense]
         return self._resolution(sense, strength, reason=reason)
 
-    def _composite(self, alim: float) -> Resolution | None:
-        """Threats above and below: Don't Climb against the upper, Don't Descend against the lower (level)."""
+    def _composite(self, alim: float, delay_s: float | None = None, judged: bool = True) -> Resolution | None:
+        """Threats above and below: Don't Climb against the upper, Don't Descend against the lower (level).
+        delay_s: the response delay left (a composite being flown); judged: by rule 1 and on the threats' sides
+        (not the one in progress: it stays until a sense RA does better, never dropped with threats left)."""
         above = any(th.sz_m > COALTITUDE_M for th in self._threats)
         below = any(th.sz_m < -COALTITUDE_M for th in self._threats)
-        if not (above and below):
+        if judged and not (above and below):
             return None
         strength = Strength.PREVENTIVE if abs(self._v0) <= LEVEL_MPS else Strength.LEVEL_OFF
-        misses = self._misses(None, strength)
-        if not self._helps(misses):
+        misses = self._misses(None, strength, delay_s=delay_s)
+        if judged and not self._helps(misses):
             return None
         return self._resolution(None, strength, reason="composite: threats above and below", misses=misses)
 
@@ -558,6 +584,8 @@ class ResolutionLogic:
         if now_sep < alim and (composite := self._composite(alim)) is not None and \
                 composite.separation_m > now_sep + TIE_M:
             self._changed_s = now_s
+            if current.strength is not Strength.LEVEL_OFF:  # a new command (a LEVEL OFF is already being flown)
+                self._command_s, self._command_delay_s = now_s, r.delay_s
             return composite
         if dwell_over and now_sep < alim:  # strengthen one step
             stronger = STRONGER.get(current.strength)
