@@ -61,13 +61,14 @@ class Outcome:
     # follows ownship's altitude (an RA begun at 20,100 ft is judged with SL 6's ALIM once below 20,000 ft)
     alim_m: dict[int, float] = field(default_factory=dict)
     min_agl_m: float = math.inf  # the lowest height above ground ownship flew
-    # every RA as issued: (time, Resolution, the RA threats' intruder indices, ownship altitude and rate then)
+    # every RA as issued: (time, Resolution, the RA threats' intruder indices, ownship altitude and rate then,
+    # the ALIM in force then)
     issued: list = field(default_factory=list)
 
     @property
     def words(self) -> list[str]:
         """The RAs' words in the order they changed."""
-        return [ra.words() for _, ra, _, _, _ in self.issued]
+        return [ra.words() for _, ra, *_ in self.issued]
 
 
 def true_cpa_time(intr: Intruder) -> float:
@@ -112,7 +113,11 @@ class Pilot:
 
     def flown_on(self, t: float, until: float, dt: float) -> tuple[float, float]:
         """The altitude change from t to until of this pilot given no new command (a copy flies it), and the
-        lowest altitude change on the way."""
+        lowest altitude change on the way. With no RA in force it is the present vertical rate held (rule 1's
+        "doing nothing"; the return to the rate before an RA is this pilot's intent, which no logic can see)."""
+        if self.command is None:
+            dz = self.vz * (until - t)
+            return dz, min(dz, 0.0)
         copy = Pilot.__new__(Pilot)
         copy.__dict__.update(self.__dict__)
         dz, lowest, n = 0.0, 0.0, int(round((until - t) / dt))
@@ -194,7 +199,7 @@ def fly(encounter: Encounter, profile: AlertProfile, respond: bool = True, dt: f
                 if out.first_ra is None:
                     out.first_ra = (t, ra, threats, inh, pilot.vz, level.alim_m)
             if ra is not None and (not out.issued or out.issued[-1][1].words() != ra.words()):
-                out.issued.append((t, ra, tuple(ra_now), own_z, pilot.vz))
+                out.issued.append((t, ra, tuple(ra_now), own_z, pilot.vz, level.alim_m or 0.0))
             pilot.receive(t, ra)
         own_z += pilot.step(t, dt) if respond else encounter.vz_own_mps * dt
         out.min_agl_m = min(out.min_agl_m, own_z)
