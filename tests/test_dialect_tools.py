@@ -21,12 +21,20 @@ from pathlib import Path
 from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
 from avionics.core.units import FPM
 from avionics.io import encode
+from avionics.io.dialect import daa
 from avionics.io.link import MavlinkLink
 
 
 BIN = Path(sys.executable).parent
 XML = resources.files("avionics.io.dialect") / "daa.xml"
-BLOCK = range(42700, 42800)
+BLOCK = range(52610, 52620)
+# Every block mavlink/mavlink's message_definitions/v1.0/all.xml assigns or reserves in its comments (commit de1e078,
+# 2026-07-22): (owner, first, last message id). Its "next range to allocate" is 52610 - 52619, which we declare.
+ALL_XML_BLOCKS = [("ardupilotmega", 11000, 11999), ("ASLUAV", 8000, 8999), ("common", 300, 10000),
+                  ("icarous", 42000, 42999), ("uAvionix", 10001, 10999), ("storm32", 60000, 60049),
+                  ("AVSSUAS", 60050, 60099), ("Herelink", 50000, 50099), ("ras_a", 51000, 51999),
+                  ("csAirLink", 52000, 52099), ("reserved", 52100, 52499), ("marsh", 52500, 52599),
+                  ("stemstudios", 52600, 52609), ("reserved", 53000, 53999)]
 
 
 def _advisory() -> Advisory:
@@ -51,15 +59,16 @@ def test_the_shipped_xml_and_its_includes_are_package_data():
             "icarous.xml", "loweheiser.xml", "cubepilot.xml", "csAirLink.xml"} <= names
     text = XML.read_text()
     assert "<include>ardupilotmega.xml</include>" in text
-    assert re.search(r"messages: 42700 - 42799", text), "the id block is declared in the XML's header comment"
+    assert re.search(r"messages: 52610 - 52619", text), "the id block is declared in the XML's header comment"
 
 
 def test_our_messages_are_in_our_block_and_no_public_dialect_uses_it():
     from pymavlink.generator import mavparse
 
     ours = mavparse.MAVXML(str(XML), mavparse.PROTOCOL_2_0)
-    assert {m.name: m.id for m in ours.message} == {"DAA_ADVISORY": 42700, "DAA_BANDS": 42701}
+    assert {m.name: m.id for m in ours.message} == {"DAA_ADVISORY": 52610, "DAA_BANDS": 52611}
     assert all(m.id in BLOCK for m in ours.message)
+    assert [(owner, lo, hi) for owner, lo, hi in ALL_XML_BLOCKS for m in ours.message if lo <= m.id <= hi] == []
     import pymavlink.dialects.v20 as stock
 
     used = {}
@@ -77,7 +86,6 @@ def test_stock_mavgen_module_decodes_our_advisory_by_name(tmp_path):
         import daa_stock  # noqa: PLC0415  (generated just now by stock mavgen)
     finally:
         sys.path.remove(str(tmp_path))
-    from avionics.io.dialect import daa
 
     frame = bytes(encode.daa_advisory(_advisory(), "N123AB", 0.4).pack(daa.MAVLink(None, 1, 191)))
     parser = daa_stock.MAVLink(None)
@@ -116,6 +124,10 @@ def _write_tlog(path: Path) -> None:
         try:
             link.send(encode.heartbeat())
             link.send(encode.daa_advisory(_advisory(), "N123AB", 0.4))
+            link.send(daa.MAVLink_daa_bands_message(  # one track band, as encode.daa_bands writes them
+                time_boot_ms=10000, kind=daa.DAA_BANDS_KIND_TRACK, flags=0, part=0, parts=1, count=1,
+                lower=[10.0] + [math.nan] * 9, upper=[40.0] + [math.nan] * 9,
+                region=[daa.DAA_BANDS_REGION_NEAR] + [daa.DAA_BANDS_REGION_UNKNOWN] * 9))
             link.send(encode.collision(_advisory()))
         finally:
             link.close()
@@ -144,6 +156,8 @@ def test_mavlogdump_prints_daa_advisory_by_name_with_the_dialect_installed(tmp_p
     line = next(line for line in ours.splitlines() if "DAA_ADVISORY" in line)
     assert "id : 10551297" in line and "callsign : N123AB" in line and "sense : 2" in line
     assert "COLLISION" in ours and "HEARTBEAT" in ours
+    bands = next(line for line in ours.splitlines() if "DAA_BANDS" in line)
+    assert "kind : 0" in bands and "count : 1" in bands
     as_json = run("--dialect", "daa", "--format", "json", "--types", "DAA_ADVISORY")
     assert '"type": "DAA_ADVISORY"' in as_json and '"level": 2' in as_json
 
@@ -161,3 +175,34 @@ def test_a_pymavlink_script_reads_the_tlog_with_mavlink_dialect_set(tmp_path):
                          env={**os.environ, "PYTHONPATH": str(site), "MAVLINK_DIALECT": "daa", "MAVLINK20": "1"})
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["DAA_ADVISORY", str(0xA10001), "N123AB"]
+
+
+def _all_with_ours(tmp_path: Path, ids: tuple[int, int] | None = None) -> Path:
+    """pymavlink's all.xml (every public dialect it ships) plus our daa.xml in one directory, so that the two share
+    one copy of each included file; ids: our two messages renumbered (the negative control)."""
+    import shutil
+
+    import pymavlink.dialects.v20 as stock
+
+    for xml in Path(stock.__file__).parent.glob("*.xml"):
+        shutil.copy(xml, tmp_path / xml.name)
+    text = XML.read_text()
+    if ids is not None:
+        text = text.replace('id="52610"', f'id="{ids[0]}"').replace('id="52611"', f'id="{ids[1]}"')
+    (tmp_path / "daa.xml").write_text(text)
+    combined = tmp_path / "all_with_daa.xml"
+    combined.write_text('<?xml version="1.0"?>\n<mavlink>\n  <include>all.xml</include>\n'
+                        '  <include>daa.xml</include>\n  <messages/>\n</mavlink>\n')
+    return combined
+
+
+def test_stock_mavgen_builds_all_xml_with_our_dialect_without_an_id_collision(tmp_path):
+    # mavgen refuses a message id defined twice ("Duplicate message id"); the control proves it would see ours.
+    _mavgen(_all_with_ours(tmp_path), tmp_path / "all_with_daa.py")
+    assert "MAVLINK_MSG_ID_DAA_ADVISORY = 52610" in (tmp_path / "all_with_daa.py").read_text()
+    control = tmp_path / "control"
+    control.mkdir()
+    clash = subprocess.run([sys.executable, str(BIN / "mavgen.py"), "--lang=Python3", "--wire-protocol=2.0",
+                            f"--output={control / 'x.py'}", str(_all_with_ours(control, (42000, 42001)))],
+                           capture_output=True, text=True, timeout=300)
+    assert clash.returncode != 0 and "Duplicate message id 42000" in clash.stdout + clash.stderr
