@@ -26,7 +26,7 @@ from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
 from avionics.core.params import ConfigError, _build
 from avionics.io.feeds.params import TrafficConfig
-from avionics.io.params import MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
+from avionics.io.params import ROS_NAMESPACE, MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
 from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig, TrackingConfig
 
 __all__ = [
@@ -76,9 +76,13 @@ def _parse_override(text: str) -> dict:
 
 def validate(config: Config) -> Config:
     """Every section by its own component's rules, in the order of Config's fields, then the rules that span
-    sections (none today: every rule, e.g. tracking.delete_after_s >= tracking.max_coast_s, is within one)."""
+    sections (one: the ROS 2 namespace defaults to the vehicle id, which must then be a ROS name)."""
     for section in dataclasses.fields(Config):
         getattr(config, section.name).validate()
+    z = config.zenoh
+    if z.ros2 and not z.ros2_namespace and not ROS_NAMESPACE.fullmatch(config.vehicle.id):
+        raise ConfigError(f"zenoh.ros2: the ROS 2 namespace defaults to vehicle.id {config.vehicle.id!r}, which is not a "
+                          "ROS 2 name (letters, digits and '_', not starting with a digit): set zenoh.ros2_namespace")
     return config
 
 

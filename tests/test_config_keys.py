@@ -153,6 +153,7 @@ VALIDATION_ONLY: dict[str, str] = {
     "zenoh.enabled": "sitl replay always forces zenoh.enabled=false (it publishes nothing)",
     "zenoh.listen": "endpoints are opened only by a zenoh session, which a replay never opens",
     "zenoh.connect": "endpoints are opened only by a zenoh session, which a replay never opens",
+    "zenoh.ros2_namespace": "the ROS 2 keys are declared only by a zenoh session (tests/test_ros2.py runs one)",
     "zenoh.tls_root_ca_certificate": "a PEM file path, used only by a zenoh session",
     "zenoh.tls_listen_certificate": "a PEM file path, used only by a zenoh session",
     "zenoh.tls_listen_private_key": "a PEM file path, used only by a zenoh session",

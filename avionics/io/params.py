@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -104,6 +105,7 @@ def traffic_source_ids(m: MavlinkConfig) -> tuple[tuple[int, int | None], ...]:
 
 
 ZENOH_MODES = ("peer", "client", "router")
+ROS_NAMESPACE = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
 
 
 def read_password(path: str) -> str:
@@ -144,6 +146,10 @@ class ZenohConfig:
     auth_password_file: str = ""  # a file whose first line is that user's password (not on a command line)
     auth_dictionary_file: str = ""  # "user:password" lines: a link opened to us must log in as one of them
     config_file: str = ""  # zenoh JSON5 configuration; the keys of this section are set on top of it
+    # ROS 2 (docs/zenoh.md, "ROS 2"): the advisories, traffic, bands and status also as CDR-encoded ROS 2 messages
+    # on <ros2_namespace>/daa/..., the keys zenoh-bridge-ros2dds maps to ROS topics ("" = the vehicle id).
+    ros2: bool = False
+    ros2_namespace: str = ""
 
     def validate(self) -> None:
         z = self
@@ -153,6 +159,10 @@ class ZenohConfig:
         if not all(chunks) or any(c in z.key_prefix for c in "*$?#"):
             raise ConfigError(f"zenoh.key_prefix: {z.key_prefix!r} must be a zenoh key expression without wildcards "
                               "(chunks separated by single '/', none empty; no '*', '$', '?', '#')")
+        if z.ros2_namespace and not ROS_NAMESPACE.fullmatch(z.ros2_namespace):
+            raise ConfigError(f"zenoh.ros2_namespace: {z.ros2_namespace!r} is not a ROS 2 namespace (tokens of letters, "
+                              "digits and '_', not starting with a digit, separated by '/'; ROS 2 design article "
+                              "'Topic and Service name mapping to DDS')")
         if z.queue_size < 1:
             raise ConfigError(f"zenoh.queue_size: must be >= 1, got {z.queue_size}")
         if z.snapshot_changes < 0:

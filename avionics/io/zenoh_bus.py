@@ -32,6 +32,7 @@ import zenoh
 
 from avionics.core.jsonsafe import dumps
 from avionics.io.params import ZenohConfig, read_password
+from avionics.io.ros2 import Ros2Publisher
 from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import ARROW_STREAM, TrafficBatch
 
@@ -153,6 +154,8 @@ class ZenohBus:
         self.changes_published = 0
         self._last_time_s: float | None = None
         self._last_publish = 0.0
+        # the same samples as ROS 2 messages (avionics/io/ros2.py), encoded on the publisher thread
+        self._ros2 = Ros2Publisher(self.session, cfg.ros2_namespace or vehicle_id) if cfg.ros2 else None
         self._thread = threading.Thread(target=self._drain, name=f"zenoh-publisher-{vehicle_id}", daemon=True)
         self._thread.start()
         try:
@@ -319,6 +322,8 @@ class ZenohBus:
                         priority=zenoh.Priority.DATA)
                 pub.put(payload.encode())
                 self.stats["published_updates"] += 1
+                if self._ros2 is not None:
+                    self._ros2.put("traffic", payload)
                 return
             if pub is None:
                 if is_advisory:  # reliable, never dropped by zenoh's congestion control, ahead of data
@@ -334,6 +339,8 @@ class ZenohBus:
                 self._publishers[key] = pub
             pub.put(to_json(payload))
             self.stats["published_advisories" if is_advisory else "published_updates"] += 1
+            if self._ros2 is not None:
+                self._ros2.put(suffix.partition("/")[0], payload)
         except Exception as exc:  # noqa: BLE001  (a closed session must not kill the thread)
             self._put_error = exc
             self.stats["put_errors"] += 1
