@@ -185,6 +185,7 @@ ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "al
 WCV_LEVEL_KEYS = {"name", "advisory", "region", "tthr_s", "tcoa_s", "alerting_time_s", "early_alerting_time_s"} | {
     f"{name}{suffix}" for name in ("dthr", "zthr") for suffix in DISTANCE_UNITS}
 REGIONS = ("NONE", "FAR", "MID", "NEAR")
+MAX_BAND_CELLS = 10_000  # per kind of guidance band (see _bands_params)
 
 
 def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
@@ -264,7 +265,17 @@ def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):
         values[key] = _integer(values[key], f"{where}.{key}", 1, 50)
     if values["alerting_m"] > values["alerting_n"]:
         raise ProfileError(f"{where}: need alerting_m <= alerting_n")
-    return BandsParams(**values)
+    params = BandsParams(**values)
+    # Each kind of band is searched cell by cell: a step of 1e-9 would be billions of cells per second. DAIDALUS's
+    # DO_365B_no_SUM.conf has at most ~500 (altitude: 100 to 50000 ft by 100 ft); allow far more, not unbounded.
+    for kind in ("track_deg", "gs_mps", "vs_mps", "alt_m"):
+        step = getattr(params, f"step_{kind}")
+        span = 360.0 if kind == "track_deg" else getattr(params, f"max_{kind}") - getattr(params, f"min_{kind}")
+        if not span > 0:
+            raise ProfileError(f"{where}: min_{kind} must be below max_{kind}")
+        if not step > 0 or span / step > MAX_BAND_CELLS:
+            raise ProfileError(f"{where}.step_{kind}: {step:g} is 0 or makes more than {MAX_BAND_CELLS} cells")
+    return params
 
 
 def _apply_override(data: dict, text: str) -> None:
