@@ -20,6 +20,7 @@ for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # after the thread settings above (E402 on purpose)
 import json
 import logging
+import math
 import sys
 import traceback
 from pathlib import Path
@@ -28,12 +29,13 @@ from avionics import __version__
 from avionics.config import ConfigError, as_dict, load_config
 
 # Exit codes (README): 0 success, 1 a link, zenoh session or listening socket could not be opened, 2 configuration,
-# scenario or file error. Every error these cover is one line on stderr, `PROG: message`. Named by module so that
+# scenario, file or usage error, 70 a bug (with its traceback), 130 Ctrl-C. Every error these cover is one line on stderr, `PROG: message`. Named by module so that
 # a command that never imported pymavlink or zenoh does not import them to classify its error (an exception of a
 # class can only exist once its module is loaded). The shells above (avionics_sitl.cli, avionics_eval.cli) extend the
 # table with their own errors (a bad scenario, a demo's onboard process) and pass it to `call`.
 ERRORS = (  # (module, class, exit code, prefix of the line)
     ("avionics.core.params", "ConfigError", 2, "configuration error: "),
+    ("avionics.advisory.tables", "ProfileError", 2, "configuration error: "),  # e.g. demo --profile nope
     ("avionics.io.link", "LinkError", 1, ""),
     ("avionics.io.link", "LogError", 2, ""),  # a .tlog given as the connection without usable timestamps
     ("avionics.io.zenoh_bus", "ZenohBusError", 1, ""),
@@ -92,7 +94,26 @@ class OneLineParser(argparse.ArgumentParser):
     """Usage errors in one line too (argparse prints the whole usage first); exit 2."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        # the program's name first (`avionics: error: ...`, also for a subcommand's option), as every error line
+        self.exit(2, f"{self.prog.split()[0]}: error: {message} (see {self.prog} --help)\n")
+
+
+def seconds(text: str) -> float:
+    """A duration option: a finite number of seconds >= 0 (argparse: a usage error otherwise, exit 2)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds >= 0, got {text!r}")
+    return value
+
+
+def positive_seconds(text: str) -> float:
+    value = seconds(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
 
 
 def port_number(text: str) -> int:
@@ -221,7 +242,7 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
                                         "udpin:127.0.0.1:14540, tcp://127.0.0.1:5760, serial:///dev/ttyUSB0:921600, "
                                         "tcp:127.0.0.1:5760, /dev/ttyUSB0, flight.tlog")
     p.add_argument("--no-zenoh", action="store_true", help="do not publish on zenoh")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (default: run until killed)")
+    p.add_argument("--duration", type=seconds, metavar="S", help="stop after S seconds (default: run until killed)")
     p.add_argument("--tlog-out", metavar="FILE", help="record every frame received and sent as a .tlog")
     p.add_argument("--csv", metavar="FILE.csv", help="write every advisory change as a CSV row (as sitl replay --out)")
     p.add_argument("--counters", action="store_true", help="print the input/rejection counters at exit")
@@ -249,7 +270,7 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
     p.add_argument("--http", default="127.0.0.1:8047", metavar="HOST:PORT", help="where the page is served")
     p.add_argument("--tui", action="store_true", help="terminal view instead of the web page")
     p.add_argument("--vehicle", help="vehicle shown first (default: the first online)")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--duration", type=seconds, metavar="S", help="stop after S seconds")
     _security_args(p)
     p.set_defaults(func=cmd_monitor)
 

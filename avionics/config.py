@@ -32,7 +32,7 @@ from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig,
 __all__ = [
     "AdvisoryConfig", "AltitudeConfig", "Config", "ConfigError", "ConflictConfig", "InputConfig", "MavlinkConfig",
     "TRACK_FILTERS", "TrackingConfig", "TrafficConfig", "VehicleConfig", "ZenohConfig", "as_dict", "load_config",
-    "traffic_source_ids", "validate",
+    "read_toml", "traffic_source_ids", "validate",
 ]
 
 
@@ -63,7 +63,7 @@ def _parse_override(text: str) -> dict:
         raise ConfigError(f"override {text!r}: expected section.key=value")
     try:
         value = tomllib.loads(f"v = {raw.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
+    except ValueError:  # TOMLDecodeError, or an integer beyond Python's int-str limit (4300 digits)
         value = raw.strip()  # bare strings need no quotes on the command line
     node: dict = {}
     cursor = node
@@ -88,15 +88,29 @@ def validate(config: Config) -> Config:
 
 def load_config(path: str | Path | None = None, overrides: typing.Iterable[str] = ()) -> Config:
     """The embedded defaults, updated by a TOML file (if given) and then by key=value overrides."""
-    table: dict = {}
-    if path is not None:
-        try:
-            table = tomllib.loads(Path(path).read_text())
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise ConfigError(f"{path}: {exc}") from exc
+    table = read_toml(path) if path is not None else {}
     for text in overrides:
         table = _merge(table, _parse_override(text))
     return validate(_build(Config, table, ""))
+
+
+def read_toml(path: str | Path) -> dict:
+    """The table of a TOML file; ConfigError naming the file when it cannot be read or is not TOML (TOML is UTF-8:
+    other bytes are refused, not guessed; an integer beyond Python's int-str limit, 4300 digits, is refused too)."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"{path}: {exc.strerror or exc}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): a TOML file is UTF-8") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    except ValueError as exc:  # tomllib's int(): "Exceeds the limit (4300 digits) for integer string conversion"
+        raise ConfigError(f"{path}: {str(exc).splitlines()[0]}") from None
 
 
 def as_dict(config: Config) -> dict:

@@ -349,7 +349,8 @@ def csv_row(a: Advisory, name: str = "") -> dict:
 class CsvOut:
     """Advisory changes as CSV rows on an open text file (the caller owns the file; `avionics run` gives it a
     sinks.FileSink, which fails alone). names: ICAO address -> a name for the `name` column (a scenario's
-    aircraft names). The rows of a step are flushed with it: a write error is seen then, not at exit."""
+    aircraft names); without one the intruder's callsign (as `sitl replay --out` names them), empty when none was
+    ever heard. The rows of a step are flushed with it: a write error is seen then, not at exit."""
 
     def __init__(self, file: IO[str], names: dict[int, str] | None = None):
         self._file = file
@@ -362,7 +363,8 @@ class CsvOut:
 
     def publish(self, result: DaaResult) -> None:
         if result.changes:
-            self._writer.writerows(csv_row(a, self._names.get(a.intruder.address, "")) for a in result.changes)
+            self._writer.writerows(csv_row(a, self._names.get(a.intruder.address)
+                                           or result.callsigns.get(a.intruder) or "") for a in result.changes)
             self._file.flush()
 
     def close(self) -> None:

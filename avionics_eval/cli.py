@@ -36,13 +36,15 @@ def cmd_bench(args) -> int:
         from avionics_eval.soak_bench import soak
 
         log = None if args.quiet else (lambda line: print(f"avionics bench: {line}", file=sys.stderr, flush=True))
-        print(json.dumps(soak(args.soak, int(args.intruders or 1000), zenoh=args.zenoh,
+        if args.intruders is not None and len(args.intruders) != 1:
+            raise flight.ConfigError("--soak takes one --intruders count")
+        print(json.dumps(soak(args.soak, (args.intruders or [1000])[0], zenoh=args.zenoh,
                               sample_every_s=args.sample_seconds, log=log), indent=1))
         return 0
     if args.capacity:
         from avionics_eval.capacity_bench import capacity_bench
 
-        counts = [int(n) for n in (args.intruders or "100,1000,3000").split(",")]
+        counts = args.intruders or [100, 1000, 3000]
         log = None if args.quiet else (lambda line: print(f"avionics bench: {line}", file=sys.stderr, flush=True))
         print(json.dumps(capacity_bench(counts, args.trial_seconds, zenoh=args.zenoh,
                                         startup_repeats=args.startup_repeats, max_trials=args.max_trials,
@@ -50,7 +52,7 @@ def cmd_bench(args) -> int:
         return 0
     from avionics_eval.bench import bench
 
-    print(json.dumps(bench([int(n) for n in (args.intruders or "10,100,1000").split(",")], args.seconds), indent=1))
+    print(json.dumps(bench(args.intruders or [10, 100, 1000], args.seconds), indent=1))
     return 0
 
 
@@ -60,11 +62,31 @@ def cmd_evaluate(args) -> int:
     return evaluate_command(args)
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
-    return value
+_positive = flight.positive_seconds
+
+
+def counts(text: str) -> list[int]:
+    """--intruders: comma-separated whole numbers >= 1 (a usage error otherwise, exit 2)."""
+    try:
+        values = [int(n) for n in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated whole numbers, e.g. 10,100, got {text!r}") \
+            from None
+    if not all(1 <= n <= 1_000_000 for n in values):
+        raise argparse.ArgumentTypeError(f"each count must be in 1..1000000, got {text!r}")
+    return values
+
+
+def _whole(low: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {text!r}")
+        return value
+    return parse
 
 
 def add_commands(sub) -> None:
@@ -80,24 +102,25 @@ def add_commands(sub) -> None:
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="end-to-end throughput and report-to-advisory latency (JSON)")
-    p.add_argument("--intruders", help="comma-separated intruder counts (default 10,100,1000; with --capacity "
-                                       "100,1000,3000)")
-    p.add_argument("--seconds", type=float, default=20.0, help="simulated seconds of traffic per count")
+    p.add_argument("--intruders", type=counts, help="comma-separated intruder counts (default 10,100,1000; with "
+                                                    "--capacity 100,1000,3000; with --soak one count, 1000)")
+    p.add_argument("--seconds", type=_positive, default=20.0, help="simulated seconds of traffic per count")
     p.add_argument("--capacity", action="store_true",
-                   help="issue 13's instrument: capacity, latency at 1 Hz, one report alone, start-up, memory and "
+                   help="the capacity bench: the most intruders a real avionics run keeps up with at 1 Hz, its "
+                        "report-to-advisory latency there and for one report alone, start-up time, memory, and "
                         "filterpy's IMM step as a reference (avionics_eval/capacity_bench.py, docs/performance.md)")
     p.add_argument("--trial-seconds", type=_positive, default=20.0, metavar="S",
                    help="--capacity: length of each trial of the capacity search and of the 1 Hz run")
     p.add_argument("--soak", type=_positive, metavar="S",
-                   help="issue 13's memory soak: a real avionics run fed --intruders (one count, default 1000) at "
+                   help="memory soak: a real avionics run fed --intruders (one count, default 1000) at "
                         "1 Hz for S seconds, its VmRSS sampled (avionics_eval/soak_bench.py, docs/performance.md)")
     p.add_argument("--sample-seconds", type=_positive, default=5.0, metavar="S",
                    help="--soak: seconds between samples of the child's memory")
     p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,
                    help="--capacity, --soak: publish on a loopback zenoh session (default) or MAVLink only")
-    p.add_argument("--startup-repeats", type=int, default=5, metavar="K",
+    p.add_argument("--startup-repeats", type=_whole(1), default=5, metavar="K",
                    help="--capacity: warm launches of avionics run timed (median reported)")
-    p.add_argument("--max-trials", type=int, default=16, metavar="K",
+    p.add_argument("--max-trials", type=_whole(1), default=16, metavar="K",
                    help="--capacity: trials per intruder count at most (then the capacity is a lower bound)")
     p.set_defaults(func=cmd_bench)
 

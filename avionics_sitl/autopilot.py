@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import avionics.io  # noqa: F401  (MAVLink 2)
 from pymavlink.dialects.v20 import common as mavlink2
 
-from avionics.core.atmosphere import pressure_hpa_at
+from avionics.core.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M, pressure_hpa_at
 from avionics.core.types import AddressSource, AltitudeDatum
 from avionics.io import decode as flags
 from avionics_sitl.impairments import AdsbImpairments
@@ -48,15 +48,31 @@ def _clamp_int16(v: float) -> int:
     return max(-32767, min(32766, int(round(v))))
 
 
+# Every state the encoders see is within the aircraft limits a scenario is checked against (avionics_sitl/aircraft.py;
+# a trajectory table's rows too). Between samples a cubic can overshoot a little: each field is clamped to what its
+# MAVLink type carries (common.xml: alt int32 mm, hor_velocity uint16 cm/s) and the pressure to the atmosphere's
+# span, so an overshoot is a saturated value, never a struct.error in the middle of a run.
+def _clamp_int32(v: float) -> int:
+    return max(-(2**31) + 1, min(2**31 - 1, int(round(v))))
+
+
+def _clamp_uint16(v: float) -> int:
+    return max(0, min(65535, int(round(v))))
+
+
+def _pressure_altitude(alt_m: float) -> float:
+    return max(MIN_PRESSURE_ALTITUDE_M, min(MAX_PRESSURE_ALTITUDE_M, alt_m))
+
+
 def ownship_messages(state: KinematicState, ground_elevation_m: float, boot_ms: int):
     gpi = mavlink2.MAVLink_global_position_int_message(
-        boot_ms, _e7(state.lat_deg), _e7(state.lon_deg), int(round(state.alt_msl_m * 1000)),
-        int(round((state.alt_msl_m - ground_elevation_m) * 1000)),
+        boot_ms, _e7(state.lat_deg), _e7(state.lon_deg), _clamp_int32(state.alt_msl_m * 1000),
+        _clamp_int32((state.alt_msl_m - ground_elevation_m) * 1000),
         _clamp_int16(state.vel_north_mps * 100), _clamp_int16(state.vel_east_mps * 100),
         _clamp_int16(-state.vel_up_mps * 100), int(round(state.track_deg * 100)) % 36000)
     temperature_c = 15.0 - ISA_LAPSE_K_PER_M * state.alt_msl_m
-    pressure = mavlink2.MAVLink_scaled_pressure_message(boot_ms, pressure_hpa_at(state.alt_msl_m), 0.0,
-                                                        int(round(temperature_c * 100)))
+    pressure = mavlink2.MAVLink_scaled_pressure_message(boot_ms, pressure_hpa_at(_pressure_altitude(state.alt_msl_m)),
+                                                        0.0, _clamp_int16(temperature_c * 100))
     return gpi, pressure
 
 
@@ -72,8 +88,8 @@ def adsb_vehicle(state: KinematicState, icao: int, datum: AltitudeDatum, source:
         f |= flags.SOURCE_UAT
     return mavlink2.MAVLink_adsb_vehicle_message(
         icao, _e7(state.lat_deg), _e7(state.lon_deg), 0 if datum is AltitudeDatum.PRESSURE else 1,
-        int(round(state.alt_msl_m * 1000)), int(round(state.track_deg * 100)) % 36000,
-        int(round(state.ground_speed_mps * 100)), _clamp_int16(state.vel_up_mps * 100),
+        _clamp_int32(state.alt_msl_m * 1000), int(round(state.track_deg * 100)) % 36000,
+        _clamp_uint16(state.ground_speed_mps * 100), _clamp_int16(state.vel_up_mps * 100),
         callsign.encode("ascii")[:9], emitter_type, tslc, f, 0)
 
 

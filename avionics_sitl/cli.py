@@ -6,7 +6,8 @@ import argparse
 import json
 import sys
 
-from avionics.cli import ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file, port_number
+from avionics.cli import (ERRORS as FLIGHT_ERRORS, OneLineParser, call, check_output_file, port_number,
+                          positive_seconds, seconds)
 from avionics_sitl.impairments import PRESETS
 
 ERRORS = FLIGHT_ERRORS + (("avionics_sitl.encounters", "ScenarioError", 2, ""),  # a bad encounter name or file: exit 2
@@ -122,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                               "point, hovering at speed 0)")
         t.add_argument("--units", choices=sorted(UNITS), help="unit convention when the column names are "
                                                              "ambiguous: opensky (m, m/s) or traffic (ft, kt, ft/min)")
-        t.add_argument("--gap", type=float, default=DEFAULT_GAP_S, metavar="S",
+        t.add_argument("--gap", type=positive_seconds, default=DEFAULT_GAP_S, metavar="S",
                        help=f"a silence longer than S seconds is a gap in an intruder's reports (default "
                             f"{DEFAULT_GAP_S:g})")
         t.add_argument("--progress", action="store_true",
@@ -145,8 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.add_argument("--connection", default="udpout:127.0.0.1:14540",
                    help="connection string (default: where avionics run listens by default)")
-    p.add_argument("--start", type=float, default=0.0, metavar="S", help="start at scenario time S")
-    p.add_argument("--duration", type=float, metavar="S", help="fly S seconds (default: to the scenario's end)")
+    p.add_argument("--start", type=seconds, default=0.0, metavar="S", help="start at scenario time S")
+    p.add_argument("--duration", type=seconds, metavar="S", help="fly S seconds (default: to the scenario's end)")
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")

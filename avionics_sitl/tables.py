@@ -40,7 +40,8 @@ from avionics_sitl.progress import progress_bar
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
 from avionics.core.units import FPM, FT, KT
-from avionics_sitl.aircraft import AircraftSpec
+from avionics_sitl.aircraft import (ALT_RANGE_M, MAX_ABS_LAT_DEG, MAX_PLANE_OFFSET_M, MAX_SPEED_MPS,
+                                    MAX_VERTICAL_RATE_MPS, AircraftSpec)
 from avionics_sitl.scenario import Scenario
 from avionics_sitl.trajectory import SampledTrajectory
 
@@ -342,6 +343,28 @@ def read_table(path: str | Path, units: str | None = None, progress: bool | None
         raise ValueError(message if message.startswith(str(path)) else f"{path}: {message}") from None
 
 
+def _check_physical(layout: Layout, factors: dict, row: int, lat: float, alt: float, speed: float, direction: float,
+                    vertical: float) -> None:
+    """A complete row within the simulator's aircraft limits (avionics_sitl/aircraft.py: those of a scenario
+    file's aircraft, ALT_RANGE_M the span of the standard atmosphere the simulator computes pressure with), so that
+    an extreme but finite value (1e20 ft, 1e9 kt) is an error naming its row, not a crash of the MAVLink encoder or
+    of the tangent plane later."""
+    def bad(column: str, value: float, what: str) -> ValueError:
+        return ValueError(f"row {row}: {column} {value:g} is {what}")
+
+    if abs(lat) > MAX_ABS_LAT_DEG:
+        raise bad(layout.lat, lat, f"beyond ±{MAX_ABS_LAT_DEG:g}° (the tangent plane's limit)")
+    lo, hi = ALT_RANGE_M
+    if not lo <= alt * factors["altitude"] <= hi:
+        raise bad(layout.altitude, alt, f"outside {lo:g}..{hi:g} m")
+    if speed * factors["speed"] > MAX_SPEED_MPS:
+        raise bad(layout.speed, speed, f"above {MAX_SPEED_MPS:g} m/s")
+    if abs(direction) > 720.0:
+        raise bad(layout.direction, direction, "not a direction in degrees")
+    if abs(vertical * factors["vertical"]) > MAX_VERTICAL_RATE_MPS:
+        raise bad(layout.vertical, vertical, f"beyond ±{MAX_VERTICAL_RATE_MPS:g} m/s")
+
+
 def _rows_to_table(path: Path, layout: Layout, columns: dict[str, list]) -> Table:
     factors = UNITS[layout.units]
     n = len(columns[layout.time])
@@ -372,6 +395,7 @@ def _rows_to_table(path: Path, layout: Layout, columns: dict[str, list]) -> Tabl
         if any(math.isnan(v) for v in values):
             sample = None  # a field is missing: not a sample (never read as zero)
         else:
+            _check_physical(layout, factors, row, lat, alt, speed, direction, vertical)
             gs = speed * factors["speed"]
             trk = math.radians(direction)
             sample = Sample(t, lat, (lon + 180.0) % 360.0 - 180.0, alt * factors["altitude"], gs * math.sin(trk),
@@ -494,6 +518,12 @@ def read_trajectory_tables(path: str | Path, ownship: str | None = None, ownship
                          f"{own.icao24}'s ({own.samples[0].t:.0f}..{own.samples[-1].t:.0f} s)")
     ref = min(own.samples, key=lambda s: abs(s.t - t0))
     plane = LocalTangentPlane(ref.lat, ref.lon)
+    for ac in (own, *intruders):  # as a scenario file's [reference] offsets: keep the tangent plane honest
+        east, north = plane.to_en(np.array([s.lat for s in ac.samples]), np.array([s.lon for s in ac.samples]))
+        far = float(np.max(np.hypot(east, north)))
+        if not far <= MAX_PLANE_OFFSET_M:
+            raise ValueError(f"{path}: aircraft {ac.icao24} is {far / 1e3:.0f} km from ownship's start, beyond the "
+                             f"{MAX_PLANE_OFFSET_M / 1e3:.0f} km the simulator's tangent plane covers")
     own_traj = _trajectory(own.samples, t0, plane, gap_s)  # its own navigation: reported through its gaps
     duration = t_end - t0
     kept: list[tuple[Aircraft, TableTrajectory]] = []

@@ -62,6 +62,7 @@ def test_a_tlog_whose_clock_steps_back_an_hour_replays_every_frame_and_alerts_as
     # after the step follows the one before it at once, one frame period early at most)
     assert [(r["intruder"], r["advisory"]) for r in rows] == [(r["intruder"], r["advisory"]) for r in clean_rows]
     assert [r["advisory"] for r in rows][:2] == ["TA", "RA"], rows
+    assert {r["name"] for r in clean_rows} == {"HEADON"}  # run --csv names the intruder by its callsign
     for row, clean_row in zip(rows, clean_rows):
         assert float(row["time_s"]) == pytest.approx(float(clean_row["time_s"]), abs=0.5)
 

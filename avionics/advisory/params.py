@@ -8,6 +8,10 @@ from dataclasses import dataclass
 from avionics.core.params import ConfigError, require_positive
 
 CRITERIA = ("tcas", "tcas+pc", "pc")
+# The re-assessment rate: at least the 1 Hz of the TCAS II logic cycle (RTCA DO-185B: threats are assessed every
+# surveillance second), at most 100 Hz (the main loop's tick is 1/assessment_hz; faster only burns the core, as
+# reports arrive at a few Hz).
+ASSESSMENT_HZ_MIN, ASSESSMENT_HZ_MAX = 1.0, 100.0
 PERSISTENCE = ("none", "m-of-n", "binomial")
 
 
@@ -33,6 +37,9 @@ class AdvisoryConfig:
     def validate(self) -> None:
         a = self
         require_positive("advisory", a, ("assessment_hz",))
+        if not ASSESSMENT_HZ_MIN <= a.assessment_hz <= ASSESSMENT_HZ_MAX:
+            raise ConfigError(f"advisory.assessment_hz: must be in {ASSESSMENT_HZ_MIN:g}..{ASSESSMENT_HZ_MAX:g} Hz, "
+                              f"got {a.assessment_hz:g}")
         if not isinstance(a.assessment_slice, int) or a.assessment_slice < 1:
             raise ConfigError("advisory.assessment_slice: must be a whole number >= 1")
         if a.criterion not in CRITERIA:

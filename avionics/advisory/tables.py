@@ -17,6 +17,7 @@ from importlib import resources
 from pathlib import Path
 
 from avionics.advisory.wcv import WcvThresholds
+from avionics.core.params import ConfigError, _show, check_float
 from avionics.core.units import FT, FPM, G0, NM
 
 PROFILE_DIR = "profiles"
@@ -112,12 +113,49 @@ def _distance(table: dict, key: str, where: str, required: bool = True) -> float
     return _number(table[k], f"{where}.{k}") * DISTANCE_UNITS[suffix]
 
 
-def _number(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value) or value < 0:
+def _number(value, where: str, infinite: bool = False) -> float:
+    """A number >= 0 of the magnitudes a configuration can hold (avionics/core/params.py check_float); inf only
+    where it means "no limit" (a last ceiling, no vertical-rate rule)."""
+    if infinite and isinstance(value, float) and value == math.inf:
+        return value
+    try:
+        x = check_float(value, where)
+    except ConfigError as exc:
+        raise ProfileError(str(exc)) from None
+    if x < 0:
         raise ProfileError(f"{where}: expected a number >= 0, got {value!r}")
-    return float(value)
+    return x
 
 
+def _integer(value, where: str, low: int, high: int) -> int:
+    """A whole number in low..high (an override's number arrives as a float: 2.0 is 2)."""
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ProfileError(f"{where}: expected a whole number in {low}..{high}, got {_show(value)}")
+    return value
+
+
+def _table(value, where: str) -> dict:
+    if not isinstance(value, dict):
+        raise ProfileError(f"{where}: expected a table, got {_show(value)}")
+    return value
+
+
+def _tables(value, where: str) -> list[dict]:
+    """An array of tables ([[levels]])."""
+    if not isinstance(value, list):
+        raise ProfileError(f"{where}: expected an array of tables, got {_show(value)}")
+    return [_table(row, f"{where}[{i}]") for i, row in enumerate(value)]
+
+
+def _text(value, where: str) -> str:
+    if not isinstance(value, str):
+        raise ProfileError(f"{where}: expected a string, got {_show(value)}")
+    return value
+
+
+SL_MAX = 99  # sensitivity levels are small numbers (TCAS II: 1..7, DO-185B; our tables: up to 8)
 LEVEL_KEYS = {"sl", "ceiling_ft", "agl", "ta_tau_s", "ra_tau_s"} | {
     f"{name}{suffix}" for name in ("ta_dmod", "ta_zthr", "ra_dmod", "ra_zthr", "alim", "ra_hmd")
     for suffix in DISTANCE_UNITS}
@@ -129,9 +167,13 @@ def _level(table: dict, where: str) -> SensitivityLevel:
         raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}")
     has_ra = "ra_tau_s" in table
     ra = lambda key: _distance(table, key, where, required=has_ra)  # noqa: E731
+    agl = table.get("agl", False)
+    if not isinstance(agl, bool):
+        raise ProfileError(f"{where}.agl: expected true or false, got {_show(agl)}")
     return SensitivityLevel(
-        sl=int(table["sl"]), ceiling_m=_number(table["ceiling_ft"], f"{where}.ceiling_ft") * FT,
-        agl_band=bool(table.get("agl", False)), ta_tau_s=_number(table["ta_tau_s"], f"{where}.ta_tau_s"),
+        sl=_integer(table["sl"], f"{where}.sl", 1, SL_MAX),
+        ceiling_m=_number(table["ceiling_ft"], f"{where}.ceiling_ft", infinite=True) * FT,
+        agl_band=agl, ta_tau_s=_number(table["ta_tau_s"], f"{where}.ta_tau_s"),
         ta_dmod_m=_distance(table, "ta_dmod", where), ta_zthr_m=_distance(table, "ta_zthr", where),
         ra_tau_s=_number(table["ra_tau_s"], f"{where}.ra_tau_s") if has_ra else None,
         ra_dmod_m=ra("ra_dmod"), ra_zthr_m=ra("ra_zthr"), alim_m=ra("alim"), ra_hmd_m=ra("ra_hmd"),
@@ -143,6 +185,7 @@ ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "al
 WCV_LEVEL_KEYS = {"name", "advisory", "region", "tthr_s", "tcoa_s", "alerting_time_s", "early_alerting_time_s"} | {
     f"{name}{suffix}" for name in ("dthr", "zthr") for suffix in DISTANCE_UNITS}
 REGIONS = ("NONE", "FAR", "MID", "NEAR")
+MAX_BAND_CELLS = 10_000  # per kind of guidance band (see _bands_params)
 
 
 def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
@@ -152,7 +195,7 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
     if table.get("kind") != "wcv":
         raise ProfileError(f"{where}.kind: expected \"wcv\" (the TCAS alerter needs no [alerter] table)")
     levels = []
-    for i, row in enumerate(table.get("levels", ())):
+    for i, row in enumerate(_tables(table.get("levels", []), f"{where}.levels")):
         at = f"{where}.levels[{i}]"
         unknown = set(row) - WCV_LEVEL_KEYS
         if unknown:
@@ -166,8 +209,8 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
                                        _number(row["tthr_s"], f"{at}.tthr_s"), _number(row.get("tcoa_s", 0.0), f"{at}.tcoa_s"))
             alerting = _number(row["alerting_time_s"], f"{at}.alerting_time_s")
             early = _number(row.get("early_alerting_time_s", alerting), f"{at}.early_alerting_time_s")
-            levels.append(WcvLevelSpec(str(row["name"]), row["advisory"], row.get("region", "NONE"), thresholds,
-                                       alerting, early))
+            levels.append(WcvLevelSpec(_text(row["name"], f"{at}.name"), row["advisory"], row.get("region", "NONE"),
+                                       thresholds, alerting, early))
         except KeyError as exc:
             raise ProfileError(f"{at}: missing key {exc}") from None
     if not levels:
@@ -175,10 +218,10 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
     if any(a.advisory == "RA" and b.advisory == "TA" for a, b in zip(levels, levels[1:])):
         raise ProfileError(f"{where}: a level that raises an RA cannot be below one that raises a TA")
     m, n = table.get("alerting_m", 1), table.get("alerting_n", 1)
-    if not (isinstance(m, int) and isinstance(n, int) and 1 <= m <= n <= 50):
+    if not (type(m) is int and type(n) is int and 1 <= m <= n <= 50):
         raise ProfileError(f"{where}: need integers 1 <= alerting_m <= alerting_n <= 50")
     return WcvAlerterSpec(
-        source=str(table.get("source", "")), levels=tuple(levels),
+        source=_text(table.get("source", ""), f"{where}.source"), levels=tuple(levels),
         hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
         persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),
         alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"))
@@ -208,9 +251,10 @@ def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):
                 raise ProfileError(f"{where}.{key}: expected one of {list(REGIONS)}")
             values[key] = value
         elif key == "min_vs_mps":  # the only signed one (a descent rate)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ProfileError(f"{where}.{key}: expected a finite number, got {value!r}")
-            values[key] = float(value)
+            try:
+                values[key] = check_float(value, f"{where}.{key}")
+            except ConfigError as exc:
+                raise ProfileError(str(exc)) from None
         else:
             values[key] = _number(value, f"{where}.{key}")
     values.setdefault("hysteresis_time_s", alerter.hysteresis_time_s)
@@ -218,8 +262,20 @@ def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):
     values.setdefault("alerting_m", alerter.alerting_m)
     values.setdefault("alerting_n", alerter.alerting_n)
     for key in ("alerting_m", "alerting_n"):
-        values[key] = int(values[key])
-    return BandsParams(**values)
+        values[key] = _integer(values[key], f"{where}.{key}", 1, 50)
+    if values["alerting_m"] > values["alerting_n"]:
+        raise ProfileError(f"{where}: need alerting_m <= alerting_n")
+    params = BandsParams(**values)
+    # Each kind of band is searched cell by cell: a step of 1e-9 would be billions of cells per second. DAIDALUS's
+    # DO_365B_no_SUM.conf has at most ~500 (altitude: 100 to 50000 ft by 100 ft); allow far more, not unbounded.
+    for kind in ("track_deg", "gs_mps", "vs_mps", "alt_m"):
+        step = getattr(params, f"step_{kind}")
+        span = 360.0 if kind == "track_deg" else getattr(params, f"max_{kind}") - getattr(params, f"min_{kind}")
+        if not span > 0:
+            raise ProfileError(f"{where}: min_{kind} must be below max_{kind}")
+        if not step > 0 or span / step > MAX_BAND_CELLS:
+            raise ProfileError(f"{where}.step_{kind}: {step:g} is 0 or makes more than {MAX_BAND_CELLS} cells")
+    return params
 
 
 def _apply_override(data: dict, text: str) -> None:
@@ -233,19 +289,19 @@ def _apply_override(data: dict, text: str) -> None:
         raise ProfileError(f"profile override {text!r}: expected key=number")
     head, dot, leaf = key.strip().partition(".")
     if not dot:
-        if head not in data:
+        if head not in data or isinstance(data[head], (dict, list)):
             raise ProfileError(f"profile override {text!r}: unknown key {head!r}")
         data[head] = value
     elif head == "response":
-        if leaf not in data["response"]:
+        if not isinstance(data.get("response"), dict) or leaf not in data["response"]:
             raise ProfileError(f"profile override {text!r}: unknown response key {leaf!r}")
         data["response"][leaf] = value
     elif head == "bands":  # a guidance-bands parameter (advisory/bands.py BandsParams; checked when built)
         if "alerter" not in data:
             raise ProfileError(f"profile override {text!r}: the profile has no DO-365 alerter, hence no bands")
-        data.setdefault("bands", {})[leaf] = value
+        _table(data.setdefault("bands", {}), "bands")[leaf] = value
     elif head.startswith("sl") and head[2:].isdigit():
-        rows = [row for row in data["levels"] if row["sl"] == int(head[2:])]
+        rows = [row for row in _tables(data.get("levels", []), "levels") if row.get("sl") == int(head[2:])]
         if not rows:
             raise ProfileError(f"profile override {text!r}: the profile has no {head}")
         for row in rows:
@@ -265,7 +321,12 @@ def profile_text(name_or_path: str) -> tuple[str, str]:
         return f"built-in profile {name_or_path!r}", builtin.read_text()
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.is_file():
-        return str(path), path.read_text()
+        try:
+            return str(path), path.read_bytes().decode("utf-8")
+        except OSError as exc:
+            raise ProfileError(f"{path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError as exc:
+            raise ProfileError(f"{path}: not UTF-8 text (byte {exc.start}): a TOML file is UTF-8") from None
     names = sorted(p.name[:-5] for p in resources.files("avionics.advisory").joinpath(PROFILE_DIR).iterdir()
                    if p.name.endswith(".toml"))
     raise ProfileError(f"unknown profile {name_or_path!r}: expected one of {names} or a .toml file")
@@ -275,21 +336,22 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
     where, text = profile_text(name_or_path)
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(f"{where}: {exc}") from exc
+    except ValueError as exc:  # TOMLDecodeError, or an integer beyond Python's int-str limit (4300 digits)
+        raise ProfileError(f"{where}: {str(exc).splitlines()[0]}") from None
     for override in overrides:
         _apply_override(data, override)
     try:
-        r = data["response"]
+        r = _table(data["response"], f"{where} [response]")
         response = ResponseModel(
             _number(r["delay_s"], "response.delay_s"), _number(r["accel_g"], "response.accel_g") * G0,
             _number(r["rate_fpm"], "response.rate_fpm") * FPM,
             _number(r["strengthen_delay_s"], "response.strengthen_delay_s"),
             _number(r["strengthen_accel_g"], "response.strengthen_accel_g") * G0,
             _number(r["strengthen_rate_fpm"], "response.strengthen_rate_fpm") * FPM)
-        levels = tuple(_level(row, f"{where} levels[{i}]") for i, row in enumerate(data["levels"]))
+        levels = tuple(_level(row, f"{where} levels[{i}]") for i, row in enumerate(_tables(data["levels"], "levels")))
         profile = AlertProfile(
-            name=data["name"], description=data.get("description", ""), levels=levels, response=response,
+            name=_text(data["name"], "name"), description=_text(data.get("description", ""), "description"),
+            levels=levels, response=response,
             ra_inhibit_below_agl_m=_number(data["ra_inhibit_below_agl_ft"], "ra_inhibit_below_agl_ft") * FT,
             descend_inhibit_below_agl_m=_number(data["descend_inhibit_below_agl_ft"],
                                                 "descend_inhibit_below_agl_ft") * FT,
@@ -298,10 +360,12 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
             sl_hysteresis_m=_number(data["sl_hysteresis_ft"], "sl_hysteresis_ft") * FT,
             inhibit_hysteresis_m=_number(data.get("inhibit_hysteresis_ft", 0.0), "inhibit_hysteresis_ft") * FT,
             max_threat_vertical_rate_mps=_number(data.get("max_threat_vertical_rate_fpm", math.inf),
-                                                 "max_threat_vertical_rate_fpm") * FPM,
-            alerter=_wcv_alerter(data["alerter"], f"{where} [alerter]") if "alerter" in data else None)
+                                                 "max_threat_vertical_rate_fpm", infinite=True) * FPM,
+            alerter=_wcv_alerter(_table(data["alerter"], f"{where} [alerter]"), f"{where} [alerter]")
+            if "alerter" in data else None)
         if profile.alerter is not None:
-            profile = replace(profile, bands=_bands_params(data.get("bands", {}), profile.alerter, f"{where} [bands]"))
+            profile = replace(profile, bands=_bands_params(_table(data.get("bands", {}), f"{where} [bands]"),
+                                                           profile.alerter, f"{where} [bands]"))
         elif "bands" in data:
             raise ProfileError(f"{where}: a [bands] table needs a DO-365 [alerter]")
     except KeyError as exc:

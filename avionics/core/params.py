@@ -16,6 +16,38 @@ class ConfigError(ValueError):
     """A configuration file or override that cannot be used, with the key that is wrong."""
 
 
+# The numbers a configuration can hold at all, before each component checks its own ranges. No parameter of this
+# project is a physical quantity below a nanounit or above a billion units (the largest are distances in metres and
+# seeds); values outside these reach arithmetic that overflows or divides to infinity (1e-320 Hz is a period of
+# inf s, int(inf) raises) and so are refused here, naming the key. Integers stay within int64: they go to numpy.
+FLOAT_MIN_MAGNITUDE = 1e-9  # nonzero floats smaller than this are refused (subnormal 1e-320 among them)
+FLOAT_MAX_MAGNITUDE = 1e9
+INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+
+
+def check_float(value, where: str) -> float:
+    """value as a float if it is a finite number of sane magnitude (0 or within FLOAT_MIN..MAX_MAGNITUDE)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: expected a finite number, got {_show(value)}")
+    try:
+        x = float(value)
+    except OverflowError:  # an int beyond float
+        raise ConfigError(f"{where}: {_show(value)} is out of range (|x| <= {FLOAT_MAX_MAGNITUDE:g})") from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{where}: expected a finite number, got {_show(value)}")
+    if x != 0.0 and not FLOAT_MIN_MAGNITUDE <= abs(x) <= FLOAT_MAX_MAGNITUDE:
+        raise ConfigError(f"{where}: {_show(value)} is out of range (0 or {FLOAT_MIN_MAGNITUDE:g} <= |x| <= "
+                          f"{FLOAT_MAX_MAGNITUDE:g})")
+    return x
+
+
+def _show(value) -> str:
+    """repr of a value, shortened: an error line stays one readable line whatever was given."""
+    huge = isinstance(value, int) and value.bit_length() > 100  # str() of an int has a limit (4300 digits)
+    text = f"<an integer of {value.bit_length()} bits>" if huge else repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def _coerce(value, annotation, where: str):
     """Check a TOML value against a dataclass field annotation; convert lists to tuples and ints to floats."""
     origin = typing.get_origin(annotation)
@@ -30,25 +62,25 @@ def _coerce(value, annotation, where: str):
                 return _coerce(value, option, where)
             except ConfigError:
                 pass
-        raise ConfigError(f"{where}: {value!r} is not a valid {annotation}")
+        raise ConfigError(f"{where}: {_show(value)} is not a valid {annotation}")
     if origin is tuple:
         (item_type, _) = typing.get_args(annotation)
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{where}: expected a list, got {value!r}")
+            raise ConfigError(f"{where}: expected a list, got {_show(value)}")
         return tuple(_coerce(v, item_type, f"{where}[{i}]") for i, v in enumerate(value))
     if dataclasses.is_dataclass(annotation):
         return _build(annotation, value, where)
     if annotation is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(f"{where}: expected a finite number, got {value!r}")
-        return float(value)
+        return check_float(value, where)
     if annotation is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: expected an integer, got {value!r}")
+            raise ConfigError(f"{where}: expected an integer, got {_show(value)}")
+        if not INT_MIN <= value <= INT_MAX:
+            raise ConfigError(f"{where}: {_show(value)} is out of range (a 64-bit integer)")
         return value
     if annotation is bool or annotation is str:
         if not isinstance(value, annotation):
-            raise ConfigError(f"{where}: expected {annotation.__name__}, got {value!r}")
+            raise ConfigError(f"{where}: expected {annotation.__name__}, got {_show(value)}")
         return value
     raise ConfigError(f"{where}: unsupported type {annotation}")
 
@@ -57,7 +89,7 @@ def _build(cls, table, where: str):
     """An instance of dataclass cls from a TOML table (missing keys: the defaults); unknown keys are an error.
     Type-checks only: the values are checked by the dataclass's validate()."""
     if not isinstance(table, dict):
-        raise ConfigError(f"{where}: expected a table, got {table!r}")
+        raise ConfigError(f"{where}: expected a table, got {_show(table)}")
     hints = typing.get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = set(table) - names

@@ -213,6 +213,9 @@ class LogClock:
         if self.held is not None:
             self._reject()
             self.held = None
+        if not self.frames:
+            raise LogError(f"read 0 MAVLink messages from {name}: empty, or not a MAVLink log (.tlog: 8-byte "
+                           f"timestamp + frame): nothing to replay")
         if self.first_s is None or self.last_s == self.first_s:
             why = "no frame" if not self.frames else f"every stamp of {self.frames} frame(s) rejected" \
                 if self.first_s is None else f"{self.frames} frame(s) all at one time: zero or frozen stamps"
@@ -238,6 +241,10 @@ class MavlinkLink:
                 raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
             # A log has no clock of its own: its streams are judged against each other, not against today.
             self.signing = Signing(key, counters, signing_required, clock=None if self.is_log else time.time)
+        if self.is_log and not Path(connection).is_file():
+            # pymavlink opens a name that is no file as a serial device: "could not open port", or "No module named
+            # 'serial'" without pyserial. A log that is not there is a file error (exit 2).
+            raise ConfigError(f"mavlink.connection {connection!r}: no such file")
         _check_udp_port_free(connection)
         try:
             if connection.startswith("tcpin:"):  # ours, not pymavlink's one-connection mavtcpin (tcpin.py)
@@ -248,6 +255,13 @@ class MavlinkLink:
             else:
                 self.conn = mavutil.mavlink_connection(connection, baud=baud, source_system=source_system,
                                                        source_component=source_component, autoreconnect=True)
+        except ModuleNotFoundError as exc:
+            if exc.name != "serial":
+                raise
+            # pymavlink opens anything that is not udp/tcp/a file as a serial device, through pyserial
+            raise LinkError(f"cannot open MAVLink connection {connection!r}: a serial device needs pyserial, which "
+                            f"is not installed: pip install 'avionics-daa[serial]' (from a clone: "
+                            f"pip install '.[serial]')") from None
         except Exception as exc:  # noqa: BLE001  (pymavlink raises anything from socket to serial errors)
             raise LinkError(f"cannot open MAVLink connection {connection!r}: {exc}") from exc
         self.datagrams = isinstance(self.conn, mavutil.mavudp)

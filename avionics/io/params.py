@@ -198,7 +198,10 @@ class ZenohConfig:
             try:
                 zenoh.Config.from_file(z.config_file)
             except zenoh.ZError as exc:
-                raise ConfigError(f"zenoh.config_file: {z.config_file!r} is not a zenoh configuration: {exc}") from None
+                from avionics.io.zenoh_bus import zenoh_error_text  # noqa: PLC0415
+
+                raise ConfigError(f"zenoh.config_file: {z.config_file!r} is not a zenoh configuration: "
+                                  f"{zenoh_error_text(exc)}") from None
         require_positive("zenoh", z, ("tracks_hz", "status_hz"))
 
 

@@ -24,6 +24,7 @@ Peer mode on loopback with multicast and gossip scouting off unless configured o
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 from collections import Counter, deque
@@ -93,12 +94,23 @@ def session_config(cfg: ZenohConfig) -> zenoh.Config:
     return config
 
 
+# zenoh's Rust errors end with where they were raised, e.g. "... !  at /root/.cargo/git/checkouts/zenoh-.../
+# orchestrator.rs:447." : the user needs the message, not the source path.
+_RUST_LOCATION = re.compile(r"\s*\bat \S+\.rs:\d+(:\d+)?\.?")
+
+
+def zenoh_error_text(exc: BaseException) -> str:
+    """A zenoh error's message without the Rust source locations, on one line."""
+    text = _RUST_LOCATION.sub("", str(exc))
+    return " ".join(text.split()) or type(exc).__name__
+
+
 def open_session(cfg: ZenohConfig) -> zenoh.Session:
     try:
         return zenoh.open(session_config(cfg))
     except zenoh.ZError as exc:
         raise ZenohBusError(f"cannot open zenoh session (listen={list(cfg.listen)}, "
-                            f"connect={list(cfg.connect)}): {exc}") from exc
+                            f"connect={list(cfg.connect)}): {zenoh_error_text(exc)}") from exc
 
 
 def to_json(payload: dict) -> bytes:

@@ -14,7 +14,8 @@ def add_arguments(p) -> None:
     p.add_argument("--seed", type=int, default=1, help="the set's seed: encounter i is drawn from (seed, i) alone")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
-    p.add_argument("--out", help="results: a directory of Parquet partitions (created; resumed when it exists)")
+    p.add_argument("--out", help="results: a directory of Parquet partitions (created in an existing directory; "
+                                 "resumed when it exists)")
     p.add_argument("--scheduler", default="local",
                    help="local[:N] (a LocalCluster of N processes on 127.0.0.1; default N = cores), synchronous "
                         "(in-process) or tcp://HOST:PORT (an existing dask scheduler)")
@@ -32,10 +33,30 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="--report: print the metrics as JSON")
 
 
+def _new_directory(path: str, option: str) -> None:
+    """A directory the command may create: its parent must exist (a typo in the path is refused, not created)."""
+    from pathlib import Path
+
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise EvaluationError(f"{option} {path!r}: exists and is not a directory")
+    if not target.parent.is_dir():
+        raise EvaluationError(f"{option} {path!r}: no such directory {str(target.parent)!r}")
+
+
 def evaluate_command(args) -> int:
+    from pathlib import Path
+
     from avionics_eval.evaluation.runner import EvaluationError
 
     if args.report:
+        for path in args.report:
+            if not Path(path).is_dir():
+                raise EvaluationError(f"--report {path!r}: no such results directory")
+        if args.plots:
+            _new_directory(args.plots, "--plots")
         from avionics_eval.evaluation.metrics import (
             load,
             markdown,
@@ -55,6 +76,7 @@ def evaluate_command(args) -> int:
         raise EvaluationError("--out is required to run a set (or --report RESULTS to report on one)")
     if args.encounters < 1 or args.partition_size < 1:
         raise EvaluationError("--encounters and --partition-size must be at least 1")
+    _new_directory(args.out, "--out")
     from avionics_eval.evaluation.runner import run
 
     profiles = tuple(p.strip() for p in args.profiles.split(",") if p.strip())
