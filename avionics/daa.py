@@ -42,7 +42,8 @@ class SourceStatus:
     the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
     io/senders.py), whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
     (io/ownship_check.py), and whether the MAVLink link has delivered traffic (an accepted ADSB_VEHICLE) since
-    start."""
+    start; wiring: the active wiring diagnostics (io/diagnostics.py Diagnostic: no MAVLink, ownship from another
+    system, untrusted traffic, a feed down, ...)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
@@ -50,6 +51,7 @@ class SourceStatus:
     rejected_senders: frozenset[tuple[int, int, str]] = frozenset()
     ownship_inconsistent: bool = False
     mavlink_traffic: bool = False
+    wiring: tuple = ()
 
 
 def traffic_down(sources: SourceStatus) -> tuple:
@@ -118,6 +120,8 @@ class DaaResult:
     # components of our vehicle rejected as a source of ownship or traffic in the last 10 s, (system, component,
     # role), sorted: announce them (ports.py: STATUSTEXT, log)
     rejected_senders: tuple[tuple[int, int, str], ...] = ()
+    # the active wiring diagnostics (io/diagnostics.py Diagnostic): ports.py announces each onset
+    wiring: tuple = ()
 
     @property
     def available(self) -> bool:
@@ -183,7 +187,8 @@ class Daa:
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
-            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)))
+            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)),
+            wiring=sources.wiring)
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:
@@ -308,6 +313,7 @@ class Daa:
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
+        warnings.extend(d.message for d in sources.wiring if not d.key.startswith("feed:"))  # the feed's is above
         if traffic_down(sources):
             warnings.append("no traffic source: every receiver feed is down and MAVLink has delivered no traffic")
         ownship = None
@@ -335,4 +341,5 @@ class Daa:
             # components of our vehicle rejected as a source of ownship or traffic: "SYS:COMP role"
             "rejected_senders": [f"{s}:{c} {role}" for s, c, role in sorted(sources.rejected_senders)],
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
+            "wiring": [d.as_dict() for d in sources.wiring],  # io/diagnostics.py: key, text, message
         }
