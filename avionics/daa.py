@@ -27,6 +27,9 @@ from avionics.core.schedule import Every
 from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
 )
+from avionics.advisory.inhibits import RaInhibitWatch
+from avionics.core.units import FT
+from avionics.io.diagnostics import Diagnostic
 from avionics.pipeline import DaaCore
 
 STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
@@ -140,6 +143,14 @@ class Daa:
         self._fault_detail = ""
         self._stopped = False
         self._fault = FaultLog(self.counters)
+        # a profile that leaves a flying drone without RAs, named after a minute (advisory/inhibits.py)
+        self._ra_watch = RaInhibitWatch(self._core.profile, config.advisory.ra_enabled)
+        self._ra_inhibited: tuple = ()  # () or (the Diagnostic,) while the watch says so
+
+    @property
+    def profile(self):
+        """The alerting profile in force (advisory/tables.py AlertProfile)."""
+        return self._core.profile
 
     @property
     def response_model(self):
@@ -170,6 +181,7 @@ class Daa:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
             changed = self._check_availability(now_s, sources)
+            self._watch_ra_inhibit(now_s)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
             track_views = self.tracks(now_s, sources) if tracks else None
@@ -188,7 +200,19 @@ class Daa:
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
             starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)),
-            wiring=sources.wiring)
+            wiring=sources.wiring + self._ra_inhibited)
+
+    def _watch_ra_inhibit(self, now_s: float) -> None:
+        try:
+            own = self._core.ownship.state_at(now_s)
+            message = self._ra_watch.update(now_s, self._core.agl_m(own) if own is not None else None)
+        except Exception as exc:  # noqa: BLE001  (a warning's fault must not stop the advisories)
+            self._fault("output", exc)
+            return
+        height_ft = self._ra_watch.height_m / FT
+        self._ra_inhibited = () if message is None else (Diagnostic(
+            "ra_inhibited", f"NO RA BELOW {height_ft:.0f} FT AGL: PROFILE {self._core.profile.name.upper()}"[:50],
+            message),)
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:
@@ -313,7 +337,8 @@ class Daa:
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
-        warnings.extend(d.message for d in sources.wiring if not d.key.startswith("feed:"))  # the feed's is above
+        warnings.extend(d.message for d in sources.wiring + self._ra_inhibited
+                        if not d.key.startswith("feed:"))  # the feed's is above
         if traffic_down(sources):
             warnings.append("no traffic source: every receiver feed is down and MAVLink has delivered no traffic")
         ownship = None
@@ -341,5 +366,6 @@ class Daa:
             # components of our vehicle rejected as a source of ownship or traffic: "SYS:COMP role"
             "rejected_senders": [f"{s}:{c} {role}" for s, c, role in sorted(sources.rejected_senders)],
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
-            "wiring": [d.as_dict() for d in sources.wiring],  # io/diagnostics.py: key, text, message
+            # io/diagnostics.py: key, text, message (and ra_inhibited: advisory/inhibits.py RaInhibitWatch)
+            "wiring": [d.as_dict() for d in sources.wiring + self._ra_inhibited],
         }

@@ -144,9 +144,9 @@ class MavlinkOut:
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
         self._rejected = RejectedSenders(REJECTED_SENDER_REPEAT_S)
-        # io/diagnostics.py: a wiring condition's STATUSTEXT at its onset and every REPEAT_S while it lasts; all the
-        # active ones again when MAVLink arrives after none (an autopilot that joins a udpin link late, or comes
-        # back, hears what went wrong before it could)
+        # io/diagnostics.py: one STATUSTEXT per wiring condition's onset (stderr repeats it, not the autopilot's
+        # screen); all the active ones again when MAVLink arrives after none (an autopilot that joins a udpin link
+        # late, or comes back, hears what went wrong before it could)
         self._wiring = Announcements()
 
     def wants(self, now_s: float) -> Demand:
@@ -211,7 +211,7 @@ class MavlinkOut:
             self._send(encode.statustext(rejected, encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._statustext and (result.wiring or self._wiring.active) and not result.final:
             onsets, repeats, ended = self._wiring.due(result.wiring, now)
-            due = result.wiring if "no_mavlink" in ended else onsets + repeats
+            due = result.wiring if "no_mavlink" in ended else onsets
             for diagnostic in due:
                 self._send(encode.statustext(diagnostic.text, encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:

@@ -15,6 +15,7 @@ import time
 from collections import Counter
 
 from avionics import __version__
+from avionics.advisory.inhibits import profile_banner
 from avionics.config import Config
 from avionics.core import jit
 from avionics.core.params import ConfigError
@@ -130,6 +131,10 @@ def run(config: Config, duration_s: float | None = None, tlog_out: str | None = 
         # after the link and the zenoh session opened: a start-up error is the only line printed
         log.info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__, config.mavlink.connection,
                  list(config.zenoh.listen) if config.zenoh.enabled else "off", config.vehicle.id)
+        # what the profile means at a drone's height (a tcas2 drone below 1000 ft AGL has no RA)
+        log.info("%s", profile_banner(runner.loop.daa.profile, config.advisory.ra_enabled,
+                                      "MSL - advisory.ground_elevation_m" if config.advisory.ground_elevation_m
+                                      is not None else "height above home, GLOBAL_POSITION_INT relative_alt"))
         try:
             runner.run()
         except KeyboardInterrupt:

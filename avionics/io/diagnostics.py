@@ -3,7 +3,8 @@
 The rules live here; the live loop's input (loop.py MavlinkInput, receiver feeds: feeds/source.py TrafficSource)
 puts the active ones on SourceStatus.wiring, the facade (daa.py) carries them to DaaResult.wiring and the status
 topic, and the ports announce each onset (ports.py: one STATUSTEXT, a WARNING line on stderr repeated every
-REPEAT_S while it lasts). Only `avionics run` on a live link runs them (a log has no live wiring to check).
+REPEAT_S while it lasts). Only `avionics run` on a live link runs them (a log has no live wiring to check). The
+facade adds one rule of its own to the same path: `ra_inhibited` (advisory/inhibits.py RaInhibitWatch).
 
 Rules (docs/integration.md, "What stderr tells you"):
 - `no_mavlink`: no MAVLink message for mavlink.silence_warn_s (4 s: MAVLink's heartbeat service expects 1 Hz and
