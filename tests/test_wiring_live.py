@@ -10,6 +10,7 @@ active condition again:
 2. the ownship from system 2 while mavlink.source_system = 1: both ids and the key named;
 3. the ownship from system 1 at 1 Hz (below mavlink.min_ownship_hz), without SCALED_PRESSURE (profile tcas2 selects
    its sensitivity levels by pressure altitude), and ADSB_VEHICLE from system 2's receiver (not trusted).
+A second process with a signing key gets unsigned frames: the signing rejection is named, never a silent link.
 Waits poll for each condition up to DEADLINE_S; no timing is asserted."""
 
 from __future__ import annotations
@@ -158,6 +159,30 @@ def test_each_wiring_mistake_is_named_on_stderr_statustext_and_zenoh_status(udp_
             sender.close()
         if session is not None:
             session.close()
+        onboard.terminate()
+        onboard.wait(DEADLINE_S)
+    assert onboard.returncode == 0, "".join(lines)
+
+
+def test_frames_that_fail_signing_are_named_not_taken_for_a_silent_link(udp_port, tmp_path):
+    key = tmp_path / "signing.key"
+    key.write_text("ab" * 32 + "\n")
+    onboard = subprocess.Popen(
+        [sys.executable, "-m", "avionics.cli", "run", "--connection", f"udpin:127.0.0.1:{udp_port}", "--no-zenoh",
+         "--set", f'mavlink.signing_key_file="{key}"', "--duration", str(10 * DEADLINE_S)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    threading.Thread(target=lambda: lines.extend(onboard.stderr), daemon=True).start()
+    sender = Sender(udp_port)  # unsigned frames, which signing_required (the default) rejects
+    sender.frames = lambda t: [((1, 1), heartbeat()), ((1, 1), position(t))]
+    try:
+        assert wait_for(lambda: any("MAVLink frames rejected by signing (" in line and " unsigned" in line
+                                    and "mavlink.signing_key_file" in line for line in list(lines))), lines
+        # past mavlink.silence_warn_s (4 s): six of the onboard HEARTBEATs (1 Hz) came back, and no silence was named
+        assert wait_for(lambda: sum(m.get_type() == "HEARTBEAT" for _, m in list(sender.got)) >= 6)
+        assert not any("no MAVLink message" in line for line in lines), lines
+    finally:
+        sender.close()
         onboard.terminate()
         onboard.wait(DEADLINE_S)
     assert onboard.returncode == 0, "".join(lines)

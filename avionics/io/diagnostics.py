@@ -116,8 +116,11 @@ class WiringDiagnostics:
 
     def conditions(self, now_s: float) -> tuple[Diagnostic, ...]:
         out = []
+        untrusted = self._untrusted(now_s)
         since = self.last_message_s if self.last_message_s is not None else self.start_s
-        if now_s - since >= self.silence_s:
+        if any(d.key == "signing" for d in untrusted):
+            pass  # frames arrive but fail signing: that is the cause to name, not a silent link
+        elif now_s - since >= self.silence_s:
             out.append(_diag(
                 "no_mavlink", f"NO MAVLINK FOR {now_s - since:.0f} S",
                 f"no MAVLink message for {now_s - since:.0f} s on {self.connection} (mavlink.connection): check the "
@@ -125,8 +128,7 @@ class WiringDiagnostics:
                 "traffic)"))
         elif self.last_message_s is not None:
             out.extend(self._ownship(now_s))
-        out.extend(self._untrusted(now_s))
-        return tuple(out)
+        return tuple(out + untrusted)
 
     def _ownship(self, now_s: float) -> list[Diagnostic]:
         out = []
