@@ -27,6 +27,9 @@ from avionics.core.schedule import Every
 from avionics.core.types import (
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
 )
+from avionics.advisory.inhibits import RaInhibitWatch
+from avionics.core.units import FT
+from avionics.io.diagnostics import Diagnostic
 from avionics.pipeline import DaaCore
 
 STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
@@ -42,7 +45,8 @@ class SourceStatus:
     the ownship or traffic was rejected in the last 10 s ((system, component, "ownship" | "traffic"),
     io/senders.py), whether ownship fixes have failed the jump check for input.ownship_jump_persist_s
     (io/ownship_check.py), and whether the MAVLink link has delivered traffic (an accepted ADSB_VEHICLE) since
-    start."""
+    start; wiring: the active wiring diagnostics (io/diagnostics.py Diagnostic: no MAVLink, ownship from another
+    system, untrusted traffic, a feed down, ...)."""
 
     spoof_suspected: frozenset[IntruderKey] = frozenset()
     pressure_rejected: bool = False
@@ -50,6 +54,7 @@ class SourceStatus:
     rejected_senders: frozenset[tuple[int, int, str]] = frozenset()
     ownship_inconsistent: bool = False
     mavlink_traffic: bool = False
+    wiring: tuple = ()
 
 
 def traffic_down(sources: SourceStatus) -> tuple:
@@ -118,6 +123,8 @@ class DaaResult:
     # components of our vehicle rejected as a source of ownship or traffic in the last 10 s, (system, component,
     # role), sorted: announce them (ports.py: STATUSTEXT, log)
     rejected_senders: tuple[tuple[int, int, str], ...] = ()
+    # the active wiring diagnostics (io/diagnostics.py Diagnostic): ports.py announces each onset
+    wiring: tuple = ()
 
     @property
     def available(self) -> bool:
@@ -136,6 +143,14 @@ class Daa:
         self._fault_detail = ""
         self._stopped = False
         self._fault = FaultLog(self.counters)
+        # a profile that leaves a flying drone without RAs, named after a minute (advisory/inhibits.py)
+        self._ra_watch = RaInhibitWatch(self._core.profile, config.advisory.ra_enabled)
+        self._ra_inhibited: tuple = ()  # () or (the Diagnostic,) while the watch says so
+
+    @property
+    def profile(self):
+        """The alerting profile in force (advisory/tables.py AlertProfile)."""
+        return self._core.profile
 
     @property
     def response_model(self):
@@ -166,6 +181,7 @@ class Daa:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
             changed = self._check_availability(now_s, sources)
+            self._watch_ra_inhibit(now_s)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
             track_views = self.tracks(now_s, sources) if tracks else None
@@ -183,7 +199,20 @@ class Daa:
             sensitivity_level=level.sl if level else None, tracks=track_views,
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
-            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)))
+            starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)),
+            wiring=sources.wiring + self._ra_inhibited)
+
+    def _watch_ra_inhibit(self, now_s: float) -> None:
+        try:
+            own = self._core.ownship.state_at(now_s)
+            message = self._ra_watch.update(now_s, self._core.agl_m(own) if own is not None else None)
+        except Exception as exc:  # noqa: BLE001  (a warning's fault must not stop the advisories)
+            self._fault("output", exc)
+            return
+        height_ft = self._ra_watch.height_m / FT
+        self._ra_inhibited = () if message is None else (Diagnostic(
+            "ra_inhibited", f"NO RA BELOW {height_ft:.0f} FT AGL: PROFILE {self._core.profile.name.upper()}"[:50],
+            message),)
 
     # -- availability ----------------------------------------------------------------------------------------
     def _unavailable_reason(self, now_s: float, sources: SourceStatus, own=_UNSET) -> str | None:
@@ -308,6 +337,8 @@ class Daa:
         if self._stopped:
             warnings.append("shutdown: no advisories")
         warnings.extend(feed.warning for feed in sources.feeds if feed.warning)  # a receiver feed down
+        warnings.extend(d.message for d in sources.wiring + self._ra_inhibited
+                        if not d.key.startswith("feed:"))  # the feed's is above
         if traffic_down(sources):
             warnings.append("no traffic source: every receiver feed is down and MAVLink has delivered no traffic")
         ownship = None
@@ -335,4 +366,6 @@ class Daa:
             # components of our vehicle rejected as a source of ownship or traffic: "SYS:COMP role"
             "rejected_senders": [f"{s}:{c} {role}" for s, c, role in sorted(sources.rejected_senders)],
             "traffic_feeds": [feed.as_dict() for feed in sources.feeds],  # avionics run --traffic
+            # io/diagnostics.py: key, text, message (and ra_inhibited: advisory/inhibits.py RaInhibitWatch)
+            "wiring": [d.as_dict() for d in sources.wiring + self._ra_inhibited],
         }

@@ -43,14 +43,18 @@ class MavlinkInput:
     """pymavlink messages -> core inputs through the validating decoder (io/decode.py). A message whose
     decoding raises is dropped and counted (`fault.decode`); the others go on."""
 
-    def __init__(self, config: Config, counters: Counter):
+    def __init__(self, config: Config, counters: Counter, diagnostics=None):
+        """diagnostics: io/diagnostics.py WiringDiagnostics over this decoder's senders (the live `avionics run`)."""
         self.decoder = MessageDecoder(config, counters)
+        self.diagnostics = diagnostics
         self._fault = FaultLog(counters)
         self._now_s = 0.0  # the last batch's time: how long ownship fixes have been rejected is judged at it
         self.traffic = False  # an accepted ADSB_VEHICLE since start: MAVLink is a traffic source (daa.py traffic_down)
 
     def decode(self, msgs: Iterable, now_s: float) -> list[Input]:
         self._now_s = now_s
+        if self.diagnostics is not None:
+            self.diagnostics.observe(msgs, now_s)
         inputs = []
         for m in msgs:
             try:
@@ -68,7 +72,8 @@ class MavlinkInput:
         return SourceStatus(frozenset(decoder.spoof_suspected), decoder.pressure_rejection is not None,
                             rejected_senders=decoder.senders.active_suspects(self._now_s),
                             ownship_inconsistent=decoder.ownship_check.failing(self._now_s),
-                            mavlink_traffic=self.traffic)
+                            mavlink_traffic=self.traffic,
+                            wiring=self.diagnostics.conditions(self._now_s) if self.diagnostics is not None else ())
 
 
 class LinkSource:

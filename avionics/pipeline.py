@@ -380,6 +380,12 @@ class DaaCore:
                       type(exc).__name__, exc, exc_info=exc if trace else None)
             return None
 
+    def agl_m(self, own: OwnshipState) -> float | None:
+        """Ownship's height above ground: MSL minus advisory.ground_elevation_m when that is configured, else the
+        height above home (GLOBAL_POSITION_INT relative_alt); None when neither is known."""
+        ground = self.config.advisory.ground_elevation_m
+        return float(own.x[2]) - ground if ground is not None else own.height_above_home_m
+
     def _ownship_altitudes(self, own: OwnshipState, datum: AltitudeDatum | None) -> tuple[float, bool]:
         """Ownship altitude in the intruder's datum, and whether it had to be taken from the other datum."""
         if datum is AltitudeDatum.PRESSURE:
@@ -402,8 +408,7 @@ class DaaCore:
             self.level = None  # no ownship altitude: no sensitivity level either
             return self._drop_all(now_s, keys, "no_ownship", changes)
         cfg = self.config
-        agl = (float(own.x[2]) - cfg.advisory.ground_elevation_m if cfg.advisory.ground_elevation_m is not None
-               else own.height_above_home_m)
+        agl = self.agl_m(own)
         sl_altitude = own.pressure_altitude_m if own.pressure_altitude_m is not None else float(own.x[2])
         self.level = level = self.levels.select(agl, sl_altitude)
         inhibits = self.inhibits.update(agl)

@@ -20,6 +20,7 @@ from avionics.core.schedule import Every
 from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
+from avionics.io.diagnostics import Announcements
 from avionics.io.payloads import advisory_payload, bands_payload, ownship_payload, status_payload, track_payload
 from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import TrafficBatch
@@ -143,6 +144,10 @@ class MavlinkOut:
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
         self._rejected = RejectedSenders(REJECTED_SENDER_REPEAT_S)
+        # io/diagnostics.py: one STATUSTEXT per wiring condition's onset (stderr repeats it, not the autopilot's
+        # screen); all the active ones again when MAVLink arrives after none (an autopilot that joins a udpin link
+        # late, or comes back, hears what went wrong before it could)
+        self._wiring = Announcements()
 
     def wants(self, now_s: float) -> Demand:
         self._rebroadcast_now = self._rebroadcast is not None and self._rebroadcast.due(now_s)
@@ -204,6 +209,11 @@ class MavlinkOut:
         rejected = self._rejected.due(result) if self._statustext and result.rejected_senders else None
         if rejected is not None:
             self._send(encode.statustext(rejected, encode.mavlink2.MAV_SEVERITY_WARNING))
+        if self._statustext and (result.wiring or self._wiring.active) and not result.final:
+            onsets, repeats, ended = self._wiring.due(result.wiring, now)
+            due = result.wiring if "no_mavlink" in ended else onsets
+            for diagnostic in due:
+                self._send(encode.statustext(diagnostic.text, encode.mavlink2.MAV_SEVERITY_WARNING))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
@@ -295,11 +305,13 @@ class ZenohOut:
 
 class LogOut:
     """The process log: advisory changes (alerts, unavailability and lost threats at WARNING, clear at INFO),
-    changes of availability and rejected senders."""
+    changes of availability, rejected senders and wiring diagnostics (io/diagnostics.py: WARNING at the onset and
+    every REPEAT_S while it lasts, INFO when it ends)."""
 
     def __init__(self, logger: logging.Logger | None = None):
         self.log = logger or logging.getLogger("avionics")
         self._rejected: frozenset = frozenset()  # the rejected senders of the last result (each logged as it starts)
+        self._wiring = Announcements()
 
     def wants(self, now_s: float) -> Demand:
         return NOTHING
@@ -318,6 +330,12 @@ class LogOut:
             for sender in sorted(active - self._rejected):
                 self.log.warning("t=%7.2f %s", result.time_s, encode.rejected_sender_text(*sender))
             self._rejected = active
+        if (result.wiring or self._wiring.active) and not result.final:
+            onsets, repeats, ended = self._wiring.due(result.wiring, result.time_s)
+            for diagnostic in onsets + repeats:
+                self.log.warning("t=%7.2f %s", result.time_s, diagnostic.message)
+            for key in ended:
+                self.log.info("t=%7.2f wiring ok again: %s", result.time_s, key)
 
     def close(self) -> None:
         pass

@@ -15,10 +15,12 @@ import time
 from collections import Counter
 
 from avionics import __version__
+from avionics.advisory.inhibits import profile_banner
 from avionics.config import Config
 from avionics.core import jit
 from avionics.core.params import ConfigError
 from avionics.daa import Daa
+from avionics.io.diagnostics import wiring_diagnostics
 from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.io.link import MavlinkLink
 from avionics.io.sinks import FileSink, SinkHealth
@@ -63,11 +65,18 @@ class Runner:
         if self.feeds.feeds and self.link.is_log:
             self.link.close()
             raise ConfigError("--traffic needs a live MAVLink link: a log replays its own traffic on its own time")
-        source = LinkSource(self.link, MavlinkInput(config, self.counters), 1.0 / config.advisory.assessment_hz,
+        source = LinkSource(self.link, self._mavlink_input(config), 1.0 / config.advisory.assessment_hz,
                             duration_s, self.stop, start_s=start_s)
         if self.feeds.feeds:
             source = TrafficSource(source, self.feeds)  # started by the loop's iteration, joined at its end
         self.loop = Loop(Daa(config, self.counters), source, ports)
+
+    def _mavlink_input(self, config: Config) -> MavlinkInput:
+        """The decoder, with the wiring diagnostics on a live link (io/diagnostics.py; a log has no wiring)."""
+        mavlink = MavlinkInput(config, self.counters)
+        if not self.link.is_log:
+            mavlink.diagnostics = wiring_diagnostics(config, self.counters, mavlink.decoder.senders)
+        return mavlink
 
     @property
     def now(self) -> float:
@@ -122,6 +131,10 @@ def run(config: Config, duration_s: float | None = None, tlog_out: str | None = 
         # after the link and the zenoh session opened: a start-up error is the only line printed
         log.info("avionics %s: MAVLink %s, zenoh %s, vehicle %s", __version__, config.mavlink.connection,
                  list(config.zenoh.listen) if config.zenoh.enabled else "off", config.vehicle.id)
+        # what the profile means at a drone's height (a tcas2 drone below 1000 ft AGL has no RA)
+        log.info("%s", profile_banner(runner.loop.daa.profile, config.advisory.ra_enabled,
+                                      "MSL - advisory.ground_elevation_m" if config.advisory.ground_elevation_m
+                                      is not None else "height above home, GLOBAL_POSITION_INT relative_alt"))
         try:
             runner.run()
         except KeyboardInterrupt:

@@ -8,7 +8,9 @@ carry them over a real zenoh session on loopback."""
 from __future__ import annotations
 
 import json
+import logging
 import math
+import re
 
 import numpy as np
 import pytest
@@ -21,7 +23,7 @@ from avionics.io.dialect import daa as dialect
 from avionics.io.payloads import bands_payload
 from avionics.io.zenoh_bus import ZenohBus, open_session
 from avionics.monitor.feed import wait_for
-from avionics.ports import NOTHING
+from avionics.ports import NOTHING, LogOut, MavlinkOut
 from avionics_sitl.encounters import load_scenario
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
@@ -61,6 +63,38 @@ def test_the_alert_rises_preventive_corrective_warning_and_ends(head_on):
     advisory = {0: AdvisoryLevel.NONE, 1: AdvisoryLevel.TA, 2: AdvisoryLevel.TA, 3: AdvisoryLevel.RA}
     assert all(a.level is advisory[a.alert()[0]] for a in changes)  # profile do365: warning raises the RA
     assert any(a.ra_words for a in changes if a.alert()[0] == 3)
+
+
+def test_statustext_collision_and_log_line_speak_do365(caplog):
+    """Issue 26 item 3: a stock ground station shows only STATUSTEXT, so under do365 it names the DO-365 level
+    ("DAA PREVENTIVE/CORRECTIVE/WARNING", the warning with its manoeuvre), never "TA"/"RA"; the stderr log line says
+    the same; COLLISION's threat_level follows the DO-365 level (docs/mavlink.md). Each message is framed and parsed
+    with pymavlink, as the link does."""
+    config = load_config(overrides=["advisory.profile=do365"])
+    mav, parser, got = dialect.MAVLink(None, srcSystem=1, srcComponent=191), dialect.MAVLink(None), []
+    out = MavlinkOut(lambda m: got.extend(parser.parse_buffer(bytes(m.pack(mav))) or ()), config)
+    with caplog.at_level("INFO", logger="avionics.test_do365"):
+        replay(load_scenario("head-on"), config, PRESETS["none"],
+               ports=[out, LogOut(logging.getLogger("avionics.test_do365"))])
+    texts = [m.text for m in got if m.get_type() == "STATUSTEXT"]
+    alerts = [t for t in texts if t.startswith("DAA ") and not t.startswith("DAA UNAVAILABLE")
+              and not t.startswith("DAA AVAILABLE")]
+    assert alerts and all(t.split()[1] in ("PREVENTIVE", "CORRECTIVE", "WARNING") for t in alerts), texts
+    assert any(t.startswith("DAA CORRECTIVE ") for t in alerts), texts
+    warning = next(t for t in alerts if t.startswith("DAA WARNING "))
+    assert warning.split()[2] in ("CLIMB", "DESCEND", "DONT", "LEVEL", "MAINTAIN", "INCREASE"), warning  # the RA's
+    assert not any(t.startswith(("TA ", "RA ")) for t in texts), texts
+    logged = [re.sub(r"^t=\s*[-\d.]+ ", "", r.getMessage()) for r in caplog.records]
+    assert [t for t in logged if t.startswith("DAA WARNING ")][:1] == [warning]
+    assert not any(t.startswith(("TA ", "RA ")) for t in logged), logged
+    # COLLISION threat_level per the DO-365 level (each COLLISION is followed by its DAA_ADVISORY): corrective and
+    # warning HIGH (the corrective alert raises only a TA, whose TCAS mapping would be LOW), preventive LOW
+    pairs = [(c, d) for c, d in zip(got, got[1:]) if c.get_type() == "COLLISION" and d.get_type() == "DAA_ADVISORY"]
+    want = {0: dialect.MAV_COLLISION_THREAT_LEVEL_NONE, 1: dialect.MAV_COLLISION_THREAT_LEVEL_LOW,
+            2: dialect.MAV_COLLISION_THREAT_LEVEL_HIGH, 3: dialect.MAV_COLLISION_THREAT_LEVEL_HIGH}
+    assert {d.alert_level for _, d in pairs} >= {2, 3}
+    assert all(c.threat_level == want[d.alert_level] for c, d in pairs), [(c.threat_level, d.alert_level) for c, d in pairs]
+    assert any(d.alert_level == 2 and d.level == int(AdvisoryLevel.TA) for _, d in pairs)
 
 
 def test_guidance_bands_off_leaves_the_alerts_and_publishes_no_bands(head_on):

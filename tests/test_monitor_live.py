@@ -182,11 +182,16 @@ def test_browser_head_on_from_the_real_onboard_process(udp_port, tcp_port, capsy
         assert not flight.is_alive()
         syms = page_sym_times(browser, intruder)
 
+        # The monitor's zenoh light: green while its session reaches the onboard peer and samples arrive.
+        zenoh_light = 'return document.getElementById("zenoh").dataset.state'
+        assert wait_for(lambda: browser.js(zenoh_light) == "ok", DEADLINE_S), browser.js(zenoh_light)
         # Vehicle exit: the onboard process stops; the page marks it offline (liveliness).
         onboard.send_signal(signal.SIGTERM)
         exit_ms = time.time() * 1000.0
         assert wait_for(lambda: browser.js("return window.daa.online") is False, DEADLINE_S)
         offline_ms = browser.js("return window.daa.offlineSince") - exit_ms
+        # ... and the monitor's session (a client of that peer) now reaches nobody: the light says so
+        assert wait_for(lambda: browser.js(zenoh_light) == "no_peer", DEADLINE_S), browser.js(zenoh_light)
         browser.screenshot(ARTIFACTS / "monitor_head_on_offline.png")
     finally:
         browser.close()

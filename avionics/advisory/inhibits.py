@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass
 
 from avionics.advisory.tables import AlertProfile
+from avionics.core.units import FT
 
 
 class HysteresisInhibit:
@@ -77,6 +78,49 @@ class Floors:
 
 
 NO_FLOORS = Floors()
+
+
+# the built-in profiles that give RAs at any height (ra_inhibit_below_agl_ft = 0): what a drone should run
+UAS_ADVICE = "use --set advisory.profile=small-uas (or f3442, do365)"
+RA_INHIBIT_WARN_S = 60.0  # flying this long with RAs inhibited is named once (issue 26: "for a minute")
+FLYING_AGL_M = 10.0  # below this the vehicle is taken to be on the ground (GNSS height error; a landed vehicle)
+
+
+def profile_banner(profile: AlertProfile, ra_enabled: bool = True, agl_source: str = "height above home") -> str:
+    """What the profile means at a drone's height, for the start-up line: "profile tcas2: RAs inhibited below
+    1000 ft AGL (305 m), ..."."""
+    head = f"profile {profile.name}"
+    if not ra_enabled:
+        return f"{head}: RAs off (advisory.ra_enabled = false), TAs only"
+    ra_ft, descend_ft = profile.ra_inhibit_below_agl_m / FT, profile.descend_inhibit_below_agl_m / FT
+    descend = f"; descend RAs inhibited below {descend_ft:.0f} ft AGL" if descend_ft > 0 else ""
+    if ra_ft <= 0:
+        return f"{head}: RAs at any height{descend} (AGL: {agl_source})"
+    return (f"{head}: RAs inhibited below {ra_ft:.0f} ft AGL ({profile.ra_inhibit_below_agl_m:.0f} m), TAs only "
+            f"there{descend} (AGL: {agl_source}); for a UAV flying below that, {UAS_ADVICE}")
+
+
+class RaInhibitWatch:
+    """Names a profile that leaves a flying drone without RAs: the ownship above FLYING_AGL_M and below the profile's
+    RA-inhibit height (engage height, no hysteresis: a warning, not the inhibit) for RA_INHIBIT_WARN_S.
+    update(now_s, agl_m) -> the warning's message while that lasts, else None."""
+
+    def __init__(self, profile: AlertProfile, ra_enabled: bool = True):
+        self.profile = profile
+        self.height_m = profile.ra_inhibit_below_agl_m if ra_enabled else 0.0
+        self.since_s: float | None = None
+
+    def update(self, now_s: float, agl_m: float | None) -> str | None:
+        if agl_m is None or not FLYING_AGL_M <= agl_m < self.height_m:
+            self.since_s = None
+            return None
+        if self.since_s is None:
+            self.since_s = now_s
+        if now_s - self.since_s < RA_INHIBIT_WARN_S:
+            return None
+        return (f"flying {agl_m:.0f} m AGL for {now_s - self.since_s:.0f} s, below profile {self.profile.name}'s RA "
+                f"inhibit height {self.height_m / FT:.0f} ft AGL: no RA is possible, TAs only; for a UAV "
+                f"{UAS_ADVICE}")
 
 
 class LowAltitudeInhibits:

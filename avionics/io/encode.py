@@ -19,6 +19,29 @@ THREAT_LEVEL = {
 # AP_Avoidance takes it as what to do (docs/mavlink.md, COLLISION). By default we take no action and say so:
 # REPORT for a TA or an RA (the manoeuvre is in DAA_ADVISORY). ACTION_REQUEST (mavlink.collision_action_request)
 # asks the autopilot to climb or descend on an RA.
+# Under a DO-365 alerter (Advisory.alert_level set: profiles do365, daidalus-do365b-no-sum, do365-non-coop,
+# f3442) threat_level follows the DO-365 alert level, not the TA/RA it raises. common.xml MAV_COLLISION_THREAT_LEVEL:
+# LOW "mildly concerned", HIGH "panicking, and may take actions to avoid threat". RTCA DO-365B's preventive alert
+# asks for no manoeuvre (only not to move into the conflict): LOW; its corrective alert (a caution) and its warning
+# both ask the pilot to manoeuvre to stay or regain well clear: HIGH. The TA/RA mapping above would call a
+# corrective alert LOW, though it is the level at which DO-365 expects the aircraft to act.
+DO365_THREAT_LEVEL = {
+    0: mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE,
+    1: mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW,   # PREVENTIVE
+    2: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,  # CORRECTIVE
+    3: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,  # WARNING
+}
+
+
+def threat_level(advisory: Advisory) -> int:
+    """COLLISION threat_level: from the DO-365 alert level under a DO-365 alerter, else from the TA/RA level. A lost
+    threat held at its level keeps it (its alert level is held with it); a level above 3 (a profile with more
+    levels) counts as HIGH."""
+    if advisory.alert_level is None or advisory.level is AdvisoryLevel.NONE:
+        return THREAT_LEVEL[advisory.level]
+    return DO365_THREAT_LEVEL.get(advisory.alert_level, mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH)
+
+
 ACTION = {
     AdvisoryLevel.NONE: mavlink2.MAV_COLLISION_ACTION_NONE,
     AdvisoryLevel.TA: mavlink2.MAV_COLLISION_ACTION_REPORT,
@@ -51,7 +74,7 @@ def collision(advisory: Advisory, request_action: bool = False):
         src=mavlink2.MAV_COLLISION_SRC_ADSB,
         id=advisory.intruder.address,
         action=(ACTION_REQUEST if request else ACTION)[advisory.level],
-        threat_level=THREAT_LEVEL[advisory.level],
+        threat_level=threat_level(advisory),
         time_to_minimum_delta=advisory.t_cpa_s,
         altitude_minimum_delta=advisory.vmd_m if advisory.vmd_m is not None else math.nan,
         horizontal_minimum_delta=advisory.hmd_m,
@@ -61,22 +84,24 @@ def collision(advisory: Advisory, request_action: bool = False):
 def advisory_text(advisory: Advisory, callsign: str | None = None) -> str:
     """One line for a pilot's ground station, at most 50 characters: "RA CLIMB 1500 FPM ABC123". A lost threat
     (advisory/logic.py lost_hold) is "TRAFFIC LOST <who> RA HELD" while held, "TRAFFIC LOST <who> (ended)" at its
-    end: never "CLEAR OF CONFLICT"."""
+    end: never "CLEAR OF CONFLICT". Under a DO-365 alerter the level is named as the standard names it (a stock
+    ground station shows only this text): "DAA CORRECTIVE <who> TAU ...", "DAA WARNING CLIMB 1500 FPM <who>"."""
     who = callsign or str(advisory.intruder)
+    level = advisory.level.name if advisory.alert_level is None else f"DAA {advisory.alert_name or advisory.alert_level}"
     if advisory.level is AdvisoryLevel.NONE and advisory.reason in UNAVAILABLE_REASONS:
         return f"DAA UNAVAILABLE {who} ({advisory.reason})"[:STATUSTEXT_LEN]
     if advisory.lost:
-        state = "(ended)" if advisory.level is AdvisoryLevel.NONE else f"{advisory.level.name} HELD"
+        state = "(ended)" if advisory.level is AdvisoryLevel.NONE else f"{level.removeprefix('DAA ')} HELD"
         return f"TRAFFIC LOST {who} {state}"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.NONE:
         return f"CLEAR OF CONFLICT {who} ({advisory.reason})"[:STATUSTEXT_LEN]
     if advisory.level is AdvisoryLevel.RA and advisory.ra_words:
         rate = advisory.target_vertical_rate_mps
         target = "" if rate is None or rate == 0 else f" {abs(rate) / FPM:.0f} FPM"
-        return f"RA {advisory.ra_words}{target} {who}"[:STATUSTEXT_LEN]
+        return f"{'RA' if advisory.alert_level is None else level} {advisory.ra_words}{target} {who}"[:STATUSTEXT_LEN]
     vertical = "ALT?" if advisory.vmd_m is None else f"{advisory.vmd_m / FT:+.0f}FT"
     tau = "--" if math.isinf(advisory.mod_tau_s) else f"{advisory.mod_tau_s:.0f}S"
-    return f"{advisory.level.name} {who} TAU {tau} {advisory.hmd_m:.0f}M {vertical}"[:STATUSTEXT_LEN]
+    return f"{level} {who} TAU {tau} {advisory.hmd_m:.0f}M {vertical}"[:STATUSTEXT_LEN]
 
 
 SENSE = {None: mavlink2.DAA_RA_SENSE_NONE, "climb": mavlink2.DAA_RA_SENSE_CLIMB,

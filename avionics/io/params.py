@@ -60,6 +60,14 @@ class MavlinkConfig:
     # so an idle or garbage-only client cannot hold the link: tcpin.IDLE_TIMEOUT_S, with its source (not imported:
     # this module stays free of pymavlink, and link.py imports it)
     tcpin_idle_timeout_s: float = 5.0
+    # Wiring diagnostics (avionics/io/diagnostics.py, `avionics run` on a live link): no MAVLink, or no ownship
+    # position, for this long is named on stderr, STATUSTEXT and zenoh status. 4 s: MAVLink's heartbeat service
+    # takes "four or five" missed 1 Hz HEARTBEATs for a lost link (mavlink.io/en/services/heartbeat.html).
+    silence_warn_s: float = 4.0
+    # The ownship GLOBAL_POSITION_INT rate below which a warning is named. 2 Hz: every relative position is as old
+    # as the last ownship fix, and at 1 Hz a single lost fix leaves it input.ownship_timeout_s (2 s) old, DAA then
+    # unavailable; at 2 Hz three fixes in a row may be lost. ADS-B airborne positions come at 2 Hz (DO-260B).
+    min_ownship_hz: float = 2.0
 
     def validate(self) -> None:
         traffic_source_ids(self)
@@ -74,7 +82,7 @@ class MavlinkConfig:
             except SigningKeyError as exc:
                 raise ConfigError(f"mavlink.signing_key_file: {exc}") from None
         require_positive("mavlink", self, ("heartbeat_hz", "collision_refresh_s", "traffic_rebroadcast_hz",
-                                           "tcpin_idle_timeout_s"))
+                                           "tcpin_idle_timeout_s", "silence_warn_s", "min_ownship_hz"))
         if not 1 <= self.traffic_rebroadcast_component <= 255 or \
                 self.traffic_rebroadcast_component == self.source_component:
             raise ConfigError("mavlink.traffic_rebroadcast_component must be in 1..255 and differ from "

@@ -48,6 +48,9 @@ class Senders:
         # (system, component, "ownship" | "traffic") -> when it last claimed it: components of our system whose claim
         # was rejected
         self.suspects: dict[tuple[int, int, str], float] = {}
+        # (system, component) of another system whose ADSB_VEHICLE was ignored -> when last (io/diagnostics.py names
+        # them: not a claim about us, but traffic the integrator may have meant to use)
+        self.untrusted: dict[tuple[int, int], float] = {}
 
     def active_suspects(self, now_s: float) -> frozenset[tuple[int, int, str]]:
         """The suspects whose last rejected claim is at most SUSPECT_ACTIVE_S old (the older ones are forgotten)."""
@@ -91,6 +94,8 @@ class Senders:
             return True
         if system != self.system:
             self.counters["adsb.untrusted_source"] += 1  # another system: not trusted, but not posing as ours
+            if sender in self.untrusted or len(self.untrusted) < MAX_SUSPECTS:
+                self.untrusted[sender] = now_s
             return False
         return self._claim(sender, "adsb.untrusted_source", "traffic", now_s)
 

@@ -74,6 +74,7 @@ def _open_feed(state: FleetState, cfg: ZenohConfig, prefix: str, stop: threading
         try:
             return ZenohFeed(state, cfg, prefix=prefix)
         except ZenohBusError as exc:
+            state.set_zenoh_link({"state": "down", "detail": f"cannot open the zenoh session: {exc}"})
             if not told and not quiet:
                 print(f"avionics monitor: {exc}; retrying every second", file=sys.stderr, flush=True)
                 told = True

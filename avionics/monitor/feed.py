@@ -26,6 +26,10 @@ from avionics.monitor.state import FleetState
 log = logging.getLogger("avionics.monitor")
 KINDS = ("ownship", "status", "tracks", "advisories", "bands", "traffic")  # bands: DO-365 guidance (per vehicle)
 INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pushed back on)
+# The link light: no sample for this long with a router or peer connected is "no_data". Every onboard node sends
+# ownship and status at zenoh.status_hz (1 Hz by default, io/params.py): 5 periods, the track stale_s as well.
+LINK_NO_DATA_S = 5.0
+LINK_PERIOD_S = 0.5  # how often the session's routers and peers are read (session.info, a local call)
 
 
 def monitor_zenoh_config(connect: list[str] | tuple[str, ...] = ("tcp/127.0.0.1:7447",), mode: str = "client",
@@ -56,6 +60,35 @@ class ZenohFeed:
         self._applier = threading.Thread(target=self._apply_loop, name="monitor-apply", daemon=True)
         self._applier.start()
         self._alive = self.session.liveliness().declare_subscriber(f"{prefix}/*/alive", self._on_alive, history=True)
+        self.last_sample_s: float | None = None  # time.monotonic() of the last sample or liveliness change
+        self._linker = threading.Thread(target=self._link_loop, name="monitor-link", daemon=True)
+        self._linker.start()
+
+    def link_state(self) -> dict:
+        """The session's reach, for the link light: "no_peer" when it is connected to no router and no peer (a
+        client whose router is down, a peer nobody reached), "no_data" when connected but nothing came for
+        LINK_NO_DATA_S, else "ok". routers and peers count the zenoh ids session.info reports
+        (eclipse-zenoh 1.x SessionInfo.routers_zid / peers_zid)."""
+        info = self.session.info
+        routers, peers = len(list(info.routers_zid())), len(list(info.peers_zid()))
+        age = None if self.last_sample_s is None else time.monotonic() - self.last_sample_s
+        if routers + peers == 0:
+            state, detail = "no_peer", "zenoh session connected to no router or peer"
+        elif age is None or age > LINK_NO_DATA_S:
+            state, detail = "no_data", "no sample " + ("yet" if age is None else f"for {age:.0f} s")
+        else:
+            state, detail = "ok", ""
+        return {"state": state, "routers": routers, "peers": peers, "detail": detail,
+                "last_sample_age_s": None if age is None else round(age, 1)}
+
+    def _link_loop(self) -> None:
+        while not self._stop.wait(LINK_PERIOD_S):
+            try:
+                self.state.set_zenoh_link(self.link_state())
+            except Exception:  # noqa: BLE001  (the session closed under us)
+                if self._stop.is_set():
+                    return
+                self.state.set_zenoh_link({"state": "down", "detail": "zenoh session closed"})
 
     def _apply_loop(self) -> None:
         try:
@@ -70,6 +103,7 @@ class ZenohFeed:
             pass
 
     def _apply_sample(self, sample: zenoh.Sample) -> None:
+        self.last_sample_s = time.monotonic()
         if sample.kind != zenoh.SampleKind.PUT:
             return
         parts = str(sample.key_expr).split("/")
@@ -103,6 +137,7 @@ class ZenohFeed:
         self.state.apply(vehicle, kind, name, payload)
 
     def _on_alive(self, sample: zenoh.Sample) -> None:
+        self.last_sample_s = time.monotonic()
         parts = str(sample.key_expr).split("/")
         if len(parts) != 3:
             return
@@ -166,6 +201,7 @@ class ZenohFeed:
                 pass
         self._worker.join(timeout=self.query_timeout_s + 1.0)
         self._applier.join(timeout=2.0)
+        self._linker.join(timeout=LINK_PERIOD_S + 1.0)
         if self._own_session:
             self.session.close()
 

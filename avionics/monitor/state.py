@@ -254,6 +254,9 @@ class FleetState:
         self.vehicles: dict[str, VehicleState] = {}
         self.version = 0
         self.fleet_version = 0
+        # the monitor's own zenoh session (feed.py ZenohFeed.link_state): shown as the page's and the TUI's ZENOH
+        # light, so that a session reaching nobody is not taken for a quiet sky
+        self.zenoh_link: dict = {"state": "down", "detail": "no zenoh session yet"}
         self.urgent = 0
         self.log_seq = 0
         self.stale_s = stale_s
@@ -324,6 +327,16 @@ class FleetState:
             self.stats["rejected"] += n
             self.stats[f"rejected.{kind}"] += n
             self.stats[f"rejected.{kind}.{reason}"] += n
+
+    def set_zenoh_link(self, link: dict) -> None:
+        """The monitor's zenoh link (state "down", "no_peer", "no_data" or "ok", with routers, peers and the age of
+        the last sample): readers are told when the state or the counts change (the fleet's version)."""
+        with self.cond:
+            keys = ("state", "routers", "peers", "detail")
+            if tuple(link.get(k) for k in keys) != tuple(self.zenoh_link.get(k) for k in keys):
+                self.fleet_version += 1
+                self.cond.notify_all()
+            self.zenoh_link = dict(link)
 
     def stats_copy(self) -> dict:
         with self.cond:
@@ -662,6 +675,7 @@ class FleetState:
             out: dict = {"type": "full" if full else "delta", "vehicle": vid, "version": self.version}
             if full or self.fleet_version > cursor.fleet_version:
                 out["fleet"] = self._fleet()
+                out["zenoh"] = dict(self.zenoh_link)
             if v is not None:
                 out["online"] = v.online
                 out["synced"] = v.synced

@@ -45,6 +45,20 @@ def level_name(level, name) -> str:
     return str(name) if name and name != level else str(level)
 
 
+# The monitor's own zenoh link (FleetState.zenoh_link, feed.py ZenohFeed.link_state) -> the header's light
+ZENOH_LIGHTS = {"ok": ("ZENOH OK", "bold green"), "no_data": ("ZENOH NO DATA", "bold yellow"),
+                "no_peer": ("ZENOH NO PEER", "bold red"), "down": ("ZENOH DOWN", "bold red")}
+
+
+def zenoh_light(link: dict | None) -> tuple[str, str]:
+    """(the light's words, its rich style); the counts of routers and peers when connected."""
+    link = link or {}
+    word, style = ZENOH_LIGHTS.get(link.get("state"), ("ZENOH ?", "dim"))
+    if link.get("state") in ("ok", "no_data"):
+        word += f" {link.get('routers', 0)}R/{link.get('peers', 0)}P"
+    return word, style
+
+
 def bands_text(bands: dict | None) -> Text:
     """The bands as text: one line per kind, each region with its interval in display units."""
     text = Text()
@@ -138,6 +152,8 @@ class TuiView:
     def _header(self, view) -> Panel:
         text = Text()
         text.append("DAA GROUND MONITOR  ", style="bold white")
+        word, style = zenoh_light(view.get("zenoh"))
+        text.append(f"[{word}]  ", style=style)
         for v in view.get("fleet", []):
             mark = "●" if v["online"] else "○" if v["online"] is False else "◌"
             style = "bold green" if v["online"] else "yellow" if v["online"] is False else "dim"

@@ -31,6 +31,7 @@ from typing import Callable, Iterator
 
 from avionics.core.params import ConfigError
 from avionics.core.types import IntruderReport
+from avionics.io.diagnostics import feed_diagnostics
 
 log = logging.getLogger("avionics.traffic")
 JOIN_TIMEOUT_S = 5.0  # a session polls ctx.stop at least every 0.25 s (transport.py); this is a generous bound
@@ -259,7 +260,9 @@ class TrafficSource:
             self.feeds.close()
 
     def status(self):
-        return replace(self.inner.status(), feeds=self.feeds.health)
+        inner = self.inner.status()
+        health = self.feeds.health
+        return replace(inner, feeds=health, wiring=inner.wiring + feed_diagnostics(health))
 
     def close(self) -> None:
         self.feeds.close()
