@@ -6,7 +6,7 @@ or a test may hand the core other objects behind the same interfaces instead."""
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,12 @@ def build_components(config, counters: Counter) -> Components:
     from avionics.advisory.tables import LevelSelector, load_profile
 
     profile = load_profile(config.advisory.profile, config.advisory.profile_overrides)
+    if config.vehicle.profile:  # the vehicle's own performance: what the logic assumes is what it can fly
+        from avionics.advisory.vehicle import load_vehicle
+
+        vehicle = load_vehicle(config.vehicle.profile)
+        profile = replace(profile, response=vehicle.response_model(),
+                          bands=vehicle.bands_params(profile.bands) if profile.bands is not None else None)
     return Components(
         profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory, profile),
         hysteresis=build_hysteresis(profile),

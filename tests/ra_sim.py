@@ -103,7 +103,7 @@ class Pilot:
         elif ra.strength is Strength.LEVEL_OFF:
             command = ("target", 0.0, ra.sense.sign)
         else:
-            rate = self.r.strengthen_rate_mps if ra.strength is Strength.INCREASE else self.r.rate_mps
+            rate = self.r.rate(ra.sense is Sense.CLIMB, ra.strength is Strength.INCREASE)
             command = ("at_least", rate, ra.sense.sign)
         if self.command is not None and command[0] == "target" and self.command[:2] == command[:2]:
             start = self.command[4]  # the same level-off (a LEVEL OFF turned composite): already being flown
@@ -221,7 +221,7 @@ def non_crossing_sense(threats: list[Threat]) -> Sense | None:
 def corrective_separation(profile: AlertProfile, threats: list[Threat], sense: Sense, v0: float) -> float:
     """Closed-form separation at each CPA with the corrective standard response (independent of resolution.py)."""
     r = profile.response
-    target = max(v0, r.rate_mps) if sense is Sense.CLIMB else min(v0, -r.rate_mps)
+    target = max(v0, r.rate(climb=True)) if sense is Sense.CLIMB else min(v0, -r.rate(climb=False))
     seps = []
     for th in threats:
         t = max(th.t_cpa_s, 0.0)

@@ -25,6 +25,7 @@ from pathlib import Path
 import pytest
 
 from avionics.advisory.params import CRITERIA, PERSISTENCE
+from avionics.advisory.vehicle import builtin_vehicles
 from avionics.config import Config, ConfigError, load_config
 from avionics.conflict.params import CONFLICT_METHODS, PREFILTERS
 from avionics.core.units import FT, KT
@@ -97,6 +98,7 @@ ENUMS: dict[str, tuple[str, ...]] = {
     "advisory.criterion": CRITERIA,
     "advisory.persistence": PERSISTENCE,
     "advisory.profile": BUILTIN_PROFILES,
+    "vehicle.profile": tuple(builtin_vehicles()),
     "zenoh.mode": ZENOH_MODES,  # no session is opened in a replay: every mode is safe
 }
 # Mode-set keys: each mode alone and all of them together.

@@ -274,7 +274,7 @@ class ResolutionLogic:
         if strength is Strength.PREVENTIVE:  # keep the current rate, but never toward the threat
             return (max(v0, 0.0) if sense is Sense.CLIMB else min(v0, 0.0)), r.accel_mps2, r.delay_s
         strong = strength is Strength.INCREASE
-        rate = sense.sign * (r.strengthen_rate_mps if strong else r.rate_mps)
+        rate = sense.sign * r.rate(sense is Sense.CLIMB, strong)
         target = max(v0, rate) if sense is Sense.CLIMB else min(v0, rate)
         return target, (r.strengthen_accel_mps2 if strong else r.accel_mps2), \
             (r.strengthen_delay_s if strong else r.delay_s)
@@ -304,7 +304,7 @@ class ResolutionLogic:
             return path
         r = self.profile.response
         if strength is Strength.INCREASE:
-            cut = cut_at_floor(path, self._floor_dz["increase_descent"], -r.rate_mps, r.accel_mps2, r.delay_s,
+            cut = cut_at_floor(path, self._floor_dz["increase_descent"], -r.rate(climb=False), r.accel_mps2, r.delay_s,
                                self._horizon())
             if isinstance(cut, _Cut):
                 path = _Cut(path, cut.commanded_s, cut.t_cut, _Command(path.rate(cut.t_cut), 0.0, r.accel_mps2, 0.0))
@@ -376,7 +376,7 @@ class ResolutionLogic:
         if strength is Strength.INCREASE:
             r = self.profile.response
             cut = cut_at_floor(self._commanded(sense, strength, reversal, delay_s), self._floor_dz["increase_descent"],
-                               -r.rate_mps, r.accel_mps2, r.delay_s, self._horizon())
+                               -r.rate(climb=False), r.accel_mps2, r.delay_s, self._horizon())
             if isinstance(cut, _Cut) and (issuing or cut.commanded_s < self._period()):
                 return "increase_descent"
         return ""
@@ -589,6 +589,8 @@ class ResolutionLogic:
             return composite
         if dwell_over and now_sep < alim:  # strengthen one step
             stronger = STRONGER.get(current.strength)
+            if stronger is Strength.INCREASE and r.rate(sense is Sense.CLIMB, True) <= r.rate(sense is Sense.CLIMB):
+                stronger = None  # no faster rate to ask for (a vehicle profile's single rate, advisory/vehicle.py)
             if stronger is not None and self._allowed(sense, stronger, inhibits) and \
                     not (self._floored and sense is Sense.DESCEND) and \
                     not self._floor_stop(sense, stronger, issuing=True) and not self._points_at_cleared_threat(sense, misses_now):

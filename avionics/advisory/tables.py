@@ -41,7 +41,9 @@ class SensitivityLevel:
 
 @dataclass(frozen=True, slots=True)
 class ResponseModel:
-    """How ownship answers an RA: after delay_s, accelerate at accel to rate (DO-185B standard response)."""
+    """How ownship answers an RA: after delay_s, accelerate at accel to rate (DO-185B standard response). A
+    vehicle that descends slower than it climbs (avionics/vehicle.py: a multirotor's autopilot limits) has its own
+    descent rates; None: the same as the climb."""
 
     delay_s: float
     accel_mps2: float
@@ -49,6 +51,16 @@ class ResponseModel:
     strengthen_delay_s: float  # strengthening and reversal
     strengthen_accel_mps2: float
     strengthen_rate_mps: float
+    descent_rate_mps: float | None = None
+    strengthen_descent_rate_mps: float | None = None
+
+    def rate(self, climb: bool, strong: bool = False) -> float:
+        """The corrective (strong: increase) rate's magnitude in the sense, climb or descend."""
+        if climb:
+            return self.strengthen_rate_mps if strong else self.rate_mps
+        if strong:
+            return self.strengthen_rate_mps if self.strengthen_descent_rate_mps is None else self.strengthen_descent_rate_mps
+        return self.rate_mps if self.descent_rate_mps is None else self.descent_rate_mps
 
 
 @dataclass(frozen=True, slots=True)

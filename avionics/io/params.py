@@ -18,6 +18,8 @@ if TYPE_CHECKING:
 class VehicleConfig:
     id: str = "uav1"  # zenoh key segment: daa/<id>/...
     own_icao: int = 0  # our own ADS-B address, ignored in ADSB_VEHICLE (0: we transmit none)
+    # the vehicle's own performance (avionics/advisory/vehicle.py): "" = the alerting profile's response model
+    profile: str = ""
 
     def validate(self) -> None:
         if not self.id or any(c in self.id for c in "/*$?#"):
@@ -25,6 +27,14 @@ class VehicleConfig:
                               "(no '/', '*', '$', '?', '#')")
         if not 0 <= self.own_icao <= 0xFFFFFF:
             raise ConfigError(f"vehicle.own_icao: {self.own_icao:#x} is not a 24-bit address")
+        if self.profile:
+            from avionics.advisory.tables import ProfileError
+            from avionics.advisory.vehicle import load_vehicle
+
+            try:
+                load_vehicle(self.profile)
+            except ProfileError as exc:
+                raise ConfigError(f"vehicle.profile: {exc}") from exc
 
 
 @dataclass(frozen=True)
