@@ -16,6 +16,7 @@ from collections import Counter
 
 from avionics import __version__
 from avionics.advisory.inhibits import profile_banner
+from avionics.advisory.vehicle import response_banner
 from avionics.config import Config
 from avionics.core import jit
 from avionics.core.params import ConfigError
@@ -135,6 +136,9 @@ def run(config: Config, duration_s: float | None = None, tlog_out: str | None = 
         log.info("%s", profile_banner(runner.loop.daa.profile, config.advisory.ra_enabled,
                                       "MSL - advisory.ground_elevation_m" if config.advisory.ground_elevation_m
                                       is not None else "height above home, GLOBAL_POSITION_INT relative_alt"))
+        # what the RA logic assumes the vehicle flies (a default ArduCopter climbs at 2.5 m/s, not 1500 fpm)
+        log.info("%s", response_banner(runner.loop.daa.profile.response, config.vehicle.profile,
+                                       runner.loop.daa.profile.name))
         try:
             runner.run()
         except KeyboardInterrupt:

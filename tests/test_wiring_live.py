@@ -123,6 +123,9 @@ def test_each_wiring_mistake_is_named_on_stderr_statustext_and_zenoh_status(udp_
         # the start-up banner: what the default profile means at a drone's height
         assert wait_for(lambda: any("profile tcas2: RAs inhibited below 1000 ft AGL" in line
                                     and "use --set advisory.profile=small-uas" in line for line in list(lines))), lines
+        # and the response the RA logic assumes, with the way to give it the vehicle's own (1500 fpm: 7.62 m/s)
+        assert wait_for(lambda: any("vehicle: profile tcas2's RA response (climb 7.6 m/s" in line
+                                    and "--set vehicle.profile=fixed-wing|multirotor" in line for line in list(lines))), lines
         assert wait_for(lambda: logged("no MAVLink message for", f"udpin:127.0.0.1:{udp_port}",
                                        "mavlink.connection")), lines
         assert wait_for(lambda: logged(f"traffic source sbs:127.0.0.1:{refused} down", "Connection refused")), lines

@@ -87,3 +87,14 @@ def load_vehicle(name_or_path: str) -> VehicleProfile:
         raise ProfileError(f"{where}: response_delay_s {data['response_delay_s']} s is not a vehicle's response")
     return VehicleProfile(name=str(data["name"]), description=str(data["description"]),
                           **{key: float(data[key]) for key in NUMBERS})
+
+
+def response_banner(response: ResponseModel, vehicle: str, profile: str) -> str:
+    """The start-up line that says which response the RA logic assumes: "vehicle multirotor: RAs ask for climb
+    2.5 m/s, descent 1.5 m/s ..." or, with no vehicle profile, the alerting profile's pilot and how to change it."""
+    rates = (f"climb {response.rate(True):.1f} m/s, descent {response.rate(False):.1f} m/s, "
+             f"after {response.delay_s:.1f} s at {response.accel_mps2:.2f} m/s^2")
+    if vehicle:
+        return f"vehicle {vehicle}: RAs ask for {rates}"
+    return (f"vehicle: profile {profile}'s RA response ({rates}); for a vehicle that cannot fly it, "
+            f"--set vehicle.profile={'|'.join(builtin_vehicles())} or a .toml of its own")
