@@ -13,13 +13,13 @@ parameter it is the default of. It replaces two models of the alerting profile:
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, fields, replace
 from importlib import resources
 from pathlib import Path
 
 from avionics.advisory.tables import ProfileError, ResponseModel
+from avionics.core.params import ConfigError, check_float
 
 VEHICLE_DIR = "vehicles"
 
@@ -79,14 +79,17 @@ def load_vehicle(name_or_path: str) -> VehicleProfile:
         missing, unknown = sorted(keys - set(data)), sorted(set(data) - keys)
         raise ProfileError(f"{where}: " + "; ".join(
             ([f"missing {missing}"] if missing else []) + ([f"unknown {unknown}"] if unknown else [])))
+    numbers = {}
     for key in NUMBERS:
-        value = data[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-            raise ProfileError(f"{where}: {key} must be a finite number > 0, got {value!r}")
-    if data["response_delay_s"] > 10.0:
+        try:
+            numbers[key] = check_float(data[key], f"{where}: {key}")
+        except ConfigError as exc:
+            raise ProfileError(str(exc)) from None
+        if numbers[key] <= 0:
+            raise ProfileError(f"{where}: {key} must be > 0, got {data[key]!r}")
+    if numbers["response_delay_s"] > 10.0:
         raise ProfileError(f"{where}: response_delay_s {data['response_delay_s']} s is not a vehicle's response")
-    return VehicleProfile(name=str(data["name"]), description=str(data["description"]),
-                          **{key: float(data[key]) for key in NUMBERS})
+    return VehicleProfile(name=str(data["name"]), description=str(data["description"]), **numbers)
 
 
 def response_banner(response: ResponseModel, vehicle: str, profile: str) -> str:
