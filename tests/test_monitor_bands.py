@@ -21,7 +21,8 @@ import threading
 import pytest
 
 from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
-from avionics.monitor.state import FT, NM, FleetState
+from avionics.core.units import FT, NM
+from avionics.monitor.state import FleetState
 from avionics.monitor.web import MonitorServer
 from tests.conftest import DEADLINE_S, free_port
 from tests.test_monitor_live import ARTIFACTS, browser_or_skip, report

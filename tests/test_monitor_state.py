@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-from avionics.monitor.state import (FT, NM, FleetState, alt_tag, derive_track, enu_offset, imm_mode,
-                                    symbol_of)
+from avionics.core.units import FT, NM
+from avionics.monitor.state import FleetState, alt_tag, derive_track, enu_offset, imm_mode, symbol_of
 from avionics.monitor.tui import render_text
 
 OWN = {"schema": 2, "vehicle": "v", "time_s": 10.0, "valid": True, "lat_deg": 47.0, "lon_deg": 8.0,

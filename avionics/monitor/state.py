@@ -28,29 +28,25 @@ import time
 from collections import Counter, OrderedDict, deque
 from dataclasses import dataclass, field
 
+from avionics.core.geodesy import WGS84_A, WGS84_E2
+from avionics.core.units import FPM, FT, NM
 from avionics.io.zenoh_bus import advisory_state
 from avionics.monitor.schema import BAND_KINDS
 
-FT = 0.3048
-NM = 1852.0
-FPM = FT / 60.0
 PROXIMATE_RANGE_M = 6 * NM  # TCAS II proximate traffic: within 6 NM ...
 PROXIMATE_ALT_M = 1200 * FT  # ... and +-1200 ft
 ARROW_RATE_MPS = 500 * FPM  # vertical-rate arrow from 500 fpm
 KNOWN_SCHEMA = 2
 
-# WGS-84
-_A = 6378137.0
-_E2 = 6.69437999014e-3
 
 
 def enu_offset(lat0: float, lon0: float, lat: float, lon: float) -> tuple[float, float]:
     """East, north metres from (lat0, lon0) to (lat, lon): local radii of curvature, good to ~0.1 % at 100 km."""
     phi = math.radians(lat0)
     s = math.sin(phi)
-    w = math.sqrt(1.0 - _E2 * s * s)
-    r_n = _A / w
-    r_m = _A * (1.0 - _E2) / (w * w * w)
+    w = math.sqrt(1.0 - WGS84_E2 * s * s)
+    r_n = WGS84_A / w
+    r_m = WGS84_A * (1.0 - WGS84_E2) / (w * w * w)
     dlon = (lon - lon0 + 180.0) % 360.0 - 180.0
     return math.radians(dlon) * r_n * math.cos(phi), math.radians(lat - lat0) * r_m
 

@@ -29,9 +29,9 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from avionics.monitor.state import FT, FPM, NM, FleetState
+from avionics.core.units import FPM, FT, KT, NM
+from avionics.monitor.state import FleetState
 
-KT = 0.514444
 # Band regions in the page's colours (NASA daa-displays, src/daa-displays/daa-utils.ts bandColors: FAR dashed
 # yellow, MID yellow, NEAR red, RECOVERY dashed green; NONE is not drawn there, dim here)
 BAND_STYLE = {"NONE": "dim", "FAR": "yellow underline", "MID": "bold yellow", "NEAR": "bold red",
