@@ -11,8 +11,9 @@ After the first step, a daemon thread:
    COMPILE_NICE, which compiles into the same cache (numba's compile holds the GIL most of the time: on a thread of
    this process it would starve the loop, docs/performance.md "A cold cache"), waits for it without the GIL, and
    loads from the now warm cache (1. again);
-3. when the cache cannot be written (no cache directory numba can use, or the child's compile is still not found
-   in it), warns once and leaves the loop on the reference for the run.
+3. an AVIONICS_CACHE_DIR that cannot be written is a warning (numba falls back to its default cache); when numba
+   finds no cache it can write at all, a temporary one serves this run (a warning; removed at exit); when the
+   child fails or its compile is still not found in the cache, a warning, and the reference for the run.
 
 The loop's thread calls `after_step()` after every step: the first call starts the thread, a later one switches to
 the compiled kernels between two steps once they are loaded, and says so on stderr (one line per path:
@@ -22,8 +23,11 @@ the compiled kernels between two steps once they are loaded, and says so on stde
 from __future__ import annotations
 
 import logging
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -50,6 +54,7 @@ class KernelStartup:
         self._closing = threading.Event()
         self.compiled_in_child = False  # the cache was cold: the child compiled (for the switch's stderr line)
         self.switched_after_s: float | None = None  # seconds from the first step to the switch
+        self._temporary_cache: str | None = None  # no writable cache: one for this run, removed by close()
 
     def after_step(self) -> None:
         """On the loop's thread after every step: start (first call), then switch once the kernels are loaded."""
@@ -77,9 +82,21 @@ class KernelStartup:
 
     def _load(self) -> None:
         try:
+            _warn_if_unwritable(os.environ.get("NUMBA_CACHE_DIR"))
             try:
-                jit.load(cache_only=True)
-                return
+                try:
+                    jit.load(cache_only=True)
+                    return
+                except RuntimeError as exc:  # numba found no cache directory it can write: one for this run
+                    if "cannot cache" not in str(exc):
+                        raise
+                    self._temporary_cache = tempfile.mkdtemp(prefix="avionics-kernels-")
+                    log.warning("kernels: no writable kernel cache (numba: %s): compiling into %s for this run "
+                                "(set AVIONICS_CACHE_DIR to a writable directory and run `avionics warmup`)",
+                                _one_line(exc), self._temporary_cache)
+                    _use_cache_dir(self._temporary_cache)
+                    jit.load(cache_only=True)
+                    return
             except jit.ColdCache as cold:
                 log.info("kernels: numpy reference while compiling in the background (%s; a child process at "
                          "nice %d runs `avionics warmup`)", cold, COMPILE_NICE)
@@ -115,13 +132,39 @@ class KernelStartup:
         return True
 
     def close(self) -> None:
-        """Stop a compile still running; wait briefly for the thread (it may be loading from the cache)."""
+        """Stop a compile still running; wait briefly for the thread (it may be loading from the cache); remove a
+        temporary cache (the loaded kernels are in memory)."""
         self._closing.set()
         child = self._child
         if child is not None and child.poll() is None:
             child.terminate()
         if self._thread is not None:
             self._thread.join(CLOSE_JOIN_S)
+        if self._temporary_cache is not None and (self._thread is None or not self._thread.is_alive()):
+            shutil.rmtree(self._temporary_cache, ignore_errors=True)
+
+
+def _warn_if_unwritable(cache_dir: str | None) -> None:
+    """AVIONICS_CACHE_DIR (NUMBA_CACHE_DIR) that numba cannot write: a warning; numba then uses its default cache
+    (`__pycache__` beside the modules, else the user's cache directory; numba/core/caching.py, _CacheLocator
+    ensure_cache_path: the same test)."""
+    if not cache_dir:
+        return
+    try:
+        os.makedirs(cache_dir, exist_ok=True)
+        tempfile.TemporaryFile(dir=cache_dir).close()
+    except OSError as exc:
+        log.warning("kernels: the kernel cache %s (AVIONICS_CACHE_DIR) is not writable (%s): numba uses its "
+                    "default cache instead (__pycache__ beside the modules, else the user's cache directory)",
+                    cache_dir, exc.strerror or exc)
+
+
+def _use_cache_dir(cache_dir: str) -> None:
+    """The kernel cache for this process (numba reads config.CACHE_DIR when it caches a function) and its child."""
+    os.environ["NUMBA_CACHE_DIR"] = cache_dir
+    import numba.core.config
+
+    numba.core.config.CACHE_DIR = cache_dir
 
 
 def _one_line(text) -> str:
