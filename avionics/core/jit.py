@@ -153,6 +153,20 @@ def deferred():
         _deferred -= 1
 
 
+@contextlib.contextmanager
+def reference():
+    """The numpy reference at every call site while inside (tests and benchmarks A/B both paths in one process);
+    `switch()` inside it switches until its end. Not for the live loop, which uses `deferred()`."""
+    global _ready
+    was = _ready
+    _ready = False
+    try:
+        with deferred():
+            yield
+    finally:
+        _ready = was
+
+
 class _NoCompile:
     """A numba event listener (numba.core.event) that stops the compile of a kernel on the loading thread: numba
     sends "numba:compile" only once its disk cache missed (numba/core/dispatcher.py, Dispatcher.compile)."""
