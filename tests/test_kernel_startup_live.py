@@ -71,8 +71,8 @@ def _fly(port: int, cache_dir, cold: bool) -> dict:
     onboard = Onboard(port, cache_dir, END_S - START_S + COMPILE_DEADLINE_S + 2 * DEADLINE_S)  # a backstop only
     clock = ScenarioClock(START_S)
     try:
-        assert wait_for(lambda: onboard.said(f"avionics {__version__}: MAVLink") or onboard.process.poll() is not None), \
-            onboard.stderr()
+        up = f"avionics {__version__}: MAVLink"  # logged once the link is open
+        assert wait_for(lambda: onboard.said(up) or onboard.process.poll() is not None), onboard.stderr()
         assert onboard.process.poll() is None, onboard.stderr()
         recording = fly(load_encounter("head-on"), f"udpout:127.0.0.1:{port}", PRESETS["default"], seed=3,
                         start_s=START_S, duration_s=END_S - START_S, clock=clock)

@@ -145,18 +145,19 @@ class KernelStartup:
 
 
 def _warn_if_unwritable(cache_dir: str | None) -> None:
-    """AVIONICS_CACHE_DIR (NUMBA_CACHE_DIR) that numba cannot write: a warning; numba then uses its default cache
-    (`__pycache__` beside the modules, else the user's cache directory; numba/core/caching.py, _CacheLocator
-    ensure_cache_path: the same test)."""
+    """AVIONICS_CACHE_DIR (or NUMBA_CACHE_DIR, which wins) that numba cannot write: a warning; numba then uses its
+    default cache (`__pycache__` beside the modules, else the user's cache directory; numba/core/caching.py,
+    _CacheLocator.ensure_cache_path: the same test)."""
     if not cache_dir:
         return
     try:
         os.makedirs(cache_dir, exist_ok=True)
         tempfile.TemporaryFile(dir=cache_dir).close()
     except OSError as exc:
-        log.warning("kernels: the kernel cache %s (AVIONICS_CACHE_DIR) is not writable (%s): numba uses its "
-                    "default cache instead (__pycache__ beside the modules, else the user's cache directory)",
-                    cache_dir, exc.strerror or exc)
+        variable = "AVIONICS_CACHE_DIR" if os.environ.get("AVIONICS_CACHE_DIR") == cache_dir else "NUMBA_CACHE_DIR"
+        log.warning("kernels: the kernel cache %s (%s) is not writable (%s): numba uses its default cache instead "
+                    "(__pycache__ beside the modules, else the user's cache directory)",
+                    cache_dir, variable, exc.strerror or exc)
 
 
 def _use_cache_dir(cache_dir: str) -> None:
