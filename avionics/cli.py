@@ -194,7 +194,14 @@ def cmd_warmup(args) -> int:
     if not jit.ENABLED:
         print("avionics warmup: compiled kernels are off (AVIONICS_COMPILED=0, or numba missing): nothing to compile")
         return 0
-    records = jit.warmup()
+    try:
+        records = jit.warmup()
+    except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available": nowhere to write
+        if "cannot cache" not in str(exc):
+            raise
+        print(f"avionics warmup: no writable kernel cache (numba: {exc}); set AVIONICS_CACHE_DIR to a writable "
+              "directory", file=sys.stderr)
+        return 1
     for r in records:
         count = len(r["signatures"])
         print(f"{r['state']:8} {r['kernel']} ({count} signature{'s' if count != 1 else ''})")

@@ -131,14 +131,14 @@ class Loop:
         self._publish(result)
         return result
 
-    def run(self, after_first_step=None) -> DaaResult | None:
-        """after_first_step: called once, when the first step's outputs are out (avionics/runner.py loads the
-        compiled kernels then, off the path to the first message)."""
+    def run(self, after_step=None) -> DaaResult | None:
+        """after_step: called after every step, once its outputs are out (avionics/runner.py starts loading the
+        compiled kernels after the first, off the path to the first message, and switches to them between two
+        steps)."""
         for batch in self.source:
             self.last = self.step(batch)
-            if after_first_step is not None:
-                after_first_step()
-                after_first_step = None
+            if after_step is not None:
+                after_step()
         return self.last
 
     def shutdown(self) -> DaaResult:

@@ -19,6 +19,7 @@ from avionics.advisory.inhibits import profile_banner
 from avionics.advisory.vehicle import response_banner
 from avionics.config import Config
 from avionics.core import jit
+from avionics.core.kernel_startup import KernelStartup
 from avionics.core.params import ConfigError
 from avionics.daa import Daa
 from avionics.io.diagnostics import wiring_diagnostics
@@ -29,7 +30,6 @@ from avionics.loop import LinkSource, Loop, MavlinkInput
 from avionics.ports import CsvOut, LogOut, MavlinkOut, ZenohOut
 
 log = logging.getLogger("avionics")
-KERNEL_LOAD_JOIN_S = 5.0  # how long close() waits for a kernel load still running (a cold cache may take minutes)
 SHUTDOWN_FLUSH_S = 5.0  # how long the last zenoh samples (the shutdown NONEs first) may take to go out
 
 
@@ -43,7 +43,7 @@ class Runner:
         self.stop = stop if stop is not None else threading.Event()
         self.counters: Counter = Counter()
         self.sinks = SinkHealth(self.counters)  # the outputs that fail alone (avionics/io/sinks.py)
-        self._kernel_load: threading.Thread | None = None  # run(): the compiled kernels' load, once started
+        self.kernels = KernelStartup()  # which path the kernels take in run() (reference, then compiled)
         start_s = time.monotonic()  # the loop's time 0: the link's batches and the feeds' reports share it
         self.feeds = FeedSet.open(traffic, config, lambda: time.monotonic() - start_s, self.counters)
         cfg = config.mavlink
@@ -84,21 +84,20 @@ class Runner:
         return self.loop.now_s  # the loop's last time (log time when replaying)
 
     def run(self) -> None:
-        # The compiled kernels (numba's import, ~27 kernels from the disk cache: ~0.3 s) load on a thread once the
-        # first step is out: the first messages (ownship fixes, HEARTBEAT) need none, and a step that needs one
-        # waits for that load (avionics/core/jit.py). Not before the first step: the import holds the GIL.
-        def load_kernels():
-            self._kernel_load = jit.load_in_background()
-
-        self.loop.run(after_first_step=load_kernels)
+        # The loop never waits for the compiled kernels (avionics/core/kernel_startup.py): the numpy reference
+        # until they are loaded (numba's import, ~27 kernels from a warm disk cache: ~0.3 s, on a thread started
+        # once the first step is out, as the import holds the GIL; a cold cache compiles in a niced child process
+        # first), then the kernels, switched between two steps. The first messages (ownship fixes, HEARTBEAT)
+        # need none.
+        with jit.deferred():
+            self.loop.run(after_step=self.kernels.after_step)
 
     def shutdown(self) -> None:
         """The last outputs: every active advisory as NONE (reason shutdown), DAA unavailable; sent now."""
         self.loop.shutdown()
 
     def close(self) -> None:
-        if self._kernel_load is not None:
-            self._kernel_load.join(KERNEL_LOAD_JOIN_S)  # no interpreter exit in the middle of loading (a daemon thread)
+        self.kernels.close()  # a compile still running is stopped; no interpreter exit in the middle of a load
         try:
             self.feeds.close()  # the reader threads are joined (no-op when the loop's end did it)
             self.link.close()

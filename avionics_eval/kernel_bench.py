@@ -32,7 +32,6 @@ import os
 import platform
 import sys
 import time
-from unittest import mock
 
 import numpy as np
 
@@ -156,12 +155,12 @@ def run(sizes, repeats: int, dblquad_pairs: int, seed: int) -> dict:
             return assess.conflict_probabilities(x, p, cfg, has_alt=has_alt)
 
         comp = _best_us(curve, repeats) if compiled else None
-        with mock.patch.object(jit, "ENABLED", False):
+        with jit.reference():
             ref = _best_us(curve, repeats)
         out["curve"][f"N{n}"] = _pair(ref, comp, n)
         enc = Encounter(g, has_alt, np.zeros(n), np.ones(n, bool))
         comp = _best_us(lambda: alerter.alert(enc, level), repeats) if compiled else None
-        with mock.patch.object(jit, "ENABLED", False):
+        with jit.reference():
             ref = _best_us(lambda: alerter.alert(enc, level), repeats)
         out["alerter"][f"N{n}"] = _pair(ref, comp, n)
         m = min(n, 100)

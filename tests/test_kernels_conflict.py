@@ -1,8 +1,8 @@
 """The conflict stage's compiled kernels (avionics/conflict/kernels.py) against their numpy references, on random
 inputs and on the edge cases: compiled = reference to 1e-9 (absolute for probabilities, relative for geometry).
 
-The public functions dispatch on avionics.core.jit.ENABLED; the references are called explicitly (the *_reference
-functions, or the public function with ENABLED patched off for the stage's curve), so both run in one process.
+The public functions dispatch on avionics.core.jit.ready(); the references are called explicitly (the *_reference
+functions, or the public function inside jit.reference() for the stage's curve), so both run in one process.
 Under AVIONICS_COMPILED=0 there is nothing compiled to compare: the tests skip.
 """
 
@@ -179,8 +179,10 @@ def test_pc_exact_dispatches_on_the_switch():
     with mock.patch.object(kernels, "pc_exact_pairs", side_effect=AssertionError("kernel called")):
         with pytest.raises(AssertionError, match="kernel called"):
             prob.pc_exact(mean, cov, 1.0)
-        with mock.patch.object(jit, "ENABLED", False):
-            prob.pc_exact(mean, cov, 1.0)  # the reference: no kernel
+        with jit.reference():
+            prob.pc_exact(mean, cov, 1.0)  # the reference: no kernel (as the live loop before its switch)
+        with mock.patch.object(jit, "ENABLED", False), mock.patch.object(jit, "_ready", False):
+            prob.pc_exact(mean, cov, 1.0)  # compiled kernels off: the reference
 
 
 # --- Pc at CPA -------------------------------------------------------------------------------------------
@@ -234,7 +236,7 @@ def test_conflict_stage_curve_kernel_equals_reference(case, step_s, margin):
                          accel_sigma_v_mps2=sigma_v, within_samples=0)
     margin = np.full(len(x), margin)
     got = assess.conflict_probabilities(x, p, cfg, has_alt=has_alt, z_margin_m=margin, return_curve=True)
-    with mock.patch.object(jit, "ENABLED", False):
+    with jit.reference():
         want = assess.conflict_probabilities(x, p, cfg, has_alt=has_alt, z_margin_m=margin, return_curve=True)
     for key in ("pc_curve", "pc_now", "pc_max", "pc_pe"):
         same_probabilities(got[key], want[key])

@@ -151,8 +151,8 @@ class TCAS3D:
 
     def conflict(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
         """The tests of every pair in one call of the compiled kernel (conflict/kernels.py tcas3d_conflict_pairs)
-        when compiled kernels are on (avionics.core.jit), else `conflict_reference`."""
-        if not jit.ENABLED:
+        when the compiled kernels are ready (avionics.core.jit.ready), else `conflict_reference`."""
+        if not jit.ready():
             return self.conflict_reference(encounter, thresholds, time_s)
         g = encounter.geometry
         n = g.range_m.shape[0]

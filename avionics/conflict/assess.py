@@ -89,7 +89,7 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
         t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
     k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
     rows = np.arange(n)
-    if jit.ENABLED and isinstance(method, ExactPc):
+    if isinstance(method, ExactPc) and jit.ready():
         # the compiled curve (conflict/kernels.py pc_curve_cv_pairs): the same CV prediction, exact disk and slab
         # at every step in one call, without the (N, K, 2, 2) arrays; the prediction at the CPA step only, below
         curve = kernels.pc_curve_cv_pairs(as_c(rel_x), as_c(rel_p), as_c(t), float(cfg.step_s),

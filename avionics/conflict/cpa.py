@@ -80,9 +80,9 @@ class PairGeometry:
 
 def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
     """The geometry of N pairs (the formulas in the module's docstring): the compiled kernel (conflict/kernels.py
-    pair_geometry_pairs, one call) when compiled kernels are on (avionics.core.jit), else the numpy reference
+    pair_geometry_pairs, one call) when the compiled kernels are ready (avionics.core.jit.ready), else the numpy reference
     `pair_geometry_reference`."""
-    if not jit.ENABLED:
+    if not jit.ready():
         return pair_geometry_reference(s_xy, v_xy, sz, vz)
     s_xy, v_xy = np.atleast_2d(s_xy).astype(float), np.atleast_2d(v_xy).astype(float)
     sz, vz = np.atleast_1d(sz).astype(float), np.atleast_1d(vz).astype(float)

@@ -294,10 +294,10 @@ def _sqrt_psd(p: np.ndarray) -> np.ndarray:
 def pc_within_cv_mc(rel_x, rel_p, radius, lookahead_s: float, step_s: float, sigma_h_mps2: float,
                     sigma_v_mps2: float, half_height=None, samples: int = 1000, rng=None) -> np.ndarray:
     """`pc_within_cv_mc_reference` (the method is described there) with each step's arithmetic in the compiled
-    kernel (conflict/kernels.py within_step) when compiled kernels are on (avionics.core.jit). The random numbers
+    kernel (conflict/kernels.py within_step) when the compiled kernels are ready (avionics.core.jit.ready). The random numbers
     are the reference's, drawn by numpy from the same Generator in the same order and sizes, so the result is
     the reference's, sample for sample."""
-    if not jit.ENABLED:
+    if not jit.ready():
         return pc_within_cv_mc_reference(rel_x, rel_p, radius, lookahead_s, step_s, sigma_h_mps2, sigma_v_mps2,
                                          half_height, samples, rng)
     rng = np.random.default_rng(rng)

@@ -187,9 +187,9 @@ def _tau_of_u(u, r):
 
 def pc_exact(mean, cov, radius) -> np.ndarray:
     """Exact Pc over the disk |x| <= R for N pairs: mean (N, 2), cov (N, 2, 2), radius scalar or (N,): the
-    compiled kernel (conflict/kernels.py pc_exact_pairs, every pair in one call) when compiled kernels are on
-    (avionics.core.jit), else the numpy reference `pc_exact_reference` (the method is described there)."""
-    if not jit.ENABLED:
+    compiled kernel (conflict/kernels.py pc_exact_pairs, every pair in one call) when the compiled kernels
+    are ready (avionics.core.jit.ready), else the numpy reference `pc_exact_reference` (the method is described there)."""
+    if not jit.ready():
         return pc_exact_reference(mean, cov, radius)
     mean, cov, radius = _as_pairs(mean, cov, radius)
     return kernels.pc_exact_pairs(as_c(mean), as_c(cov), as_c(radius))

@@ -14,13 +14,22 @@ When kernels load (issue 13 item 5, start-up): importing this module does not im
 caller imports a kernel module at its own import; they hold `lazy(...)` stand-ins instead. The kernel modules
 (KERNEL_MODULES) are imported by `load()`: numba imported, every kernel loaded from the disk cache (or compiled
 when the cache is cold) when its module is imported, so a kernel that calls another finds a real dispatcher.
-`avionics run` starts `load_in_background()` once its first step is out; whatever asks a stand-in for a kernel
-first (a step with an intruder, a test, a replay) waits for that load under its lock, or does it. After it the
-stand-ins are replaced by the modules in their holders' namespaces: a call is then a plain module attribute.
+After it the stand-ins are replaced by the modules in their holders' namespaces: a call is then a plain module
+attribute.
+
+Which path a call site takes (issue 26 item 1, "no stall, ever"): every call site asks `ready()` and runs the numpy
+reference when it is False. Outside `deferred()` (a test, a replay, a benchmark, `avionics warmup`) the first
+`ready()` loads the kernels, waiting for them (or compiling them on a cold cache), as before. Inside it (the live
+loop, avionics/runner.py with avionics/core/kernel_startup.py) `ready()` never waits: it is False until the loop's
+own thread calls `switch()` between two steps, once a background `load(cache_only=True)` found every kernel in the
+disk cache. `load(cache_only=True)` never compiles: it raises ColdCache at the first kernel the cache lacks (numba's
+"numba:compile" event, which numba sends only after its cache missed), so that the compile can run elsewhere (a
+niced child process: numba's compile holds the GIL most of the time, docs/performance.md "A cold cache").
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import importlib.util
 import os
@@ -74,6 +83,12 @@ _lock = threading.Lock()
 _loaded = threading.Event()
 _LAZY: list = []  # (holder module name, attribute, kernel module name) of every stand-in
 _thread: threading.Thread | None = None
+_ready = False  # the call sites run the compiled kernels (ready())
+_deferred = 0  # depth of deferred(): ready() does not wait for a load
+
+
+class ColdCache(Exception):
+    """load(cache_only=True): a kernel is not in the disk cache (or its source changed since it was cached)."""
 
 
 class _Lazy:
@@ -103,40 +118,104 @@ def loaded() -> bool:
     return _loaded.is_set()
 
 
-def load() -> None:
+def ready() -> bool:
+    """True: call the compiled kernels; False: the numpy reference. Off (AVIONICS_COMPILED=0, no numba): False.
+    Outside `deferred()` the first call loads the kernels (waits, or compiles on a cold cache) and is True; inside
+    it, False until `switch()`. Cheap: one global read once True."""
+    global _ready
+    if _ready:
+        return True
+    if not ENABLED or _deferred:
+        return False
+    load()
+    _ready = True
+    return True
+
+
+def switch() -> bool:
+    """Inside `deferred()`, on the loop's thread between two steps: the compiled kernels from now on, if they are
+    loaded. Returns ready()'s new value (False while they are not loaded)."""
+    global _ready
+    if not _ready and ENABLED and _loaded.is_set():
+        _ready = True
+    return _ready
+
+
+@contextlib.contextmanager
+def deferred():
+    """The live loop's scope: ready() never waits for a load (it stays False until switch()). On exit, the next
+    ready() outside any deferred() loads (or waits for the load still running) as before."""
+    global _deferred
+    _deferred += 1
+    try:
+        yield
+    finally:
+        _deferred -= 1
+
+
+@contextlib.contextmanager
+def reference():
+    """The numpy reference at every call site while inside (tests and benchmarks A/B both paths in one process);
+    `switch()` inside it switches until its end. Not for the live loop, which uses `deferred()`."""
+    global _ready
+    was = _ready
+    _ready = False
+    try:
+        with deferred():
+            yield
+    finally:
+        _ready = was
+
+
+class _NoCompile:
+    """A numba event listener (numba.core.event) that stops the compile of a kernel on the loading thread: numba
+    sends "numba:compile" only once its disk cache missed (numba/core/dispatcher.py, Dispatcher.compile)."""
+
+    def __init__(self):
+        import numba.core.event as ev
+
+        class Listener(ev.Listener):
+            def on_start(inner, event):  # noqa: N805
+                if threading.get_ident() == self.thread:
+                    raise ColdCache(f"{event.data['dispatcher'].py_func.__qualname__} is not in the kernel cache")
+
+            def on_end(inner, event):  # noqa: N805
+                pass
+
+        self.thread = threading.get_ident()
+        self._ev = ev
+        self.listener = Listener()
+
+    def __enter__(self):
+        self._ev.register("numba:compile", self.listener)
+        return self
+
+    def __exit__(self, *exc):
+        self._ev.unregister("numba:compile", self.listener)
+
+
+def load(cache_only: bool = False) -> None:
     """Import every module of KERNEL_MODULES (once; a second caller waits for the first), then put the modules in
-    place of their stand-ins. Cheap once done: one Event check."""
+    place of their stand-ins. Cheap once done: one Event check. cache_only: load every kernel from the disk cache
+    or raise ColdCache (nothing is loaded then; a later load() imports the modules that failed again)."""
     if _loaded.is_set():
         return
     with _lock:
         if _loaded.is_set():
             return
-        modules = {name: importlib.import_module(name) for name in KERNEL_MODULES}
+        guard = _NoCompile() if cache_only and ENABLED else contextlib.nullcontext()
+        try:
+            with guard:
+                modules = {name: importlib.import_module(name) for name in KERNEL_MODULES}
+        except BaseException:
+            # a module whose import failed is gone from sys.modules (imported again next time): so are its kernels
+            KERNELS[:] = [k for k in KERNELS if k.py_func.__module__ in sys.modules]
+            raise
         for holder, attr, name in _LAZY:
             owner = sys.modules.get(holder)
             if owner is not None and isinstance(getattr(owner, attr, None), _Lazy):
                 setattr(owner, attr, modules[name])
         _loaded.set()
-
-
-def load_in_background() -> threading.Thread | None:
-    """`load()` on a daemon thread (None when kernels are off or loaded): `avionics run` calls it once its first
-    step is out. A failure there is not lost: the first caller that needs a kernel loads again and raises it."""
-    global _thread
-    if not ENABLED or _loaded.is_set() or _thread is not None:
-        return None
-
-    def target():
-        try:
-            load()
-        except Exception:  # noqa: BLE001  (raised again, on the step's thread, by the caller's own load())
-            import logging
-
-            logging.getLogger("avionics").warning("compiled kernels did not load in the background", exc_info=True)
-
-    _thread = threading.Thread(target=target, name="avionics-kernel-load", daemon=True)
-    _thread.start()
-    return _thread
 
 
 def warmup() -> list[dict]:

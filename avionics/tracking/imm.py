@@ -114,17 +114,22 @@ class ImmBank:
 
     @property
     def compiled(self) -> bool:
-        """True: the cycle runs the compiled kernels (tracking/kernels.py), False: the numpy reference below."""
+        """True: this cycle runs the compiled kernels (tracking/kernels.py), False: the numpy reference below. Asked
+        at every call: both paths keep the same arrays (x, p, mu, yaw; the covered configurations need no ebar or
+        VB state), so a bank switches between two steps when the live loop switches (jit.ready, jit.switch)."""
+        if self._compiled is None:
+            return self.spec.covered and jit.ready()
         return self._compiled
 
     @compiled.setter
     def compiled(self, value: bool | None) -> None:
-        """None: compiled when kernels are on (jit.ENABLED) and this configuration is covered (bank_spec.BankSpec);
-        True forces the kernels (plain Python when jit is off: for tests), False the reference."""
+        """None: compiled when the kernels are ready (jit.ready) and this configuration is covered
+        (bank_spec.BankSpec); True forces the kernels (plain Python when jit is off: for tests), False the
+        reference."""
         if value and not self.spec.covered:
             raise ValueError(f"no compiled kernels for modes {self.names} with the {self.likelihood} likelihood"
                              f"{' and VB noise' if self.vb is not None else ''}")
-        self._compiled = (jit.ENABLED and self.spec.covered) if value is None else bool(value)
+        self._compiled = None if value is None else bool(value)
 
     # -- storage -----------------------------------------------------------------------------------------
     def _alloc(self, capacity: int) -> None:
@@ -209,7 +214,7 @@ class ImmBank:
         stored: combined x (B, n), P (B, n, n) and Markov-propagated mode probabilities (B, M) (eq 20)."""
         slots = np.atleast_1d(slots)
         dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
-        if self._compiled:
+        if self.compiled:
             b, sp = len(slots), self.spec
             x, p, cbar = np.empty((b, self.n)), np.empty((b, self.n, self.n)), np.empty((b, self.m))
             kernels.bank_predict(self.x, self.p, self.mu, kernels.arr(slots, np.int64),
@@ -230,7 +235,7 @@ class ImmBank:
     def posterior(self, slots):
         """Combined posterior at each slot's last update (eqs 16-17)."""
         slots = np.atleast_1d(slots)
-        if self._compiled:
+        if self.compiled:
             x, p = np.empty((len(slots), self.n)), np.empty((len(slots), self.n, self.n))
             kernels.bank_combine(self.x, self.p, self.mu, kernels.arr(slots, np.int64), x, p)
             return x, p
@@ -245,7 +250,7 @@ class ImmBank:
         mask = np.asarray(mask, bool).reshape(b, d)
         mf = mask.astype(float)
         z = np.where(mask, np.asarray(z, float).reshape(b, d), 0.0)
-        if self._compiled:
+        if self.compiled:
             return self._update_compiled(slots, dt, z, mask, r_var)
         cbar, x0, xp, pp, fm = self._interact_predict(slots, dt)
         # combined prediction (eqs 16-17 on the priors): its mean, and the variance of its first two components

@@ -1,8 +1,9 @@
 """Compiled IMM kernels (numba, issue 13 item 1): the IMM cycle of tracking/imm.py written out per track, one call
 for a whole batch.
 
-The numpy code of imm.py and models.py is the reference and stays the path when compiled kernels are off
-(`avionics.core.jit.ENABLED` false, `AVIONICS_COMPILED=0`) or when a bank's configuration is not covered here.
+The numpy code of imm.py and models.py is the reference and stays the path when the compiled kernels are not ready
+(`avionics.core.jit.ready()` false: `AVIONICS_COMPILED=0`, or the live loop while they compile) or when a bank's
+configuration is not covered here.
 Each kernel below follows the reference equation by equation, in the same order of operations where it matters
 (the mixing and the combination about mode 0's state, the Cholesky inverse of S written out entry by entry, the
 log-domain likelihoods), so that both agree to rounding (tests/test_kernels_imm.py: 1e-9).
