@@ -12,6 +12,7 @@ from avionics_eval.encounter_models.model import packaged_model, read_model
 from avionics_eval.encounter_models.pairing import (HMD_EDGES_FT, PairingError, Proposal, generate,
                                                     horizontal_cpa, relative_speed_integral)
 from avionics_eval.encounter_models.tracks import sample_tracks
+from avionics_eval.encounter_models.uav import mission_tracks
 from avionics_eval.encounter_models.weighted import weighted_proportion
 
 TCA = 40
@@ -73,3 +74,18 @@ def test_bad_proposals_and_tca_are_errors():
     rng = np.random.default_rng(1)
     with pytest.raises(PairingError, match="TCA"):
         generate(tracks, tracks, 10, 500, rng)
+
+
+@pytest.mark.parametrize("mission", ["transit", "survey", "corridor", "hover"])
+def test_uav_ownship_missions_pair_with_the_rotorcraft_model(mission):
+    rotorcraft = read_model(packaged_model("uncor_1200exclude_rotorcraft_v1p2.txt"))
+    own = mission_tracks(mission, 300, 2 * TCA, np.random.default_rng(5))
+    assert ((own.alt_ft >= 50) & (own.alt_ft <= 1200)).all()
+    if mission != "hover":
+        step = np.hypot(np.diff(own.north_ft, axis=1), np.diff(own.east_ft, axis=1))
+        assert np.allclose(step, 10.0 / 0.3048)  # WPNAV_SPEED 10 m/s
+    e = generate(lambda k, rng: mission_tracks(mission, k, 2 * TCA, rng),
+                 lambda k, rng: sample_tracks(rotorcraft, k, 2 * TCA, rng), 300, TCA, np.random.default_rng(6))
+    _, r_cpa = horizontal_cpa(e.own, e.intruder)
+    assert len(e) == 300 and np.allclose(r_cpa, np.abs(e.hmd_ft), atol=1.0)
+    assert (e.weight > 0).all()
