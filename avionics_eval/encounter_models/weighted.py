@@ -34,3 +34,44 @@ def weighted_proportion(x: np.ndarray, weights: np.ndarray, confidence: float = 
     centre = (p + z * z / (2 * n_eff)) / denom
     half = z * math.sqrt(p * (1 - p) / n_eff + z * z / (4 * n_eff * n_eff)) / denom
     return WeightedProportion(p, max(0.0, centre - half), min(1.0, centre + half), n_eff, int(x.sum()))
+
+
+NMAC_HORIZONTAL_FT = 500.0  # NMAC: within 500 ft horizontally and 100 ft vertically (DO-365; the tool's README)
+NMAC_VERTICAL_FT = 100.0
+
+
+def nmac(own, intruder) -> np.ndarray:
+    """Per encounter: whether the two 1 Hz tracks (Tracks) are ever within the NMAC cylinder at a sample."""
+    horizontal = np.hypot(intruder.north_ft - own.north_ft, intruder.east_ft - own.east_ft)
+    vertical = np.abs(intruder.alt_ft - own.alt_ft)
+    return ((horizontal < NMAC_HORIZONTAL_FT) & (vertical < NMAC_VERTICAL_FT)).any(axis=1)
+
+
+@dataclass(frozen=True)
+class WeightedRatio:
+    estimate: float
+    low: float
+    high: float
+    numerator_events: int    # encounters behind the numerator (NMACs with DAA, for a risk ratio)
+    denominator_events: int  # and behind the denominator (NMACs without)
+
+
+def weighted_ratio(numerator: np.ndarray, denominator: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
+                   resamples: int = 2000, confidence: float = 0.95) -> WeightedRatio:
+    """sum(w a) / sum(w b) (a risk ratio: a = NMAC with DAA, b = NMAC without) and its weighted-bootstrap
+    percentile interval: encounters resampled with replacement, each keeping its weight (Efron & Tibshirani
+    1993, ch. 13). NaN when no encounter has b."""
+    a, b = np.asarray(numerator, bool), np.asarray(denominator, bool)
+    w = np.asarray(weights, float)
+    if not (a.shape == b.shape == w.shape) or (w < 0).any() or not np.isfinite(w).all():
+        raise ValueError("numerator, denominator and weights must be one finite weight >= 0 per encounter")
+    den = float(w[b].sum())
+    estimate = float(w[a].sum()) / den if den > 0 else float("nan")
+    n = w.size
+    counts = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples) if n else np.zeros((resamples, 0))
+    num_b, den_b = counts @ (w * a), counts @ (w * b)
+    ratios = np.divide(num_b, den_b, out=np.full(resamples, np.nan), where=den_b > 0)
+    ratios = ratios[np.isfinite(ratios)]
+    tail = (1 - confidence) / 2
+    low, high = (np.quantile(ratios, [tail, 1 - tail]) if ratios.size else (float("nan"), float("nan")))
+    return WeightedRatio(estimate, float(low), float(high), int(a.sum()), int(b.sum()))
