@@ -47,6 +47,9 @@ def nmac(own, intruder) -> np.ndarray:
     return ((horizontal < NMAC_HORIZONTAL_FT) & (vertical < NMAC_VERTICAL_FT)).any(axis=1)
 
 
+BOOTSTRAP_BLOCK = 100  # resamples drawn at once
+
+
 @dataclass(frozen=True)
 class WeightedRatio:
     estimate: float
@@ -59,8 +62,10 @@ class WeightedRatio:
 def weighted_ratio(numerator: np.ndarray, denominator: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
                    resamples: int = 2000, confidence: float = 0.95) -> WeightedRatio:
     """sum(w a) / sum(w b) (a risk ratio: a = NMAC with DAA, b = NMAC without) and its weighted-bootstrap
-    percentile interval: encounters resampled with replacement, each keeping its weight (Efron & Tibshirani
-    1993, ch. 13). NaN when no encounter has b."""
+    percentile interval: encounters resampled with replacement, each keeping its weight (Efron & Tibshirani,
+    An Introduction to the Bootstrap, 1993, ch. 13), so a pair (a, b) of one encounter stays together. Where the
+    bootstrap cannot move (see below) the interval is the effective-sample-size Wilson one of the share of the
+    denominator's weight in the numerator. NaN when no encounter has b."""
     a, b = np.asarray(numerator, bool), np.asarray(denominator, bool)
     w = np.asarray(weights, float)
     if not (a.shape == b.shape == w.shape) or (w < 0).any() or not np.isfinite(w).all():
@@ -68,10 +73,22 @@ def weighted_ratio(numerator: np.ndarray, denominator: np.ndarray, weights: np.n
     den = float(w[b].sum())
     estimate = float(w[a].sum()) / den if den > 0 else float("nan")
     n = w.size
-    counts = rng.multinomial(n, np.full(n, 1.0 / n), size=resamples) if n else np.zeros((resamples, 0))
-    num_b, den_b = counts @ (w * a), counts @ (w * b)
+    num_b, den_b = np.zeros(resamples), np.zeros(resamples)
+    for start in range(0, resamples, BOOTSTRAP_BLOCK):  # blocks: memory of BOOTSTRAP_BLOCK x n counts at a time
+        k = min(BOOTSTRAP_BLOCK, resamples - start)
+        counts = rng.multinomial(n, np.full(n, 1.0 / n), size=k) if n else np.zeros((k, 0))
+        num_b[start:start + k], den_b[start:start + k] = counts @ (w * a), counts @ (w * b)
     ratios = np.divide(num_b, den_b, out=np.full(resamples, np.nan), where=den_b > 0)
     ratios = ratios[np.isfinite(ratios)]
     tail = (1 - confidence) / 2
     low, high = (np.quantile(ratios, [tail, 1 - tail]) if ratios.size else (float("nan"), float("nan")))
+    if den > 0 and high - low <= 1e-12 * max(1.0, abs(estimate)):
+        # Every resample gives the same ratio: no numerator event, or the numerator's encounters are exactly the
+        # denominator's. The percentile interval collapses to a point; the share of the denominator's weight
+        # that is also numerator (0 or 1 here) is a weighted proportion among the denominator's encounters,
+        # whose effective-sample-size Wilson interval does not (0 events of n_eff: upper z^2 / (n_eff + z^2),
+        # the Wilson analogue of the rule of three), plus the numerator's weight outside the denominator's.
+        share = weighted_proportion(a[b], w[b], confidence)
+        outside = float(w[a & ~b].sum()) / den
+        low, high = share.low + outside, share.high + outside
     return WeightedRatio(estimate, float(low), float(high), int(a.sum()), int(b.sum()))
