@@ -12,6 +12,15 @@ DEFAULT_PROFILES = "tcas2,daidalus-tcas3d,do365"
 def add_arguments(p) -> None:
     p.add_argument("--encounters", type=int, default=1000, metavar="N", help="encounters 0..N-1 of the set")
     p.add_argument("--seed", type=int, default=1, help="the set's seed: encounter i is drawn from (seed, i) alone")
+    p.add_argument("--generator", choices=("ours", "lincoln"),
+                   help="ours: the project's own encounter model (generator.py; the default without --model); "
+                        "lincoln: the MIT LL models paired with importance weights (implied by --model)")
+    p.add_argument("--model", metavar="FILE[,FILE]",
+                   help="intruder model(s): MIT LL parameter files or names of shipped ones, e.g. "
+                        "uncor_1200code_v2p1.txt (several: one drawn uniformly per encounter)")
+    p.add_argument("--ownship", metavar="OWNSHIP",
+                   help="with --model: uav-survey, uav-corridor, uav-hover, uav-transit (multirotor missions) "
+                        "or a Lincoln model file")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
     p.add_argument("--out", help="results: a directory of Parquet partitions (created; resumed when it exists)")
@@ -30,6 +39,25 @@ def add_arguments(p) -> None:
     p.add_argument("--common", action="store_true",
                    help="--report: only the encounters that every profile has (results of unequal length)")
     p.add_argument("--json", action="store_true", help="--report: print the metrics as JSON")
+
+
+def encounter_source(args):
+    """None for the project's generator, else the Lincoln source of --model and --ownship (files read now)."""
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    generator = args.generator or ("lincoln" if args.model else "ours")
+    if generator == "ours":
+        if args.model or args.ownship:
+            raise EvaluationError("--model and --ownship choose the Lincoln models: not with --generator ours")
+        return None
+    if not args.model or not args.ownship:
+        raise EvaluationError("--generator lincoln needs --model FILE[,FILE] and --ownship")
+    from avionics_eval.evaluation.lincoln import LincolnSource, LincolnSourceError
+
+    try:
+        return LincolnSource.of(args.model, args.ownship)
+    except LincolnSourceError as exc:
+        raise EvaluationError(str(exc)) from None
 
 
 def evaluate_command(args) -> int:
@@ -59,6 +87,7 @@ def evaluate_command(args) -> int:
 
     profiles = tuple(p.strip() for p in args.profiles.split(",") if p.strip())
     summary = run(args.encounters, args.seed, profiles, args.out, scheduler=args.scheduler,
-                  partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress)
+                  partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress,
+                  source=encounter_source(args))
     print(json.dumps(summary, indent=1))
     return 0

@@ -26,6 +26,7 @@ import numpy as np
 import pyarrow as pa
 
 from avionics.advisory.tables import load_profile
+from avionics.advisory.wcv import DO365_PHASE_I, wcv_violation
 from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
@@ -37,7 +38,7 @@ from avionics.core.types import (
     OwnshipFix,
     OwnshipPressure,
 )
-from avionics.core.units import FPM, FT, KT
+from avionics.core.units import FT
 from avionics.daa import Daa
 from avionics.io.encode import daa_advisory
 from avionics_eval.evaluation.generator import DT_S, DURATION_S, T_CPA_S, Encounter
@@ -63,7 +64,10 @@ EVALUATION_OVERRIDES = ("zenoh.enabled=false", "conflict.within_samples=0", "con
 
 RECORD_SCHEMA = pa.schema([
     ("seed", pa.int64()), ("index", pa.int64()), ("profile", pa.string()),
-    # the drawn geometry
+    # the encounter generator (generator.SOURCE, or lincoln.LincolnSource.name) and the encounter's importance
+    # weight under it (1 for ours; weighted metrics in metrics.py)
+    ("source", pa.string()), ("weight", pa.float64()),
+    # the drawn geometry (layer and manoeuvre counts: ours only)
     ("layer", pa.int8()), ("alt_ft", pa.float64()), ("hmd_drawn_ft", pa.float64()), ("vmd_drawn_ft", pa.float64()),
     ("rel_heading_deg", pa.float64()), ("own_speed_kt", pa.float64()), ("int_speed_kt", pa.float64()),
     ("own_vrate_fpm", pa.float64()), ("int_vrate_fpm", pa.float64()),
@@ -72,6 +76,8 @@ RECORD_SCHEMA = pa.schema([
     ("t_cpa_s", pa.float64()), ("hmd_ft", pa.float64()), ("vmd_unequipped_ft", pa.float64()),
     ("vmd_equipped_ft", pa.float64()), ("min_vsep_within_nmac_hmd_equipped_ft", pa.float64()),
     ("nmac_unequipped", pa.bool_()), ("nmac_equipped", pa.bool_()), ("induced_nmac", pa.bool_()),
+    # loss of DO-365 well clear at any truth sample, without and with the RAs flown
+    ("lowc_unequipped", pa.bool_()), ("lowc_equipped", pa.bool_()),
     # alerts
     ("alerted", pa.bool_()), ("first_alert_s", pa.float64()), ("alert_lead_s", pa.float64()),
     ("alert_duration_s", pa.float64()),
@@ -129,7 +135,8 @@ def _fly(responder, own, t, offsets, rates, j0, j1) -> None:
 
 def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...] = (), *,
              step_s: float = STEP_S) -> dict:
-    """The record of one encounter flown with one alerting profile; seed (an int or a sequence of ints) draws the
+    """The record of one encounter (generator.Encounter or lincoln.LincolnEncounter: truth() and geometry())
+    flown with one alerting profile; seed (an int or a sequence of ints) draws the
     ADS-B noise and the pilot's delay. Use the same seed for every profile: the profiles then see the same reports
     (common random numbers), and their differences are the logic's. overrides: more configuration key=value
     (e.g. advisory.criterion), for studies of a profile's variants. step_s: the core's step (and ownship's fix)
@@ -190,18 +197,15 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
         dh[k] > protection_hmd or abs(dz[k]) > level.alim_m)
     # An RA is late when it leaves less time than the standard response needs to reach its rate.
     needed = standard.delay_s + standard.rate_mps / standard.accel_mps2
-    own0, int0 = encounter.own, encounter.intruder
+    lowc_u, lowc_e = _loss_of_well_clear(t, own, intruder, offsets)
     return {
         "seed": encounter.seed, "index": encounter.index, "profile": profile,
-        "layer": encounter.layer, "alt_ft": own0.alt_m / FT, "hmd_drawn_ft": encounter.hmd_m / FT,
-        "vmd_drawn_ft": encounter.vmd_m / FT, "rel_heading_deg": encounter.rel_heading_deg,
-        "own_speed_kt": own0.speed_mps / KT, "int_speed_kt": int0.speed_mps / KT,
-        "own_vrate_fpm": own0.vrate_mps / FPM, "int_vrate_fpm": int0.vrate_mps / FPM,
-        "own_manoeuvres": _manoeuvre_count(own0), "int_manoeuvres": _manoeuvre_count(int0),
+        **encounter.geometry(),
         "t_cpa_s": t_cpa, "hmd_ft": float(dh[k]) / FT, "vmd_unequipped_ft": abs(float(dz[k])) / FT,
         "vmd_equipped_ft": abs(float(dz_flown[k])) / FT,
         "min_vsep_within_nmac_hmd_equipped_ft": float(np.abs(dz_flown[near]).min()) / FT if near.any() else None,
         "nmac_unequipped": nmac_u, "nmac_equipped": nmac_e, "induced_nmac": nmac_e and not nmac_u,
+        "lowc_unequipped": lowc_u, "lowc_equipped": lowc_e,
         "alerted": bool(alerts), "first_alert_s": first_alert, "alert_lead_s": _lead(t_cpa, first_alert),
         "alert_duration_s": alert_on,
         "ra": bool(ras), "first_ra_s": first_ra, "ra_lead_s": _lead(t_cpa, first_ra), "ra_duration_s": ra_on,
@@ -217,8 +221,16 @@ def _lead(t_cpa: float, first: float | None) -> float | None:
     return None if first is None else t_cpa - first
 
 
-def _manoeuvre_count(a) -> int:
-    return int(a.turn_dps != 0.0) + int(a.accel_mps2 != 0.0) + int(a.vrate_before_mps is not None)
+def _loss_of_well_clear(t, own, intruder, offsets) -> tuple[bool, bool]:
+    """Whether the DO-365 well-clear volume (Phase I: DTHR 4000 ft, ZTHR 450 ft, modified tau 35 s;
+    avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown vertical offset."""
+    s_xy = intruder[:, 0:2] - own[:, 0:2]
+    v_xy = intruder[:, 3:5] - own[:, 3:5]
+    sz, vz = intruder[:, 2] - own[:, 2], intruder[:, 5] - own[:, 5]
+    offset_rate = np.gradient(offsets, t)
+    unequipped = wcv_violation(s_xy, v_xy, sz, vz, DO365_PHASE_I)
+    equipped = wcv_violation(s_xy, v_xy, sz - offsets, vz - offset_rate, DO365_PHASE_I)
+    return bool(unequipped.any()), bool(equipped.any())
 
 
 def _durations(changes) -> tuple[float, float]:
