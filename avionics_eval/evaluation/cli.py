@@ -21,6 +21,14 @@ def add_arguments(p) -> None:
     p.add_argument("--ownship", metavar="OWNSHIP",
                    help="with --model: uav-survey, uav-corridor, uav-hover, uav-transit (multirotor missions) "
                         "or a Lincoln model file")
+    p.add_argument("--surveillance", choices=("sitl", "do365-adsb"), default="sitl",
+                   help="intruder surveillance: sitl (the SITL's ADS-B noise, the default) or do365-adsb (DO-365 "
+                        "Appendix Q as MIT LL DEGAS: 75.6 m / 1.22 m/s Gauss-Markov errors, 300 s)")
+    p.add_argument("--altitude-quantum-ft", type=float, metavar="FT",
+                   help="reported altitude step: 25 (ADS-B, the models' own) or 100 (Mode C)")
+    p.add_argument("--pilot", choices=("spread", "standard", "trams"), default="spread",
+                   help="spread (the profile's response, delay x U[0.6, 1.4]; the default), standard (TCAS "
+                        "standard pilot: 5 s, 0.25 g; 2.5 s, 0.35 g) or trams (responds with p = 0.62)")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
     p.add_argument("--out", help="results: a directory of Parquet partitions (created; resumed when it exists)")
@@ -60,6 +68,17 @@ def encounter_source(args):
         raise EvaluationError(str(exc)) from None
 
 
+def conditions(args):
+    """evaluate.Conditions of --surveillance, --altitude-quantum-ft and --pilot."""
+    from avionics_eval.evaluation.evaluate import Conditions
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    try:
+        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot)
+    except ValueError as exc:
+        raise EvaluationError(f"--altitude-quantum-ft: {exc}") from None
+
+
 def evaluate_command(args) -> int:
     from avionics_eval.evaluation.runner import EvaluationError
 
@@ -88,6 +107,6 @@ def evaluate_command(args) -> int:
     profiles = tuple(p.strip() for p in args.profiles.split(",") if p.strip())
     summary = run(args.encounters, args.seed, profiles, args.out, scheduler=args.scheduler,
                   partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress,
-                  source=encounter_source(args))
+                  source=encounter_source(args), conditions=conditions(args))
     print(json.dumps(summary, indent=1))
     return 0
