@@ -74,8 +74,8 @@ def test_the_weighted_ratio_is_the_ratio_of_weighted_sums():
 def test_the_effective_sample_size_wilson_interval_covers_an_importance_sampled_probability(p, oversample, n):
     """P(U < p) for U uniform on [0, 1] estimated from draws of a proposal that puts `oversample` times the
     nominal density on [0, p] (the way the pairing oversamples small misses), weights nominal / proposal. Over
-    200 replicate sets the 95 % interval covers p at least 90 % of the time (Kish's n_eff counts the uneven
-    weights; with the event oversampled it is conservative, docs/evaluation.md)."""
+    200 replicate sets the 95 % interval covers p at least 90 % of the time (docs/evaluation.md gives the
+    coverage measured on 1000 replicates: 0.91-0.97)."""
     rng = np.random.default_rng(int(p * 1e6) + n)
     replicates = 200
     inside = rng.random((replicates, n)) < oversample * p / (oversample * p + 1 - p)
@@ -86,3 +86,17 @@ def test_the_effective_sample_size_wilson_interval_covers_an_importance_sampled_
         est = weighted_proportion(u[k] < p, 1.0 / density[k])
         covered += est.low <= p <= est.high
     assert covered >= 0.9 * replicates
+
+
+def test_the_interval_uses_the_estimate_s_own_effective_sample_size():
+    """Events carrying small weights (oversampled) make p far better known than Kish's n_eff says: n_p =
+    p (1 - p) / var, var = sum(w^2 (x - p)^2) / (sum w)^2, by hand."""
+    x = np.r_[np.ones(20, bool), np.zeros(80, bool)]
+    w = np.r_[np.full(20, 0.1), np.full(40, 1.0), np.full(40, 3.0)]
+    est = weighted_proportion(x, w)
+    total = 2.0 + 40.0 + 120.0
+    p = 2.0 / total
+    var = (20 * 0.01 * (1 - p) ** 2 + 40 * 1.0 * p * p + 40 * 9.0 * p * p) / total ** 2
+    assert est.estimate == pytest.approx(p) and est.interval_n == pytest.approx(p * (1 - p) / var)
+    assert est.effective_n == pytest.approx(total ** 2 / (20 * 0.01 + 40 + 360))
+    assert est.interval_n > 10 * est.effective_n  # Kish's n_eff: over ten times fewer, an interval far too wide

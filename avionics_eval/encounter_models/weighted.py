@@ -1,7 +1,16 @@
-"""Weighted estimates of a probability from importance-weighted encounters, with the effective-sample-size
-Wilson interval: p = sum(w x) / sum(w), n_eff = (sum w)^2 / sum(w^2) (Kish's effective sample size), and the
-Wilson score interval of p at n_eff trials (Wilson 1927). With all weights equal it is the ordinary Wilson
-interval; with uneven weights it widens as n_eff falls. `events` is how many encounters the estimate rests on."""
+"""Weighted estimates of a probability from importance-weighted encounters, with an effective-sample-size
+Wilson interval.
+
+p = sum(w x) / sum(w) (the self-normalised importance-sampling estimate). Its variance is estimated by the
+delta method, var = sum(w^2 (x - p)^2) / (sum w)^2 (Owen, *Monte Carlo theory, methods and examples*, 2013,
+section 9.2, self-normalised importance sampling), and the interval is the Wilson score interval (Wilson 1927)
+of p at the effective sample size of this estimate, n_p = p (1 - p) / var: the number of unweighted trials
+that would give p the same variance. With all weights equal n_p = n and it is the ordinary Wilson interval.
+Where var is 0 (no event, or every encounter an event) n_p is Kish's effective sample size of the weights,
+(sum w)^2 / sum(w^2) (Kish, *Survey Sampling*, 1965), which for 0 events gives the Wilson analogue of the rule
+of three, z^2 / (n + z^2). Kish's n_eff alone ignores how the weights go with x: the pairing oversamples small
+misses, so NMAC encounters carry small weights and Kish's n_eff would overstate an NMAC probability's variance
+many times over (docs/evaluation.md). `events` is how many encounters the estimate rests on."""
 
 from __future__ import annotations
 
@@ -17,8 +26,17 @@ class WeightedProportion:
     estimate: float
     low: float
     high: float
-    effective_n: float
+    effective_n: float  # Kish's, of the weights
     events: int  # encounters with x true (unweighted count): the NMACs behind a P(NMAC), for instance
+    interval_n: float = math.nan  # the effective sample size the interval uses (n_p, or Kish's when var is 0)
+
+
+def wilson_interval(p: float, n: float, z: float) -> tuple[float, float]:
+    """The Wilson score interval of a proportion p observed in n (here effective, not whole) trials."""
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
 
 
 def weighted_proportion(x: np.ndarray, weights: np.ndarray, confidence: float = 0.95) -> WeightedProportion:
@@ -29,11 +47,11 @@ def weighted_proportion(x: np.ndarray, weights: np.ndarray, confidence: float = 
     total = w.sum()
     p = float(w[x].sum() / total)
     n_eff = float(total ** 2 / (w ** 2).sum())
+    var = float((w * w * (x - p) ** 2).sum() / (total * total))
+    n_p = p * (1 - p) / var if var > 0 and 0 < p < 1 else n_eff
     z = float(norm.ppf(0.5 + confidence / 2))
-    denom = 1 + z * z / n_eff
-    centre = (p + z * z / (2 * n_eff)) / denom
-    half = z * math.sqrt(p * (1 - p) / n_eff + z * z / (4 * n_eff * n_eff)) / denom
-    return WeightedProportion(p, max(0.0, centre - half), min(1.0, centre + half), n_eff, int(x.sum()))
+    low, high = wilson_interval(p, n_p, z)
+    return WeightedProportion(p, low, high, n_eff, int(x.sum()), n_p)
 
 
 NMAC_HORIZONTAL_FT = 500.0  # NMAC: within 500 ft horizontally and 100 ft vertically (DO-365; the tool's README)

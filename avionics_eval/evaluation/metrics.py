@@ -13,7 +13,7 @@ loss-of-well-clear ratio (DO-365's measure of a DAA system's well-clear performa
 records' losses of DO-365 well clear.
 
 Importance-weighted sets (the Lincoln models: any record source but generator.SOURCE) get
-weighted_profile_metrics instead: Kish's effective-sample-size Wilson interval for probabilities and the
+weighted_profile_metrics instead: an effective-sample-size Wilson interval for probabilities and the
 weighted bootstrap for ratios (encounter_models/weighted.py), each figure with the encounters behind it.
 """
 
