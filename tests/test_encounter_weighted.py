@@ -100,3 +100,10 @@ def test_the_interval_uses_the_estimate_s_own_effective_sample_size():
     assert est.estimate == pytest.approx(p) and est.interval_n == pytest.approx(p * (1 - p) / var)
     assert est.effective_n == pytest.approx(total ** 2 / (20 * 0.01 + 40 + 360))
     assert est.interval_n > 10 * est.effective_n  # Kish's n_eff: over ten times fewer, an interval far too wide
+
+
+def test_no_event_gives_a_lower_bound_of_exactly_zero():
+    est = weighted_proportion(np.zeros(50, bool), np.linspace(1.0, 3.0, 50))
+    assert (est.estimate, est.low) == (0.0, 0.0) and 0 < est.high < 1
+    r = weighted_ratio(np.zeros(50, bool), np.arange(50) < 7, np.linspace(1.0, 3.0, 50), np.random.default_rng(0), 50)
+    assert (r.estimate, r.low) == (0.0, 0.0) and 0 < r.high < 1

@@ -36,7 +36,8 @@ def wilson_interval(p: float, n: float, z: float) -> tuple[float, float]:
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    # p = 0 (or 1) is a bound exactly: centre - half is 0 only up to rounding
+    return (0.0 if p <= 0.0 else max(0.0, centre - half)), (1.0 if p >= 1.0 else min(1.0, centre + half))
 
 
 def weighted_proportion(x: np.ndarray, weights: np.ndarray, confidence: float = 0.95) -> WeightedProportion:
