@@ -98,3 +98,32 @@ def test_bad_lincoln_options_exit_2_before_anything_is_written(tmp_path, capsys,
     out = tmp_path / "out"
     assert cli.main(["evaluate", *argv, "--out", str(out), "--scheduler", "synchronous"]) == 2
     assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_the_command_runs_a_weighted_set_resumes_it_and_reports_it(tmp_path, capsys):
+    """avionics evaluate --model ... end to end, in process: a set of 6 encounters in partitions of 3, the second
+    partition by a second run; its manifest names source and conditions; another ownship is refused on the
+    same --out; the report is weighted, in Markdown and in JSON."""
+    import json
+
+    out = tmp_path / "set"
+    argv = ["evaluate", "--model", ROTORCRAFT, "--ownship", "uav-transit", "--surveillance", "do365-adsb",
+            "--pilot", "standard", "--profiles", "daidalus-tcas3d", "--encounters", "6", "--partition-size", "3",
+            "--seed", "2", "--scheduler", "synchronous", "--out", str(out)]
+    assert cli.main([*argv, "--max-partitions", "1"]) == 0
+    assert json.loads(capsys.readouterr().out)["partitions_left"] == 1
+    assert cli.main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["complete"] and summary["evaluated_now"] == 3
+    assert summary["source"] == f"lincoln:{ROTORCRAFT};ownship=uav-transit"
+    assert summary["conditions"] == "surveillance=do365-adsb,pilot=standard"
+    manifest = json.loads((out / "_manifest.json").read_text())
+    assert manifest["source"] == summary["source"] and manifest["conditions"] == summary["conditions"]
+    other = [a if a != "uav-transit" else "uav-hover" for a in argv]
+    assert cli.main(other) == 2 and "holds another set" in capsys.readouterr().err
+    assert cli.main(["evaluate", "--report", str(out)]) == 0
+    report = capsys.readouterr().out
+    assert report.startswith(f"source: lincoln:{ROTORCRAFT}") and "| encounters (effective n) | 6 (" in report
+    assert cli.main(["evaluate", "--report", str(out), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)["daidalus-tcas3d"]
+    assert result["weighted"] and result["encounters"] == 6 and len(result["p_nmac_unequipped"]) == 3
