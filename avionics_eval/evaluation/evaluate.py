@@ -126,7 +126,8 @@ RECORD_SCHEMA = pa.schema([
     ("ra", pa.bool_()), ("first_ra_s", pa.float64()), ("ra_lead_s", pa.float64()), ("ra_duration_s", pa.float64()),
     ("ra_sl", pa.int8()), ("ra_words", pa.string()), ("ra_episodes", pa.int16()),
     ("ra_reversals", pa.int16()), ("ra_strengthenings", pa.int16()),
-    ("response_delay_s", pa.float64()), ("pilot_responds", pa.bool_()), ("late_ra", pa.bool_()), ("outside_protection", pa.bool_()),
+    ("response_delay_s", pa.float64()), ("pilot_responds", pa.bool_()), ("late_ra", pa.bool_()),
+    ("outside_protection", pa.bool_()),
     ("nuisance_ra", pa.bool_()),
 ])
 
@@ -272,7 +273,8 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
         "ra_sl": ras[0].sensitivity_level if ras else None,
         "ra_words": "|".join(c.ra_words or "" for c in ras), "ra_episodes": episodes,
         "ra_reversals": reversals, "ra_strengthenings": strengthenings,
-        "response_delay_s": float(delay), "pilot_responds": responds, "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
+        "response_delay_s": float(delay), "pilot_responds": responds,
+        "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
         "outside_protection": bool(outside), "nuisance_ra": bool(ras) and bool(outside),
     }
 

@@ -28,7 +28,9 @@ import pyarrow.parquet as pq
 from avionics_eval.evaluation.evaluate import DEFAULT_CONDITIONS, RECORD_SCHEMA, Conditions, check_profile, evaluate
 from avionics_eval.evaluation.generator import SOURCE, generate
 
-MODEL_VERSION = 2  # 2: the source, weight and loss-of-well-clear columns. Bump when the generator or the record changes: a resumed run must not mix versions
+# Bump when the generator or the record changes: a resumed run must not mix versions. 2: the source, weight,
+# conditions, pilot_responds and loss-of-well-clear columns.
+MODEL_VERSION = 2
 MANIFEST = "_manifest.json"  # '_' and '.' names are not read as data by pyarrow's dataset reader
 RUN_LOG = "_runs.jsonl"
 PARTITION_LOG = "_partitions.jsonl"
@@ -202,7 +204,8 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
     remaining = len(todo) - len(pending)
     summary = {
         "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "command": " ".join(sys.argv),
-        "seed": seed, "source": source_name(source), "conditions": conditions.name, "encounters_in_set": n, "profiles": list(profiles), "scheduler": scheduler,
+        "seed": seed, "source": source_name(source), "conditions": conditions.name, "encounters_in_set": n,
+        "profiles": list(profiles), "scheduler": scheduler,
         "evaluated_now": stats["encounters"], "partitions_now": len(pending), "partitions_left": remaining,
         "wall_s": round(wall, 1), "cpu_s": round(stats["cpu_s"], 1),
         "encounters_per_cpu_s": round(stats["encounters"] / stats["cpu_s"], 3) if stats["cpu_s"] else None,
