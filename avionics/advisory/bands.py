@@ -43,6 +43,7 @@ from avionics.advisory.bands_kinematics import (
 )
 from avionics.advisory.persistence import MofN
 from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval, wcv_violation
+from avionics.core.almost import almost_less as almost_less_13
 from avionics.core.units import FPM, FT, G0, KT, NM
 
 KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
@@ -660,10 +661,11 @@ class BandsEngine:
             is_conf = conflict(tin, tout)
             at = np.where(early_ok & (np.asarray(alert_levels) == lv.level), lv.early_alerting_time_s,
                           lv.alerting_time_s)
-            before = is_conf & ((tin == 0) | (tin < at) & ~np.isclose(tin, at, rtol=1e-12, atol=0))
+            # ConflictData.conflictBefore: time_in == 0 or Util.almost_less(time_in, t) (PRECISION13)
+            before = is_conf & ((tin == 0) | almost_less_13(tin, at))
             out.append(np.flatnonzero(before))
             t_at = min(p.lookahead_s, lv.alerting_time_s)
-            before_at = is_conf & ((tin == 0) | (tin < t_at) & ~np.isclose(tin, t_at, rtol=1e-12, atol=0))
+            before_at = is_conf & ((tin == 0) | almost_less_13(tin, t_at))
             det_data.append(before_at)
         return out, det_data
 

@@ -20,38 +20,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# DaidalusParameters.ALMOST_ = Util.PRECISION5: two doubles are almost equal when at most 2^40 units in the last
-# place apart (about 5 significant digits).
-PRECISION5_ULPS = 1 << 40
-_SIGN = np.int64(-0x8000000000000000)
+from avionics.core import almost as _almost
 
-
-def _ordered_bits(x: np.ndarray) -> np.ndarray:
-    """Util.almost_equals' lexicographic integer image of a double (negative values mirrored)."""
-    bits = np.asarray(x, np.float64).view(np.int64)
-    return np.where(bits < 0, _SIGN - bits, bits)
+# DaidalusParameters.ALMOST_ = Util.PRECISION5: the bands compare at about 5 significant digits (2^40 ULPs; at
+# zero, below 1e-5), with Util's semantics (core/almost.py).
 
 
 def almost_equals(a, b):
-    """Util.almost_equals(a, b, PRECISION5): equal, or at most 2^40 ULPs apart."""
-    a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
-    shape = a.shape
-    ia, ib = _ordered_bits(a.reshape(-1).copy()), _ordered_bits(b.reshape(-1).copy())
-    # int64 differences overflow for far-apart values: screen in floating point first
-    near = np.abs(ia.astype(np.float64) - ib.astype(np.float64)) <= 2.0 * PRECISION5_ULPS
-    diff = np.where(near, ia, 0) - np.where(near, ib, 0)
-    out = (a.reshape(-1) == b.reshape(-1)) | (near & (np.abs(diff) <= PRECISION5_ULPS))
-    return out.reshape(shape) if shape else bool(out[0])
+    """Util.almost_equals(a, b, PRECISION5)."""
+    return _almost.almost_equals(a, b, _almost.PRECISION5)
 
 
 def almost_less(a, b):
-    """Util.almost_less(a, b, PRECISION5): less and not almost equal."""
-    return np.logical_and(np.asarray(a) < np.asarray(b), np.logical_not(almost_equals(a, b)))
+    """Util.almost_less(a, b, PRECISION5)."""
+    return _almost.almost_less(a, b, _almost.PRECISION5)
 
 
 def almost_leq(a, b):
-    """Util.almost_leq(a, b, PRECISION5): less or almost equal."""
-    return np.logical_or(np.asarray(a) < np.asarray(b), almost_equals(a, b))
+    """Util.almost_leq(a, b, PRECISION5)."""
+    return _almost.almost_leq(a, b, _almost.PRECISION5)
 
 
 # --- horizontal and vertical manoeuvres -----------------------------------------------------------------------
