@@ -198,28 +198,34 @@ class Cylinder:
     h_m: float
 
 
-def cylinder_violation(s_xy, sz, cyl: Cylinder):
-    return ((s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2) < cyl.d_m**2) & (np.abs(sz) < cyl.h_m)
-
-
 def cylinder_interval(s_xy, v_xy, sz, vz, cyl: Cylinder, t_end: float):
-    """(t_in, t_out) of loss of the cylinder within [0, t_end] for straight-line relative motion (CD3D)."""
+    """(t_in, t_out) of loss of the cylinder within [0, t_end] for straight-line relative motion, as
+    CD3D.detection computes it: on an axis without relative motion (Util.almost_equals(v, 0) here, per
+    component horizontally; DAIDALUS compares the two aircraft's velocities, which differs only for relative
+    velocities between 1e-13 and ~1e-10 m/s) the loss is every time when inside by more than almost-equal
+    (Horizontal.almost_horizontal_los, Vertical.almost_vertical_los: |sz| < H and not almost equal), none
+    otherwise; with motion, the entry and exit roots (Horizontal.Theta_D where Delta > 0, Vertical.Theta_H).
+    Intervals are clipped to [0, t_end]; a conflict is `wcv.conflict` (LossData.conflict)."""
     a = v_xy[..., 0] ** 2 + v_xy[..., 1] ** 2
     b = s_xy[..., 0] * v_xy[..., 0] + s_xy[..., 1] * v_xy[..., 1]
-    c = s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2 - cyl.d_m**2
+    sqs = s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2
+    d2 = cyl.d_m**2
     with np.errstate(divide="ignore", invalid="ignore"):
-        disc = b * b - a * c
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        moving = a > 1e-12
-        h_in = np.where(moving, np.where(disc > 0, (-b - sq) / np.where(moving, a, 1), np.inf), -np.inf)
-        h_out = np.where(moving, np.where(disc > 0, (-b + sq) / np.where(moving, a, 1), -np.inf), np.inf)
-        h_in = np.where(~moving & (c >= 0), np.inf, h_in)
-        h_out = np.where(~moving & (c >= 0), -np.inf, h_out)
-        vmov = np.abs(vz) > 1e-12
-        safe = np.where(vmov, vz, 1.0)
-        ta, tb = (-cyl.h_m - sz) / safe, (cyl.h_m - sz) / safe
-        v_in = np.where(vmov, np.minimum(ta, tb), np.where(np.abs(sz) < cyl.h_m, -np.inf, np.inf))
-        v_out = np.where(vmov, np.maximum(ta, tb), np.where(np.abs(sz) < cyl.h_m, np.inf, -np.inf))
+        delta = b * b - a * (sqs - d2)  # Horizontal.Delta
+        sq = np.sqrt(np.maximum(delta, 0.0))
+        still = _almost.almost_equals(v_xy[..., 0], 0.0) & _almost.almost_equals(v_xy[..., 1], 0.0)
+        h_los = ~_almost.almost_equals(sqs, d2) & (sqs < d2)
+        crossing = (delta > 0) & (a > 0)
+        safe_a = np.where(a > 0, a, 1.0)
+        h_in = np.where(still & h_los, -np.inf, np.where(crossing, (-b - sq) / safe_a, np.inf))
+        h_out = np.where(still & h_los, np.inf, np.where(crossing, (-b + sq) / safe_a, -np.inf))
+        level = _almost.almost_equals(vz, 0.0)
+        abs_sz = np.abs(sz)
+        v_los = ~_almost.almost_equals(abs_sz, cyl.h_m) & (abs_sz < cyl.h_m)
+        safe = np.where(level, 1.0, vz)
+        sign = np.where(safe >= 0.0, 1.0, -1.0)
+        v_in = np.where(level, np.where(v_los, -np.inf, np.inf), (-sign * cyl.h_m - sz) / safe)
+        v_out = np.where(level, np.where(v_los, np.inf, -np.inf), (sign * cyl.h_m - sz) / safe)
     t_in = np.maximum(np.maximum(h_in, v_in), 0.0)
     t_out = np.minimum(np.minimum(h_out, v_out), t_end)
     return t_in, t_out
