@@ -193,7 +193,7 @@ class DaaCore:
         self._pending: list[Advisory] = []  # failed-state advisories found outside step(), announced by the next
         self._traced: set[tuple[str, str]] = set()  # (stage, exception type) already logged with a traceback
         self._ownship_faulted = False  # the ownship filter failed and no fix has gone in since
-        # The surveillance's stated uncertainties (DAIDALUS SUMData, advisory/wcv_sum.py) as errors before z-scores,
+        # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
         self._stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
         self._own_errors: tuple[float, float, float, float] | None = None

@@ -27,7 +27,8 @@ from hypothesis import strategies as st
 from avionics.advisory.alerting import Encounter, wcv_alerter
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import DO365_PHASE_I, WCV_TAUMOD
-from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM, SumData, SumZScores, horizontal_uncertainty
+from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM, SumZScores
+from avionics.core.uncertainty import SumData, horizontal_uncertainty
 from avionics.conflict.cpa import pair_geometry
 from avionics.core.units import FPM, FT, KT, NM
 from tests.golden.generate import CONFORMANCE, replayed_csv

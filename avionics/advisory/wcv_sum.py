@@ -1,8 +1,8 @@
 """DO-365B sensor uncertainty mitigation (SUM): NASA DAIDALUS's WCV_TAUMOD_SUM detector and its inputs (SUMData).
 
-Sources: DAIDALUS v2.0.4 Java, package gov.nasa.larcfm.ACCoRD: SUMData (each aircraft's uncertainties),
-WCV_TAUMOD_SUM (the detector; method names below are its), TangentLine, WCV_TAUMOD / WCV_tvar / WCV_TCOA (the
-well-clear tests it widens, advisory/wcv.py), and Util (comparisons, core/almost.py). Parameters:
+Sources: DAIDALUS v2.0.4 Java, package gov.nasa.larcfm.ACCoRD: SUMData (each aircraft's uncertainties,
+core/uncertainty.py), WCV_TAUMOD_SUM (the detector; method names below are its), TangentLine, WCV_TAUMOD /
+WCV_tvar / WCV_TCOA (the well-clear tests it widens, advisory/wcv.py), and Util (comparisons, core/almost.py). Parameters:
 Configurations/DO_365B_SUM.conf (the profile `daidalus-do365b-sum`).
 
 Each aircraft states 1-sigma standard deviations (SUMData.set*Uncertainty): horizontal position per axis
@@ -43,51 +43,6 @@ from avionics.advisory.wcv import WCV_TAUMOD, WcvThresholds, _horizontal_interva
 from avionics.core.almost import almost_equals, almost_less
 
 MIN_ERROR = 0.001  # WCV_TAUMOD_SUM.MinError (internal units: m, m/s): the floor of each relative error
-UNCERTAINTY_FIELDS = ("s_ew_std_m", "s_ns_std_m", "s_en_std_m", "sz_std_m",
-                      "v_ew_std_mps", "v_ns_std_mps", "v_en_std_mps", "vz_std_mps")
-
-
-def horizontal_uncertainty(x_std: float, y_std: float, xy_std: float) -> float:
-    """SUMData.horizontal_uncertainty: sqrt of the larger eigenvalue of [[x^2, c], [c, y^2]], c = sign(xy) xy^2
-    (Util.sign: +1 at 0); sqrt_safe of a negative gives 0."""
-    var1, var2 = x_std * x_std, y_std * y_std
-    cov = (1.0 if xy_std >= 0.0 else -1.0) * xy_std * xy_std
-    ave = (var1 + var2) / 2.0
-    det = var1 * var2 - cov * cov
-    return math.sqrt(max(ave + math.sqrt(max(ave * ave - det, 0.0)), 0.0))
-
-
-@dataclass(frozen=True, slots=True)
-class SumData:
-    """One aircraft's stated uncertainties (DAIDALUS SUMData), 1 sigma, SI units, East/North/Up axes. All zero:
-    no uncertainty (the default: SUM then changes nothing)."""
-
-    s_ew_std_m: float = 0.0
-    s_ns_std_m: float = 0.0
-    s_en_std_m: float = 0.0
-    sz_std_m: float = 0.0
-    v_ew_std_mps: float = 0.0
-    v_ns_std_mps: float = 0.0
-    v_en_std_mps: float = 0.0
-    vz_std_mps: float = 0.0
-
-    def __post_init__(self):
-        for name in UNCERTAINTY_FIELDS:
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"uncertainty {name} must be a finite number, got {value!r}")
-            if name not in ("s_en_std_m", "v_en_std_mps") and value < 0.0:
-                raise ValueError(f"uncertainty {name} must be >= 0, got {value!r}")
-
-    def errors(self) -> tuple[float, float, float, float]:
-        """(horizontal position, vertical position, horizontal speed, vertical speed) errors before z-scores
-        (SUMData.getHorizontalPositionError, getVerticalPositionError, getHorizontalSpeedError,
-        getVerticalSpeedError)."""
-        return (horizontal_uncertainty(self.s_ew_std_m, self.s_ns_std_m, self.s_en_std_m), self.sz_std_m,
-                horizontal_uncertainty(self.v_ew_std_mps, self.v_ns_std_mps, self.v_en_std_mps), self.vz_std_mps)
-
-
-NO_UNCERTAINTY = SumData()
 
 
 @dataclass(frozen=True, slots=True)

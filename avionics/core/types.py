@@ -7,10 +7,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 from functools import partial
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from avionics.advisory.wcv_sum import SumData
+from avionics.core.uncertainty import SumData
 
 
 class AltitudeDatum(str, Enum):
@@ -75,7 +73,7 @@ class IntruderReport:
     position_sigma_m: float | None = None
     velocity_sigma_mps: float | None = None
     path: str = "mavlink"  # the traffic source that delivered it: "mavlink", "sbs:HOST:PORT", "beast:...", ...
-    # The surveillance's stated uncertainties (DAIDALUS SUMData, advisory/wcv_sum.py) for a SUM detector; None: none
+    # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) for a SUM detector; None: none
     # stated (ADSB_VEHICLE has no field for them; a replayed .daa file's *_std columns are attached by the replay).
     uncertainty: SumData | None = None
 
