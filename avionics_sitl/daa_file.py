@@ -19,7 +19,8 @@ an optional next line of units in brackets; then one row per aircraft and time. 
                              units (daidalus_H1_SUM.daa: [nmi], sz_std included), velocities speed units ([nmi/s]).
 
 Other DAIDALUS columns (alerter, heading, airspeed) are recognised and ignored, units included: like DAIDALUS's
-reader, which never converts a column it does not use, the units of ignored columns are not checked. Rows of one aircraft must
+reader, which never converts a column it does not use, the units of ignored columns are not checked. Rows of one
+aircraft must
 not go back in time (DAIDALUS would sort them); a row with the same time as that aircraft's previous row
 replaces it: the last row wins, as in DAIDALUS's SequenceReader, which keeps one state per (time, name)
 (daa-displays' sim3.daa repeats stamps).

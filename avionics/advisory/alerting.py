@@ -412,7 +412,8 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
 
 def wcv_alerter(spec, name: str = "wcv") -> Alerter:
     """A DO-365 well-clear alerter from a profile's [alerter] table (advisory/tables.py WcvAlerterSpec): each level
-    a WCV_TAUMOD detector (advisory/wcv.py; WCV_TAUMOD_SUM, advisory/wcv_sum.py, where the table has [alerter.sum]) with its thresholds at every sensitivity level, its alerting and early
+    a WCV_TAUMOD detector (advisory/wcv.py; WCV_TAUMOD_SUM, advisory/wcv_sum.py, where the table has
+    [alerter.sum]) with its thresholds at every sensitivity level, its alerting and early
     alerting times, the advisory it raises and its bands region. A level that raises an RA needs the intruder's
     altitude (the manoeuvre is vertical); the others show an intruder without altitude on range alone. Their
     hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""

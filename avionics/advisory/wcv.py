@@ -18,7 +18,8 @@ and the interval of its loss in [B, T] of straight-line motion is the vertical i
 the first root of |v|^2 t^2 + (2 s.v + TTHR |v|^2) t + |s|^2 + TTHR s.v - DTHR^2 = 0, the time at which taumod
 reaches TTHR, to the exit from the DTHR disk, Horizontal.Theta_D). A conflict is time_in < time_out, not
 almost equal (LossData.conflict). Ties are DAIDALUS's (Util.almost_equals and its zero special case, core/almost.py):
-"no motion" on an axis is almost_equals(v, 0), an instant of loss is almost_equals(low, up). The sign convention of s (intruder - ownship here, ownship - intruder in
+"no motion" on an axis is almost_equals(v, 0), an instant of loss is almost_equals(low, up).
+The sign convention of s (intruder - ownship here, ownship - intruder in
 DAIDALUS) does not matter: every test is even in (s, v) and (sz, vz).
 """
 

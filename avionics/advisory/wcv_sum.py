@@ -2,8 +2,8 @@
 
 Sources: DAIDALUS v2.0.4 Java, package gov.nasa.larcfm.ACCoRD: SUMData (each aircraft's uncertainties,
 core/uncertainty.py), WCV_TAUMOD_SUM (the detector; method names below are its), TangentLine, WCV_TAUMOD /
-WCV_tvar / WCV_TCOA (the well-clear tests it widens, advisory/wcv.py), and Util (comparisons, core/almost.py). Parameters:
-Configurations/DO_365B_SUM.conf (the profile `daidalus-do365b-sum`).
+WCV_tvar / WCV_TCOA (the well-clear tests it widens, advisory/wcv.py), and Util (comparisons, core/almost.py).
+Parameters: Configurations/DO_365B_SUM.conf (the profile `daidalus-do365b-sum`).
 
 Each aircraft states 1-sigma standard deviations (SUMData.set*Uncertainty): horizontal position per axis
 (s_EW_std, s_NS_std) and the East/North term s_EN_std, vertical position sz_std, horizontal velocity (v_EW_std,
