@@ -138,3 +138,20 @@ def test_sum_never_alerts_later_than_no_sum(geo, err, alerting_time_s):
     enc = _encounter((sx, sy), (vx, vy), sz, vz, err)
     if WCV_TAUMOD().conflict(enc, DO365_PHASE_I, alerting_time_s)[0]:
         assert WCV_TAUMOD_SUM(z_scores=Z).conflict(enc, DO365_PHASE_I, alerting_time_s)[0]
+
+
+def test_errors_from_covariance_is_sumdata_of_the_covariance():
+    """A track's covariance as DAIDALUS's inputs: sigma per axis and the signed E/N term whose square is the
+    covariance, so the horizontal error is the ellipse's semi-major axis (eigenvalues of [[9, 4], [4, 9]]:
+    13 and 5; of [[4, -1], [-1, 1]]: (5 +- sqrt(13)) / 2)."""
+    from avionics.core.uncertainty import errors_from_covariance
+
+    p = np.zeros((2, 6, 6))
+    p[0, :2, :2] = [[9.0, 4.0], [4.0, 9.0]]
+    p[0, 2, 2], p[0, 5, 5] = 25.0, 0.25
+    p[0, 3:5, 3:5] = [[4.0, -1.0], [-1.0, 1.0]]
+    e = errors_from_covariance(p)
+    assert e[0] == pytest.approx([math.sqrt(13.0), 5.0, math.sqrt((5 + math.sqrt(13.0)) / 2), 0.5])
+    assert e[1].tolist() == [0.0, 0.0, 0.0, 0.0]
+    stated = SumData(3.0, 3.0, 2.0, 5.0, 2.0, 1.0, -1.0, 0.5)  # s_EN = sign(c) sqrt(|c|)
+    assert e[0] == pytest.approx(stated.errors())

@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 UNCERTAINTY_FIELDS = ("s_ew_std_m", "s_ns_std_m", "s_en_std_m", "sz_std_m",
                       "v_ew_std_mps", "v_ns_std_mps", "v_en_std_mps", "vz_std_mps")
 
@@ -53,3 +55,24 @@ class SumData:
 
 
 NO_UNCERTAINTY = SumData()
+
+
+NO_ERRORS = (0.0, 0.0, 0.0, 0.0)
+
+
+def errors_from_covariance(p) -> np.ndarray:
+    """(..., 4) SumData.errors of tracks from their state covariances (..., 6, 6), state order east, north, up,
+    v_east, v_north, v_up (m, m/s; the tracking frame's ENU axes, DAIDALUS's too): the square roots of the
+    larger eigenvalue of the horizontal position block and of the horizontal velocity block (the 1-sigma
+    ellipse's semi-major axis: SUMData.horizontal_uncertainty of sigma_E = sqrt(P_ee), sigma_N = sqrt(P_nn) and
+    s_EN = sign(P_en) sqrt(|P_en|), whose signed square is the covariance P_en), and the vertical sigmas
+    sqrt(P_uu), sqrt(P_vu vu). A covariance is 1 sigma by definition: no 95 % bound is involved."""
+    p = np.asarray(p, float)
+
+    def major(a, b, c):
+        ave = (a + b) / 2.0
+        return np.sqrt(np.maximum(ave + np.sqrt(np.maximum(ave * ave - (a * b - c * c), 0.0)), 0.0))
+
+    return np.stack([major(p[..., 0, 0], p[..., 1, 1], p[..., 0, 1]), np.sqrt(np.maximum(p[..., 2, 2], 0.0)),
+                     major(p[..., 3, 3], p[..., 4, 4], p[..., 3, 4]), np.sqrt(np.maximum(p[..., 5, 5], 0.0))],
+                    axis=-1)
