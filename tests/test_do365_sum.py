@@ -155,3 +155,42 @@ def test_errors_from_covariance_is_sumdata_of_the_covariance():
     assert e[1].tolist() == [0.0, 0.0, 0.0, 0.0]
     stated = SumData(3.0, 3.0, 2.0, 5.0, 2.0, 1.0, -1.0, 0.5)  # s_EN = sign(c) sqrt(|c|)
     assert e[0] == pytest.approx(stated.errors())
+
+
+class _Stating:
+    """The core with every intruder report stating `uncertainty` (as a receiver with NACp/NACv would): the
+    reports go into the real core unchanged otherwise."""
+
+    def __init__(self, core, uncertainty):
+        self.core, self.uncertainty = core, uncertainty
+
+    def step(self, t, inputs):
+        from dataclasses import replace
+
+        from avionics.core.types import IntruderReport
+        return self.core.step(t, [replace(i, uncertainty=self.uncertainty) if isinstance(i, IntruderReport) else i
+                                  for i in inputs])
+
+
+def _first_alert(overrides, uncertainty=None, abeam_m=1300.0):
+    from tests.synthetic import Encounter as Flight, Mover
+
+    # head-on, the intruder passing abeam_m to the east: outside DTHR (1222 m) without uncertainty
+    flight = Flight(Mover((0.0, 0.0, 3000.0), (0.0, 100.0, 0.0)), Mover((abeam_m, 20000.0, 3000.0), (0.0, -100.0, 0.0)),
+                    overrides=["advisory.profile=daidalus-do365b-sum", *overrides])
+    core = flight.core()
+    _, changes = flight.run(95.0, dt=0.2, core=core if uncertainty is None else _Stating(core, uncertainty))
+    return min((t for t, a in changes if a.alert_level >= 1), default=None)
+
+
+def test_stated_and_track_uncertainty_reach_the_alerter():
+    """Through the core (tracker, alerter, hysteresis): without uncertainty a pass 1300 m abeam never alerts; a
+    stated 100 m per axis (s_err = 1.5 x 100 m, the ownship stating none) alerts. With advisory.sum_from_tracks
+    the filters' own covariances (here about 7.5 m for the intruder's track and 2 m for the ownship, noise-free
+    reports: s_err ~ 14 m) turn a pass 1235 m abeam, 13 m outside DTHR, into an alert, and leave 1300 m alone."""
+    assert _first_alert([]) is None
+    stated = _first_alert([], SumData(s_ew_std_m=100.0, s_ns_std_m=100.0))
+    assert stated is not None and stated < 70.0
+    assert _first_alert(["advisory.sum_from_tracks=true"]) is None
+    assert _first_alert([], abeam_m=1235.0) is None
+    assert _first_alert(["advisory.sum_from_tracks=true"], abeam_m=1235.0) is not None
