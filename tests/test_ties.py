@@ -120,3 +120,17 @@ def test_wcv_taumod_alerts_no_tie():
     s, v, sz, vz = _pair(SEP_M, 1000 * FPM)
     enc = Encounter(pair_geometry(s, v, sz, vz), np.array([True]))
     assert not WCV_TAUMOD().conflict(enc, DO365_PHASE_I, 55.0)[0]
+
+
+def test_vertical_speed_recovery_with_both_descending_450_ft_apart():
+    """Ownship at 28 875 ft descending at 1000 fpm, the intruder 450 ft above (to 1e-13 m) descending at 1000 fpm,
+    1190 m away (inside DTHR): in loss now, every region saturated, so recovery bands. By hand: a descent faster
+    than 1000 fpm opens the vertical gap and recovers (RECOVERY); any vertical speed at or above -1000 fpm keeps
+    the gap at or below 450 ft while the intruder is horizontally inside, and never recovers (NEAR). A strict
+    comparison at the recovery cylinder's 450 ft made the whole range RECOVERY; DAIDALUS v2.0.4 gives these."""
+    own = [0.0, 0.0, 28875.0 * FT]
+    intruder = [[-1000.0, -650.0, 29325.0 * FT]]
+    b = BandsEngine().compute(0.0, own, [0.0, 54.0, -1000 * FPM], intruder, [[-88.0, 86.0, -1000 * FPM]],
+                              ["tie"], [3])
+    vs = [(round(iv.lower / FPM), round(iv.upper / FPM), iv.region) for iv in b.vertical_rate_mps]
+    assert vs == [(-6000, -1000, "RECOVERY"), (-1000, 6000, "NEAR")]
