@@ -80,7 +80,7 @@ def build_alerter(advisory_params, profile):
     """The alerter (advisory/alerting.py) of the profile: without an [alerter] table the `tcas2` alerter, levels
     1 "TA" and 2 "RA", both TCAS3D with the columns of the profile's sensitivity-level table ([B71] Table 3 for
     tcas2; the RA's HMD filter from advisory.hmd_filter, the TA's minimum duration from
-    advisory.ta_min_duration_s); with one (kind "wcv": daidalus-do365b-no-sum, do365, do365-non-coop, f3442) the
+    advisory.ta_min_duration_s); with one (kind "wcv": daidalus-do365b-no-sum, daidalus-do365b-sum, do365, do365-non-coop, f3442) the
     DO-365 well-clear alerter of its levels. `alerting.cd3d_alerter` is the DAIDALUS CD3D alternative, not
     selectable by configuration. The profile's sensitivity levels are not copied in: the core hands the alerter
     the level it selected at each assessment."""

@@ -51,6 +51,7 @@ from avionics.core.types import (
     ASSESSMENT_FIELDS, LOST,
     Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
+from avionics.core.uncertainty import errors_from_covariance
 from avionics.tracking.interface import Tracker
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
@@ -193,6 +194,10 @@ class DaaCore:
         self._pending: list[Advisory] = []  # failed-state advisories found outside step(), announced by the next
         self._traced: set[tuple[str, str]] = set()  # (stage, exception type) already logged with a traceback
         self._ownship_faulted = False  # the ownship filter failed and no fix has gone in since
+        # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
+        # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
+        self._stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
+        self._own_errors: tuple[float, float, float, float] | None = None
 
     # -- ingest --------------------------------------------------------------------------------------------
     def _in_plane(self, reports: list[IntruderReport]):
@@ -266,7 +271,11 @@ class DaaCore:
             return
         if isinstance(item, IntruderReport):
             reports.append(item)
+            if item.uncertainty is not None:
+                self._stated_errors[item.key] = item.uncertainty.errors()
         elif isinstance(item, OwnshipFix):
+            if item.uncertainty is not None:
+                self._own_errors = item.uncertainty.errors()
             try:
                 if not self.ownship.update_fix(*self._follow_ownship(item)):
                     self.counters["ownship.out_of_order"] += 1
@@ -678,7 +687,7 @@ class DaaCore:
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
-        encounter = Encounter(geometry, has_alt, margin, threat_eligible)
+        encounter = Encounter(geometry, has_alt, margin, threat_eligible, self._pair_errors(keys, ps, own))
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
@@ -703,6 +712,22 @@ class DaaCore:
         return SimpleNamespace(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, mismatch=mismatch, geometry=geometry,
                                threat_eligible=threat_eligible, encounter=encounter, candidates=candidates,
                                pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)
+
+    def _pair_errors(self, keys: list[IntruderKey], ps: np.ndarray, own) -> np.ndarray | None:
+        """(N, 4) ownship's + each intruder's errors for a SUM detector (Encounter.uncertainty): the stated ones
+        (a report's), and with advisory.sum_from_tracks the track's covariance (ps, own.p: predicted to now,
+        the integrity monitor's widening included) for an aircraft that states none; None when there are none."""
+        from_tracks = self.config.advisory.sum_from_tracks
+        if not from_tracks and self._own_errors is None and not self._stated_errors:
+            return None
+        if self._own_errors is not None:
+            own_e = np.asarray(self._own_errors, float)
+        else:
+            own_e = errors_from_covariance(own.p) if from_tracks else np.zeros(4)
+        tracked = errors_from_covariance(ps) if from_tracks else np.zeros((len(keys), 4))
+        stated = [self._stated_errors.get(k) for k in keys]
+        intr = np.array([tracked[i] if s is None else s for i, s in enumerate(stated)], float).reshape(-1, 4)
+        return own_e + intr
 
     def _decided(self, now_s, keys, ev, level, ra_allowed, updated, failed, changes):
         """The advisory logic's vectorised part (persistence, RA continuation, staleness) over every row; a row
@@ -773,6 +798,7 @@ class DaaCore:
     def _forget(self, key: IntruderKey) -> None:
         """Forget an intruder's assessments in every stage after tracking (its track is gone)."""
         self._ra_threats.pop(key, None)
+        self._stated_errors.pop(key, None)
         self.gate.forget(key)
         self.hysteresis.forget(key)
         self.conflict.forget(key)

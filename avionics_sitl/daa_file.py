@@ -9,9 +9,18 @@ an optional next line of units in brackets; then one row per aircraft and time. 
     trk gs vs   | vx vy vz   velocity: track/ground speed/vertical speed (deg, knot, fpm) or ENU (knot, knot, fpm)
     time                     seconds (optional: without it the file is one snapshot)
 
-Other DAIDALUS columns (alerter, heading, airspeed, *_std uncertainties, ...) are recognised and ignored,
-units included: like DAIDALUS's reader, which never converts a column it does not use, the units of ignored
-columns are not checked (daidalus_H1_SUM.daa writes its *_std columns in [nmi/s]). Rows of one aircraft must
+    s_EW_std s_NS_std s_EN_std sz_std v_EW_std v_NS_std v_EN_std vz_std
+                             the aircraft's stated 1-sigma uncertainties (optional; SI without a units line, as
+                             DAIDALUS's "unspecified"): each row's become the aircraft's SumData
+                             (core/uncertainty.py), as DaidalusFileWalker passes them to setHorizontalPosition-
+                             Uncertainty(s_EW_std, s_NS_std, s_EN_std), setVerticalPositionUncertainty(sz_std),
+                             setHorizontalVelocityUncertainty(v_EW_std, v_NS_std, v_EN_std) and
+                             setVerticalSpeedUncertainty(vz_std); a column left out is 0. Positions take length
+                             units (daidalus_H1_SUM.daa: [nmi], sz_std included), velocities speed units ([nmi/s]).
+
+Other DAIDALUS columns (alerter, heading, airspeed) are recognised and ignored, units included: like DAIDALUS's
+reader, which never converts a column it does not use, the units of ignored columns are not checked. Rows of one
+aircraft must
 not go back in time (DAIDALUS would sort them); a row with the same time as that aircraft's previous row
 replaces it: the last row wins, as in DAIDALUS's SequenceReader, which keeps one state per (time, name)
 (daa-displays' sim3.daa repeats stamps).
@@ -31,6 +40,7 @@ import numpy as np
 
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
+from avionics.core.uncertainty import SumData
 from avionics.core.units import FPM, FT, KT, NM
 from avionics_sitl.aircraft import AircraftSpec
 from avionics_sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
@@ -55,6 +65,7 @@ _UNITS: dict[str, tuple[str, float]] = {
     "m": ("length", 1.0), "ft": ("length", FT), "nmi": ("length", NM), "nm": ("length", NM), "km": ("length", 1000.0),
     "knot": ("speed", KT), "knots": ("speed", KT), "kn": ("speed", KT), "kt": ("speed", KT), "kts": ("speed", KT),
     "m/s": ("speed", 1.0), "mps": ("speed", 1.0), "fpm": ("speed", FPM), "ft/min": ("speed", FPM),
+    "nmi/s": ("speed", NM), "ft/s": ("speed", FT),
     "s": ("time", 1.0), "sec": ("time", 1.0), "ms": ("time", 1e-3), "min": ("time", 60.0),
     "unitless": ("none", 1.0), "none": ("none", 1.0),
 }
@@ -68,11 +79,13 @@ _COLUMNS: dict[str, tuple[str, str]] = {
     "trk": ("angle", "deg"), "gs": ("speed", "knot"), "vs": ("speed", "fpm"),
     "vx": ("speed", "knot"), "vy": ("speed", "knot"), "vz": ("speed", "fpm"),
     "time": ("time", "s"),
+    "s_ew_std": ("length", "m"), "s_ns_std": ("length", "m"), "s_en_std": ("length", "m"), "sz_std": ("length", "m"),
+    "v_ew_std": ("speed", "m/s"), "v_ns_std": ("speed", "m/s"), "v_en_std": ("speed", "m/s"),
+    "vz_std": ("speed", "m/s"),
 }
-_IGNORED_COLUMNS = {
-    "alerter", "heading", "airspeed", "s_ew_std", "s_ns_std", "s_en_std", "sz_std",
-    "v_ew_std", "v_ns_std", "v_en_std", "vz_std",
-}
+# the uncertainty columns in SumData's field order (core/uncertainty.py UNCERTAINTY_FIELDS)
+_STD_COLUMNS = ("s_ew_std", "s_ns_std", "s_en_std", "sz_std", "v_ew_std", "v_ns_std", "v_en_std", "vz_std")
+_IGNORED_COLUMNS = {"alerter", "heading", "airspeed"}
 _GROUND_RE = re.compile(r"#+\s*ground_ft\s*=\s*(\S+)\s*$", re.IGNORECASE)
 _PARAMETER_RE = re.compile(r"^[A-Za-z_][\w.]*\s*=")  # DAIDALUS configuration lines: not ours, ignored
 _SPLIT_RE = re.compile(r"[,\s]+")
@@ -89,6 +102,7 @@ class _Row:
     ve: float
     vn: float
     vu: float
+    std: SumData | None = None  # the row's stated uncertainties; None: the file has no *_std column
 
 
 def _fields(line: str) -> list[str]:
@@ -233,7 +247,13 @@ def _parse_row(fields: list[str], columns: list[str], factors: list[float], line
     if "sx" in values:
         # Velocities share their positions' frame: Euclidean axes here, true north at the aircraft otherwise.
         ve, vn = plane_velocity_to_true(euclid_plane, lat, lon, ve, vn)
-    return _Row(line_no, name, values.get("time", 0.0), lat, lon, alt, ve, vn, vu)
+    std = None
+    if any(c in values for c in _STD_COLUMNS):
+        try:
+            std = SumData(*(values.get(c, 0.0) for c in _STD_COLUMNS))
+        except ValueError as e:
+            raise ValueError(f"line {line_no}: {e}") from None
+    return _Row(line_no, name, values.get("time", 0.0), lat, lon, alt, ve, vn, vu, std)
 
 
 def _spec(name: str, index: int, first: _Row) -> AircraftSpec:
@@ -305,7 +325,7 @@ def _as_daidalus_places(rows: list[_Row], plane: LocalTangentPlane) -> list[_Row
     offsets from the plane's origin on WGS-84. Velocities (true east/north) are kept."""
     east, north = _spherical_en([r.lat for r in rows], [r.lon for r in rows], plane.lat0_deg, plane.lon0_deg)
     lat, lon = plane.to_geodetic(east, north)
-    return [_Row(r.line, r.name, r.t, float(la), float(lo), r.alt_m, r.ve, r.vn, r.vu)
+    return [_Row(r.line, r.name, r.t, float(la), float(lo), r.alt_m, r.ve, r.vn, r.vu, r.std)
             for r, la, lo in zip(rows, np.atleast_1d(lat), np.atleast_1d(lon))]
 
 
@@ -357,6 +377,9 @@ def read_daa(path_or_text: str | Path) -> Scenario:
         # A snapshot is exactly the specs' straight lines; samples need the sampled trajectories.
         precomputed_trajectories=None if snapshot else (trajectories[0], tuple(trajectories[1:])),
         origin=origin,
+        stated_uncertainty={
+            ac: (tuple(r.t - t0 for r in ac_rows), tuple(r.std for r in ac_rows))
+            for ac, ac_rows in by_name.items() if ac_rows[0].std is not None} or None,
     )
 
 

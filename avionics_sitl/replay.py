@@ -10,14 +10,14 @@ from __future__ import annotations
 import csv
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
-from avionics.core.types import Advisory, IntruderKey
+from avionics.core.types import Advisory, IntruderKey, IntruderReport, OwnshipFix
 from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch, Loop, MavlinkInput
@@ -108,6 +108,7 @@ class _ScheduleSource:
     def __init__(self, scenario, impairments, seed, autopilot, tick_s, mavlink: MavlinkInput, counters,
                  responder: RaResponder | None):
         self.scenario, self.tick_s, self.mavlink, self.responder = scenario, tick_s, mavlink, responder
+        self.names = {a.icao_address: a.name for a in scenario.intruders}
         self.events = schedule(scenario, impairments, seed, autopilot, ownship=responder is None)
         self.own_period = 1.0 / autopilot.ownship_hz
         self.scanner = FrameScanner(counters)
@@ -120,7 +121,23 @@ class _ScheduleSource:
 
     def _batch(self, msg, now_s: float) -> Batch:
         self.now_s = now_s
-        return Batch(now_s, self.mavlink.decode(self.scanner.feed(self.packer.pack(msg), end_of_datagram=True), now_s))
+        inputs = self.mavlink.decode(self.scanner.feed(self.packer.pack(msg), end_of_datagram=True), now_s)
+        if self.scenario.stated_uncertainty:
+            inputs = [self._stated(item) for item in inputs]
+        return Batch(now_s, inputs)
+
+    def _stated(self, item):
+        """The input with its aircraft's stated uncertainty at its time (Scenario.uncertainty_at): ADSB_VEHICLE and
+        GLOBAL_POSITION_INT have no field for it, so the simulated receiver hands it over beside the message, as a
+        feed that reports NACp does (IntruderReport.uncertainty)."""
+        if isinstance(item, IntruderReport):
+            name = self.names.get(item.key.address)
+        elif isinstance(item, OwnshipFix):
+            name = self.scenario.ownship.name
+        else:
+            return item
+        stated = self.scenario.uncertainty_at(name, item.time_s) if name is not None else None
+        return item if stated is None else replace(item, uncertainty=stated)
 
     def __iter__(self):
         events, i = self.events, 0

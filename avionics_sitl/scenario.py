@@ -7,6 +7,7 @@ into truth trajectories (avionics_sitl.trajectory).
 
 from __future__ import annotations
 
+import bisect
 import math
 import re
 import tomllib
@@ -41,6 +42,17 @@ class Scenario:
     ground_elevation_m: float = 0.0
     precomputed_trajectories: tuple[Trajectory, tuple[Trajectory, ...]] | None = field(default=None, compare=False)
     origin: tuple[float, float] | None = None
+    # The surveillance's stated uncertainties per aircraft name (a .daa file's *_std columns): (simulation times,
+    # SumData at each), ascending; the replay attaches the latest at or before a report's time to it.
+    stated_uncertainty: dict[str, tuple[tuple[float, ...], tuple]] | None = field(default=None, compare=False)
+
+    def uncertainty_at(self, name: str, t_s: float):
+        """The SumData `name` stated at its latest sample at or before t_s (its first before that); None: none."""
+        if not self.stated_uncertainty or name not in self.stated_uncertainty:
+            return None
+        times, values = self.stated_uncertainty[name]
+        i = bisect.bisect_right(times, t_s + 1e-9) - 1
+        return values[max(i, 0)]
 
     def __post_init__(self) -> None:
         if not isinstance(self.ownship, AircraftSpec):

@@ -313,20 +313,51 @@ def test_missing_file():
 
 
 def test_units_of_ignored_columns_are_not_checked():
-    # DAIDALUS never converts a column it does not use, so any unit text there is fine (H1_SUM: [nmi/s]).
-    text = """NAME, lat, lon, alt, trk, gs, vs, time, alerter, s_EW_std, v_EW_std, vz_std
-[none], [deg], [deg], [m], [deg], [knot], [fpm], [s], [furlong], [nmi/s], nmi/s, -
-own, 47.4, 8.5, 1000, 0, 125, 0, 0, 1, 0.02, 0.0007, 0
-intruder, 47.5, 8.5, 1000, 180, 125, 0, 0, 1, 0.02, 0.0007, 0
+    # DAIDALUS never converts a column it does not use, so any unit text there is fine.
+    text = """NAME, lat, lon, alt, trk, gs, vs, time, alerter, heading
+[none], [deg], [deg], [m], [deg], [knot], [fpm], [s], [furlong], -
+own, 47.4, 8.5, 1000, 0, 125, 0, 0, 1, 0
+intruder, 47.5, 8.5, 1000, 180, 125, 0, 0, 1, 180
 """
     sc = read_daa(text)
     assert [a.name for a in sc.aircraft] == ["own", "intruder"]
     assert sc.ownship.alt_msl_m == pytest.approx(1000.0)  # the units line was read: alt in metres
+    assert sc.stated_uncertainty is None  # no *_std column: nothing stated
     # The columns we use are still checked, naming the line and the column.
     with pytest.raises(ValueError, match=r"line 2: unit '\[deg\]' is not a length unit \(column 'alt'\)"):
         read_daa(text.replace("[deg], [m]", "[deg], [deg]", 1))
     with pytest.raises(ValueError, match=r"line 2: unknown unit '\[furlong\]' for column 'alt'"):
         read_daa(text.replace("[m]", "[furlong]", 1))
+
+
+STD_TEXT = """NAME, lat, lon, alt, trk, gs, vs, time, s_EW_std, s_NS_std, s_EN_std, sz_std, v_EW_std, vz_std
+[none], [deg], [deg], [ft], [deg], [knot], [fpm], [s], [nmi], [nmi], [nmi], [ft], [nmi/s], [fpm]
+own, 47.4, 8.5, 3000, 0, 125, 0, 0, 0.02, 0.03, -0.01, 100, 0.0005, 60
+intruder, 47.5, 8.5, 3000, 180, 125, 0, 0, 0, 0, 0, 0, 0, 0
+intruder, 47.49, 8.5, 3000, 180, 125, 0, 1, 0.1, 0.1, 0, 50, 0, 0
+"""
+
+
+def test_std_columns_are_each_rows_stated_uncertainty():
+    # DaidalusFileWalker passes each row's *_std columns, converted from the units line, to
+    # set*Uncertainty (SUMData); a column left out is 0. The replay attaches them to the aircraft's reports.
+    sc = read_daa(STD_TEXT)
+    own = sc.uncertainty_at("own", 0.0)
+    assert (own.s_ew_std_m, own.s_ns_std_m, own.s_en_std_m) == pytest.approx((37.04, 55.56, -18.52))
+    assert own.sz_std_m == pytest.approx(100 * 0.3048) and own.v_ew_std_mps == pytest.approx(0.926)
+    assert own.v_ns_std_mps == 0.0 and own.v_en_std_mps == 0.0 and own.vz_std_mps == pytest.approx(60 * 0.3048 / 60)
+    assert sc.uncertainty_at("intruder", 0.5).sz_std_m == 0.0  # the latest row at or before the time
+    assert sc.uncertainty_at("intruder", 1.0).sz_std_m == pytest.approx(50 * 0.3048)
+    assert sc.uncertainty_at("nobody", 0.0) is None
+
+
+def test_std_columns_are_checked():
+    with pytest.raises(ValueError, match=r"line 2: unit '\[nmi/s\]' is not a length unit \(column 's_ew_std'\)"):
+        read_daa(STD_TEXT.replace("[s], [nmi]", "[s], [nmi/s]", 1))
+    with pytest.raises(ValueError, match=r"line 3: uncertainty sz_std_m must be >= 0"):
+        read_daa(STD_TEXT.replace("-0.01, 100", "-0.01, -100", 1))
+    with pytest.raises(ValueError, match=r"line 3: column 'vz_std': 'x' is not a number"):
+        read_daa(STD_TEXT.replace("0.0005, 60", "0.0005, x", 1))
 
 
 def test_a_repeated_time_keeps_the_last_row():
@@ -400,7 +431,7 @@ def _assert_same_trajectories(a, b):
 
 
 def test_daidalus_h1_sum_reads_as_its_file_without_std_columns():
-    # *_std columns in [nmi], [nmi/s]: DAIDALUS ignores them, so do we.
+    # The same aircraft and trajectories; the *_std columns ([nmi], [nmi/s]) are the stated uncertainties.
     sc = read_daa(conformance_file("daidalus_H1_SUM.daa"))
     assert [a.name for a in sc.aircraft] == ["Ownship", "Intruder_1"]
     own, (intr,) = sc.trajectories()
@@ -409,6 +440,9 @@ def test_daidalus_h1_sum_reads_as_its_file_without_std_columns():
     nostd = read_daa(conformance_file("daidalus_H1_SUM_nostd.daa"))
     assert [a for a in sc.aircraft] == [a for a in nostd.aircraft]  # same specs, same ICAO addresses
     _assert_same_trajectories(sc, nostd)
+    assert nostd.stated_uncertainty is None
+    first = sc.uncertainty_at("Ownship", 0.0)  # 0.020248380129590 nmi, 0.016457883330230 nmi (100 ft)
+    assert first.s_ew_std_m == pytest.approx(0.020248380129590 * 1852) and first.sz_std_m == pytest.approx(30.48)
 
 
 def test_daa_displays_sim3_keeps_the_last_row_of_each_repeated_stamp():

@@ -53,6 +53,9 @@ class Encounter:
     has_altitude: np.ndarray  # (N,) bool: the intruder's altitude is known (else its sz, vz are placeholders)
     vertical_margin_m: np.ndarray | float = 0.0  # (N,) datum-mismatch widening: separation used is |sz| - margin
     threat_eligible: np.ndarray | bool = True  # (N,) an RA threat may be declared (the intruder's vertical rate)
+    # (N, 4) ownship's + intruder's stated errors before z-scores (advisory/wcv_sum.py SumData.errors: horizontal
+    # and vertical position, horizontal and vertical speed), read by the SUM detector; None: no uncertainty
+    uncertainty: np.ndarray | None = None
 
     def take(self, rows) -> "Encounter":
         """The encounter of the pairs `rows` (an int array)."""
@@ -60,7 +63,8 @@ class Encounter:
         geometry = replace(g, **{f.name: getattr(g, f.name)[rows] for f in fields(g) if getattr(g, f.name) is not None})
         pick = lambda a: a if np.ndim(a) == 0 else np.asarray(a)[rows]  # noqa: E731
         return Encounter(geometry, np.asarray(self.has_altitude)[rows], pick(self.vertical_margin_m),
-                         pick(self.threat_eligible))
+                         pick(self.threat_eligible),
+                         None if self.uncertainty is None else np.asarray(self.uncertainty)[rows])
 
     def separation_z_m(self) -> np.ndarray:
         """The relative altitude with the margin taken off (never below 0): uncertainty never hides a threat."""
@@ -408,15 +412,22 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
 
 def wcv_alerter(spec, name: str = "wcv") -> Alerter:
     """A DO-365 well-clear alerter from a profile's [alerter] table (advisory/tables.py WcvAlerterSpec): each level
-    a WCV_TAUMOD detector (advisory/wcv.py) with its thresholds at every sensitivity level, its alerting and early
+    a WCV_TAUMOD detector (advisory/wcv.py; WCV_TAUMOD_SUM, advisory/wcv_sum.py, where the table has
+    [alerter.sum]) with its thresholds at every sensitivity level, its alerting and early
     alerting times, the advisory it raises and its bands region. A level that raises an RA needs the intruder's
     altitude (the manoeuvre is vertical); the others show an intruder without altitude on range alone. Their
     hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""
     from avionics.advisory.wcv import WCV_TAUMOD
+    from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM
+
+    def detector(altitude_required: bool):
+        if spec.sum is None:
+            return WCV_TAUMOD(altitude_required=altitude_required)
+        return WCV_TAUMOD_SUM(altitude_required=altitude_required, z_scores=spec.sum, lookahead_s=spec.lookahead_s)
 
     ra = int(AdvisoryLevel.RA)
     levels = tuple(
-        AlertLevel(i, lv.name, WCV_TAUMOD(altitude_required=lv.advisory == "RA"),
+        AlertLevel(i, lv.name, detector(lv.advisory == "RA"),
                    (lambda thr: lambda _level: thr)(lv.thresholds),
                    alerting_time_s=lv.alerting_time_s, early_alerting_time_s=lv.early_alerting_time_s,
                    advisory=ra if lv.advisory == "RA" else int(AdvisoryLevel.TA), region=lv.region)

@@ -38,11 +38,12 @@ from typing import Sequence
 import numpy as np
 
 from avionics.advisory.bands_kinematics import (
-    Cylinder, almost_equals, almost_less, cylinder_interval, cylinder_violation, gs_accel, level_out_state,
+    Cylinder, almost_equals, almost_less, cylinder_interval, gs_accel, level_out_state,
     level_out_times, turn, vs_accel,
 )
 from avionics.advisory.persistence import MofN
-from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval, wcv_violation
+from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval
+from avionics.core.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
 from avionics.core.units import FPM, FT, G0, KT, NM
 
 KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
@@ -425,29 +426,35 @@ class _Candidates:
         return seg
 
 
-def _lines_and_samples(det, s, v, s_t, v_t, lookahead):
+def _lines(det, s, v, lookahead):
     """For a detector (a WcvThresholds or the recovery Cylinder): (t_in, t_out) of the loss over [0, lookahead]
-    on the straight lines (s, v) after the manoeuvres (inf, -inf where none), and the loss now at the manoeuvres'
-    samples (s_t, v_t)."""
+    on the straight lines (s, v) (inf, -inf where there is no conflict: LossData.conflict)."""
     if isinstance(det, Cylinder):
-        tin, tout = cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, lookahead)
-        return tin, tout, cylinder_violation(s_t[..., :2], s_t[..., 2], det)
+        return cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, lookahead)
     tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, lookahead)
     ok = conflict(tin, tout)
-    los = wcv_violation(s_t[..., :2], v_t[..., :2], s_t[..., 2], v_t[..., 2], det)
-    return np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf), los
+    return np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf)
+
+
+def _violation_at(det, s_t, v_t, t):
+    """Detection3D.violationAtWithTrafficState(own, traffic, t) of DAIDALUS v2.0.4 for the lines through the
+    samples (s_t, v_t) at times t: not the instantaneous test but conflictWithTrafficState(t, t), i.e. a loss
+    over [t, t + 1] (LossData.conflict, Util.almost_less) that begins at t (Util.almost_equals(time_in, t)). A
+    sample exactly on a threshold and leaving it is no loss: a vertical separation equal to ZTHR to 1e-12 m,
+    diverging, is clear (the loss lasts ~1e-14 s, almost equal to none)."""
+    tin, tout = _lines(det, s_t, v_t, 1.0)  # time from the sample
+    return conflict(tin, tout) & almost_equals_13(t + tin, t)
 
 
 class _Kinematic(_Candidates):
     """DaidalusIntegerBands kinematic bands: candidate j (-maxl..maxr) is the manoeuvre of |j| time steps to
     the left/down (j < 0) or right/up (j > 0), then straight on.
 
-    The first-LOS search (kinematic_first_los_step / LOS_at) samples the continuing manoeuvre every time step
-    (1/3 s for turns, 1.286 s for ground speed, 0.207 s for vertical speed). The stored v2.0.x sources test a
-    loss at the sample only (Detection3D.violationAtWithTrafficState); that misses a short pass between two
-    samples, and NASA's golden bands (DO_365B_no_SUM, daidalus_H1: a 600 kn-closing head-on, ground-speed
-    recovery) show DAIDALUS v2.0.4 does not miss it. LOS_at here is therefore a loss at the sample or on the
-    straight line through it before the next sample: with that, all 16 000+ golden band sets match."""
+    The first-LOS search (kinematic_first_los_step) samples the continuing manoeuvre every time step (1/3 s for
+    turns, 1.286 s for ground speed, 0.207 s for vertical speed) and asks, as DAIDALUS v2.0.4's LOS_at_coast
+    does, for a conflict on the straight line through the sample within [tsk, tsk + tstep]
+    (conflictWithTrafficState): a short pass between two samples is not missed, and a sample that only touches
+    a threshold (a loss interval almost equal to none, Util.almost_less) is no loss."""
 
     def __init__(self, traj, tstep, maxl, maxr, p0, v0, si, vi, lookahead):
         self.lookahead = lookahead
@@ -476,12 +483,13 @@ class _Kinematic(_Candidates):
         if key not in self._cache:
             L = self.lookahead
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
-            s, v, s_t = self.s[:, sel], self.v[:, sel], self.s_t[:, sel]
-            tin, tout, los = _lines_and_samples(det, s, v, s_t, v, L)
-            # LOS_at(k): a loss at the sample, or on the line through it before the next sample (a loss between
-            # two samples is not skipped: NASA's golden bands need this, see _Kinematic's docstring)
+            s, v = self.s[:, sel], self.v[:, sel]
+            tin, tout = _lines(det, s, v, L)
+            # LOS_at_coast(k) (DaidalusIntegerBands.kinematic_first_los_step): a conflict on the line through the
+            # sample within [tsk, tsk + tstep] (conflictWithTrafficState: Util.almost_less of the clipped
+            # interval), none at or past the lookahead
             t = self.t[:, None]
-            los = (los | conflict(np.maximum(tin, t), np.minimum(tout, t + self.tstep))) & (t < L)
+            los = conflict(np.maximum(tin, t), np.minimum(tout, t + self.tstep)) & (t < L)
             self._cache[key] = (tin, tout, los)
         return self._cache[key]
 
@@ -565,7 +573,9 @@ class _Altitude(_Candidates):
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
             s, v = self.s[:, q:, sel], self.v[:, q:, sel]
             s_t, v_t = self.s_t[:, :q, sel], self.v[:, :q, sel]
-            tin, tout, los = _lines_and_samples(det, s, v, s_t, v_t, L)
+            tin, tout = _lines(det, s, v, L)
+            # DaidalusAltBands.conflict_free_traj_step's LOS_at: violationAtWithTrafficState at each sample time
+            los = _violation_at(det, s_t, v_t, self.los_t[..., None])
             los &= (self.los_mask & (self.los_t < L))[..., None]
             self._cache[key] = (tin, tout, los)
         return self._cache[key]
@@ -660,10 +670,11 @@ class BandsEngine:
             is_conf = conflict(tin, tout)
             at = np.where(early_ok & (np.asarray(alert_levels) == lv.level), lv.early_alerting_time_s,
                           lv.alerting_time_s)
-            before = is_conf & ((tin == 0) | (tin < at) & ~np.isclose(tin, at, rtol=1e-12, atol=0))
+            # ConflictData.conflictBefore: time_in == 0 or Util.almost_less(time_in, t) (PRECISION13)
+            before = is_conf & ((tin == 0) | almost_less_13(tin, at))
             out.append(np.flatnonzero(before))
             t_at = min(p.lookahead_s, lv.alerting_time_s)
-            before_at = is_conf & ((tin == 0) | (tin < t_at) & ~np.isclose(tin, t_at, rtol=1e-12, atol=0))
+            before_at = is_conf & ((tin == 0) | almost_less_13(tin, t_at))
             det_data.append(before_at)
         return out, det_data
 

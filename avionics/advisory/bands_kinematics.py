@@ -20,38 +20,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# DaidalusParameters.ALMOST_ = Util.PRECISION5: two doubles are almost equal when at most 2^40 units in the last
-# place apart (about 5 significant digits).
-PRECISION5_ULPS = 1 << 40
-_SIGN = np.int64(-0x8000000000000000)
+from avionics.core import almost as _almost
 
-
-def _ordered_bits(x: np.ndarray) -> np.ndarray:
-    """Util.almost_equals' lexicographic integer image of a double (negative values mirrored)."""
-    bits = np.asarray(x, np.float64).view(np.int64)
-    return np.where(bits < 0, _SIGN - bits, bits)
+# DaidalusParameters.ALMOST_ = Util.PRECISION5: the bands compare at about 5 significant digits (2^40 ULPs; at
+# zero, below 1e-5), with Util's semantics (core/almost.py).
 
 
 def almost_equals(a, b):
-    """Util.almost_equals(a, b, PRECISION5): equal, or at most 2^40 ULPs apart."""
-    a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
-    shape = a.shape
-    ia, ib = _ordered_bits(a.reshape(-1).copy()), _ordered_bits(b.reshape(-1).copy())
-    # int64 differences overflow for far-apart values: screen in floating point first
-    near = np.abs(ia.astype(np.float64) - ib.astype(np.float64)) <= 2.0 * PRECISION5_ULPS
-    diff = np.where(near, ia, 0) - np.where(near, ib, 0)
-    out = (a.reshape(-1) == b.reshape(-1)) | (near & (np.abs(diff) <= PRECISION5_ULPS))
-    return out.reshape(shape) if shape else bool(out[0])
+    """Util.almost_equals(a, b, PRECISION5)."""
+    return _almost.almost_equals(a, b, _almost.PRECISION5)
 
 
 def almost_less(a, b):
-    """Util.almost_less(a, b, PRECISION5): less and not almost equal."""
-    return np.logical_and(np.asarray(a) < np.asarray(b), np.logical_not(almost_equals(a, b)))
+    """Util.almost_less(a, b, PRECISION5)."""
+    return _almost.almost_less(a, b, _almost.PRECISION5)
 
 
 def almost_leq(a, b):
-    """Util.almost_leq(a, b, PRECISION5): less or almost equal."""
-    return np.logical_or(np.asarray(a) < np.asarray(b), almost_equals(a, b))
+    """Util.almost_leq(a, b, PRECISION5)."""
+    return _almost.almost_leq(a, b, _almost.PRECISION5)
 
 
 # --- horizontal and vertical manoeuvres -----------------------------------------------------------------------
@@ -211,28 +198,34 @@ class Cylinder:
     h_m: float
 
 
-def cylinder_violation(s_xy, sz, cyl: Cylinder):
-    return ((s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2) < cyl.d_m**2) & (np.abs(sz) < cyl.h_m)
-
-
 def cylinder_interval(s_xy, v_xy, sz, vz, cyl: Cylinder, t_end: float):
-    """(t_in, t_out) of loss of the cylinder within [0, t_end] for straight-line relative motion (CD3D)."""
+    """(t_in, t_out) of loss of the cylinder within [0, t_end] for straight-line relative motion, as
+    CD3D.detection computes it: on an axis without relative motion (Util.almost_equals(v, 0) here, per
+    component horizontally; DAIDALUS compares the two aircraft's velocities, which differs only for relative
+    velocities between 1e-13 and ~1e-10 m/s) the loss is every time when inside by more than almost-equal
+    (Horizontal.almost_horizontal_los, Vertical.almost_vertical_los: |sz| < H and not almost equal), none
+    otherwise; with motion, the entry and exit roots (Horizontal.Theta_D where Delta > 0, Vertical.Theta_H).
+    Intervals are clipped to [0, t_end]; a conflict is `wcv.conflict` (LossData.conflict)."""
     a = v_xy[..., 0] ** 2 + v_xy[..., 1] ** 2
     b = s_xy[..., 0] * v_xy[..., 0] + s_xy[..., 1] * v_xy[..., 1]
-    c = s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2 - cyl.d_m**2
+    sqs = s_xy[..., 0] ** 2 + s_xy[..., 1] ** 2
+    d2 = cyl.d_m**2
     with np.errstate(divide="ignore", invalid="ignore"):
-        disc = b * b - a * c
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        moving = a > 1e-12
-        h_in = np.where(moving, np.where(disc > 0, (-b - sq) / np.where(moving, a, 1), np.inf), -np.inf)
-        h_out = np.where(moving, np.where(disc > 0, (-b + sq) / np.where(moving, a, 1), -np.inf), np.inf)
-        h_in = np.where(~moving & (c >= 0), np.inf, h_in)
-        h_out = np.where(~moving & (c >= 0), -np.inf, h_out)
-        vmov = np.abs(vz) > 1e-12
-        safe = np.where(vmov, vz, 1.0)
-        ta, tb = (-cyl.h_m - sz) / safe, (cyl.h_m - sz) / safe
-        v_in = np.where(vmov, np.minimum(ta, tb), np.where(np.abs(sz) < cyl.h_m, -np.inf, np.inf))
-        v_out = np.where(vmov, np.maximum(ta, tb), np.where(np.abs(sz) < cyl.h_m, np.inf, -np.inf))
+        delta = b * b - a * (sqs - d2)  # Horizontal.Delta
+        sq = np.sqrt(np.maximum(delta, 0.0))
+        still = _almost.almost_equals(v_xy[..., 0], 0.0) & _almost.almost_equals(v_xy[..., 1], 0.0)
+        h_los = ~_almost.almost_equals(sqs, d2) & (sqs < d2)
+        crossing = (delta > 0) & (a > 0)
+        safe_a = np.where(a > 0, a, 1.0)
+        h_in = np.where(still & h_los, -np.inf, np.where(crossing, (-b - sq) / safe_a, np.inf))
+        h_out = np.where(still & h_los, np.inf, np.where(crossing, (-b + sq) / safe_a, -np.inf))
+        level = _almost.almost_equals(vz, 0.0)
+        abs_sz = np.abs(sz)
+        v_los = ~_almost.almost_equals(abs_sz, cyl.h_m) & (abs_sz < cyl.h_m)
+        safe = np.where(level, 1.0, vz)
+        sign = np.where(safe >= 0.0, 1.0, -1.0)
+        v_in = np.where(level, np.where(v_los, -np.inf, np.inf), (-sign * cyl.h_m - sz) / safe)
+        v_out = np.where(level, np.where(v_los, np.inf, -np.inf), (sign * cyl.h_m - sz) / safe)
     t_in = np.maximum(np.maximum(h_in, v_in), 0.0)
     t_out = np.minimum(np.minimum(h_out, v_out), t_end)
     return t_in, t_out

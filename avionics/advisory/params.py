@@ -23,6 +23,9 @@ class AdvisoryConfig:
     ra_enabled: bool = True
     guidance_bands: bool = True  # a DO-365 alerter's guidance bands; false: its alerts only (they never read them)
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
+    # a SUM detector's uncertainties from the tracks' covariances where the surveillance states none
+    # (core/uncertainty.py errors_from_covariance); false: stated ones only (conformance runs)
+    sum_from_tracks: bool = False
     profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
     profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")
     criterion: str = "tcas"  # tcas | tcas+pc | pc (docs/advisories.md, "Probabilistic gating")

@@ -17,6 +17,7 @@ from importlib import resources
 from pathlib import Path
 
 from avionics.advisory.wcv import WcvThresholds
+from avionics.advisory.wcv_sum import SumZScores
 from avionics.core.params import ConfigError, _show, check_float
 from avionics.core.units import FT, FPM, G0, NM
 
@@ -91,6 +92,8 @@ class WcvAlerterSpec:
     alerting_m: int
     alerting_n: int
     period_s: float
+    sum: SumZScores | None = None  # [alerter.sum]: the levels' detector is WCV_TAUMOD_SUM with these z-scores
+    lookahead_s: float = 180.0  # DAIDALUS lookahead_time: the SUM detector's detection interval [0, lookahead]
 
 
 @dataclass(frozen=True, slots=True)
@@ -193,7 +196,10 @@ def _level(table: dict, where: str) -> SensitivityLevel:
 
 
 ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s",
-                "levels"}
+                "levels", "sum", "lookahead_s"}
+# [alerter.sum]: DAIDALUS's SUM parameters (DaidalusParameters h_pos_z_score ... v_vel_z_score), advisory/wcv_sum.py
+SUM_KEYS = {"h_pos_z_score", "h_vel_z_score_min", "h_vel_z_score_max", "v_pos_z_score", "v_vel_z_score"} | {
+    f"h_vel_z_distance{suffix}" for suffix in DISTANCE_UNITS}
 WCV_LEVEL_KEYS = {"name", "advisory", "region", "tthr_s", "tcoa_s", "alerting_time_s", "early_alerting_time_s"} | {
     f"{name}{suffix}" for name in ("dthr", "zthr") for suffix in DISTANCE_UNITS}
 REGIONS = ("NONE", "FAR", "MID", "NEAR")
@@ -232,7 +238,27 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
     m, n = table.get("alerting_m", 1), table.get("alerting_n", 1)
     if not (type(m) is int and type(n) is int and 1 <= m <= n <= 50):
         raise ProfileError(f"{where}: need integers 1 <= alerting_m <= alerting_n <= 50")
+    sum_z = None
+    if "sum" in table:
+        at = f"{where}.sum"
+        sum_table = _table(table["sum"], at)
+        unknown = set(sum_table) - SUM_KEYS
+        if unknown:
+            raise ProfileError(f"{at}: unknown key(s) {sorted(unknown)}")
+        try:
+            sum_z = SumZScores(
+                h_pos=_number(sum_table["h_pos_z_score"], f"{at}.h_pos_z_score"),
+                h_vel_min=_number(sum_table["h_vel_z_score_min"], f"{at}.h_vel_z_score_min"),
+                h_vel_max=_number(sum_table["h_vel_z_score_max"], f"{at}.h_vel_z_score_max"),
+                h_vel_distance_m=_distance(sum_table, "h_vel_z_distance", at),
+                v_pos=_number(sum_table["v_pos_z_score"], f"{at}.v_pos_z_score"),
+                v_vel=_number(sum_table["v_vel_z_score"], f"{at}.v_vel_z_score"))
+        except KeyError as exc:
+            raise ProfileError(f"{at}: missing key {exc}") from None
+        if sum_z.h_vel_distance_m <= 0.0:
+            raise ProfileError(f"{at}.h_vel_z_distance: must be > 0")
     return WcvAlerterSpec(
+        sum=sum_z, lookahead_s=_number(table.get("lookahead_s", 180.0), f"{where}.lookahead_s"),
         source=_text(table.get("source", ""), f"{where}.source"), levels=tuple(levels),
         hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
         persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),

@@ -17,7 +17,9 @@ and the interval of its loss in [B, T] of straight-line motion is the vertical i
 .vertical_WCV_interval) intersected with the horizontal one from there (WCV_TAUMOD.horizontal_WCV_interval:
 the first root of |v|^2 t^2 + (2 s.v + TTHR |v|^2) t + |s|^2 + TTHR s.v - DTHR^2 = 0, the time at which taumod
 reaches TTHR, to the exit from the DTHR disk, Horizontal.Theta_D). A conflict is time_in < time_out, not
-almost equal (LossData.conflict). The sign convention of s (intruder - ownship here, ownship - intruder in
+almost equal (LossData.conflict). Ties are DAIDALUS's (Util.almost_equals and its zero special case, core/almost.py):
+"no motion" on an axis is almost_equals(v, 0), an instant of loss is almost_equals(low, up).
+The sign convention of s (intruder - ownship here, ownship - intruder in
 DAIDALUS) does not matter: every test is even in (s, v) and (sz, vz).
 """
 
@@ -27,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from avionics.core.almost import almost_equals, almost_less
 from avionics.core.units import FT, NM
 
-_ZERO = 1e-12  # DAIDALUS Util.almost_equals(x, 0): |x| below this counts as no relative motion on that axis
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,8 +69,8 @@ def _horizontal_wcv(s_xy, v_xy, thr: WcvThresholds):
 
 
 def _vertical_wcv(sz, vz, thr: WcvThresholds):
-    """WCV_TCOA.vertical_WCV."""
-    moving = np.abs(vz) > _ZERO
+    """WCV_TCOA.vertical_WCV (|sz| <= ZTHR as written; "moving" is not Util.almost_equals(vz, 0))."""
+    moving = ~almost_equals(vz, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         tcoa = np.where(moving, -sz / np.where(moving, vz, 1.0), np.inf)  # Vertical.time_coalt
     return (np.abs(sz) <= thr.zthr_m) | (moving & (sz * vz <= 0.0) & (tcoa <= thr.tcoa_s))
@@ -82,8 +84,9 @@ def wcv_violation(s_xy, v_xy, sz, vz, thr: WcvThresholds) -> np.ndarray:
 
 
 def _vertical_interval(sz, vz, thr: WcvThresholds, b_s, t_s):
-    """WCV_TCOA.vertical_WCV_interval: (low, up) within [B, T]; low > up where there is none."""
-    level = np.abs(vz) <= _ZERO
+    """WCV_TCOA.vertical_WCV_interval: (low, up) within [B, T]; low > up where there is none (level: Util.almost_equals(
+    vz, 0), |vz| < 1e-13 by its zero special case)."""
+    level = almost_equals(vz, 0.0)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         safe = np.where(level, 1.0, vz)
         sign = np.where(safe >= 0.0, 1.0, -1.0)
@@ -110,7 +113,7 @@ def _horizontal_interval(s_xy, v_xy, thr: WcvThresholds, t_s):
         t_first = (-b - np.sqrt(np.maximum(discr, 0.0))) / (2.0 * safe_a)
     t_s = np.broadcast_to(np.asarray(t_s, float), sqs.shape)
     inside = sqs <= d2
-    still = (a <= _ZERO) & inside
+    still = almost_equals(a, 0.0) & inside  # Util.almost_equals(a, 0): no relative horizontal motion
     entering = ~inside & (sdotv < 0.0) & (discr >= 0.0) & (delta >= 0.0) & (t_first <= t_s)
     t_in = np.where(still | inside, 0.0, np.where(entering, np.maximum(0.0, t_first), t_s))
     t_out = np.where(still, t_s, np.where(inside | entering, np.minimum(t_s, theta_out), 0.0))
@@ -127,7 +130,7 @@ def wcv_interval(s_xy, v_xy, sz, vz, thr: WcvThresholds, b_s: float, t_s: float)
     low_c = np.where(vertical_none, b_s, low)
     up_c = np.where(vertical_none, t_s, up)
     step = s_xy + low_c[..., None] * v_xy  # the horizontal state at the vertical entry
-    instant = np.isclose(low_c, up_c, rtol=1e-12, atol=0.0)
+    instant = almost_equals(low_c, up_c)  # WCV_tvar.WCV_interval: Util.almost_equals(ii.low, ii.up)
     h_in, h_out = _horizontal_interval(step, v_xy, thr, up_c - low_c)
     point = _horizontal_wcv(step, v_xy, thr)
     t_in = np.where(instant, np.where(point, low_c, t_s), h_in + low_c)
@@ -136,8 +139,9 @@ def wcv_interval(s_xy, v_xy, sz, vz, thr: WcvThresholds, b_s: float, t_s: float)
 
 
 def conflict(t_in, t_out) -> np.ndarray:
-    """LossData.conflict: time_in < time_out and not almost equal."""
-    return (t_in < t_out) & ~np.isclose(t_in, t_out, rtol=1e-12, atol=0.0)
+    """LossData.conflict: Util.almost_less(time_in, time_out), with the zero special case: a loss that ends within
+    1e-13 s of its start at 0 is none (core/almost.py)."""
+    return np.asarray(almost_less(t_in, t_out), bool)
 
 
 @dataclass(frozen=True, slots=True)

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 from functools import partial
 
+from avionics.core.uncertainty import SumData
+
 
 class AltitudeDatum(str, Enum):
     """Which kind of altitude a number is. Two altitudes are only differenced within one datum."""
@@ -71,6 +73,9 @@ class IntruderReport:
     position_sigma_m: float | None = None
     velocity_sigma_mps: float | None = None
     path: str = "mavlink"  # the traffic source that delivered it: "mavlink", "sbs:HOST:PORT", "beast:...", ...
+    # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) for a SUM detector; None: none
+    # stated (ADSB_VEHICLE has no field for them; a replayed .daa file's *_std columns are attached by the replay).
+    uncertainty: SumData | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,6 +88,7 @@ class OwnshipFix:
     alt_msl_m: float
     height_above_home_m: float
     velocity_ned_mps: tuple[float, float, float]
+    uncertainty: SumData | None = None  # ownship's stated uncertainties (as IntruderReport.uncertainty)
 
 
 @dataclass(frozen=True, slots=True)

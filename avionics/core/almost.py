@@ -1,0 +1,66 @@
+"""NASA DAIDALUS's floating-point comparisons (gov.nasa.larcfm.Util.Util, Java v2.0.4), vectorised over numpy arrays.
+
+DAIDALUS decides every tie of its detectors and bands with these, not with `<` and `<=`: two numbers are equal when
+they are within PRECISION13 = 16348 units in the last place (about 13 significant digits; Util.almost_equals), and,
+as a special case, when one of them is exactly 0 and both are below 1e-13 in magnitude (there is no relative
+precision at zero). From it: almost_less(a, b) = a < b and not almost equal; almost_leq(a, b) = a <= b or almost
+equal; almost_greater and almost_geq likewise. A separation equal to a threshold to 1e-12 m is therefore on the
+threshold for DAIDALUS (a conflict that begins and ends at the same instant is none: LossData.conflict is
+almost_less(time_in, time_out)); ADS-B barometric altitude comes in 25 ft steps, so such ties happen on real data.
+
+NaN is almost equal to nothing; infinities are almost equal only to themselves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+PRECISION13 = 16348  # Util.PRECISION13 = PRECISION_DEFAULT: the ULP distance that counts as equal (~13 digits)
+PRECISION9 = 1 << 27  # Util.PRECISION9 (~9 digits)
+PRECISION7 = 1 << 34  # Util.PRECISION7 (~7 digits)
+PRECISION5 = 1 << 40  # Util.PRECISION5 (~5 digits; DaidalusParameters.ALMOST_, the bands' comparisons)
+# Util.almost_equals' bound for the zero special case at each precision
+ZERO_COMPARISON = {PRECISION13: 1e-13, PRECISION9: 1e-9, PRECISION7: 1e-7, PRECISION5: 1e-5}
+
+_SIGN_FLIP = np.int64(-(2**63))  # 0x8000000000000000: makes negative doubles' bit patterns ordered
+
+
+def _ordered(x: np.ndarray) -> np.ndarray:
+    """The bit pattern of each double as an integer ordered like the doubles (Util.almost_equals)."""
+    bits = np.array(x, dtype=np.float64, order="C").view(np.int64)  # a copy: contiguous, same shape
+    with np.errstate(over="ignore"):
+        return np.where(bits < 0, _SIGN_FLIP - bits, bits)
+
+
+def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
+    """Util.almost_equals(a, b, maxUlps): equal, or the zero special case, or within `precision` ULPs."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    a, b = np.broadcast_arrays(a, b)
+    comp = ZERO_COMPARISON.get(precision, 1e-13)
+    zero_case = ((a == 0.0) | (b == 0.0)) & (np.abs(a) < comp) & (np.abs(b) < comp)
+    finite = np.isfinite(a) & np.isfinite(b)
+    with np.errstate(over="ignore"):
+        diff = np.abs(_ordered(a) - _ordered(b))  # int64 wrap only between far-apart doubles: never <= 16348
+    # a wrap (two far-apart values) leaves |diff| >= 2^53 or negative (np.abs(INT64_MIN)): never counted equal
+    out = (a == b) | zero_case | (finite & (diff >= 0) & (diff <= precision))
+    return out if out.ndim else bool(out)
+
+
+def almost_less(a, b, precision: int = PRECISION13):
+    """Util.almost_less: a < b and not almost equal."""
+    return np.logical_and(np.less(a, b), np.logical_not(almost_equals(a, b, precision)))
+
+
+def almost_greater(a, b, precision: int = PRECISION13):
+    """Util.almost_greater: a > b and not almost equal."""
+    return np.logical_and(np.greater(a, b), np.logical_not(almost_equals(a, b, precision)))
+
+
+def almost_leq(a, b, precision: int = PRECISION13):
+    """Util.almost_leq: a <= b or almost equal."""
+    return np.logical_or(np.less_equal(a, b), almost_equals(a, b, precision))
+
+
+def almost_geq(a, b, precision: int = PRECISION13):
+    """Util.almost_geq: a >= b or almost equal."""
+    return np.logical_or(np.greater_equal(a, b), almost_equals(a, b, precision))

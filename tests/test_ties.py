@@ -1,0 +1,136 @@
+"""Ties decided as DAIDALUS decides them (issue 29 item 3).
+
+DAIDALUS compares with gov.nasa.larcfm.Util's almost_equals (16348 ULPs at PRECISION13; 2^40 at the bands'
+PRECISION5; and a zero special case: when one side is exactly 0, both below 1e-13 / 1e-5 are equal) and its
+almost_less / almost_leq / almost_geq. A loss interval is a conflict when time_in is almost-less than time_out
+(LossData.conflict), so a loss that begins at 0 and lasts 1e-14 s is none; the bands' samples ask for a loss
+on the line through the sample within [tsk, tsk + tstep] (DaidalusIntegerBands LOS_at_coast) or beginning at the
+sample (violationAtWithTrafficState = conflictWithTrafficState(t, t)), not for the instantaneous test.
+
+The cases here follow by hand from those definitions: ADS-B altitudes on a 25 ft grid put two aircraft exactly
+450 ft apart, which in floating point is ZTHR to about 1e-13 m (17450 ft - 17000 ft = 137.15999999999985 m,
+ZTHR = 137.16 m).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from avionics.advisory.bands import BandsEngine
+from avionics.advisory.bands_kinematics import Cylinder, cylinder_interval
+from avionics.advisory.wcv import DO365_PHASE_I, WCV_TAUMOD, conflict, wcv_interval
+from avionics.core.almost import (
+    PRECISION5, almost_equals, almost_geq, almost_greater, almost_leq, almost_less,
+)
+from avionics.core.units import FPM, FT, KT, NM
+
+OWN_FT, INTRUDER_FT = 17000.0, 17450.0  # both on the 25 ft grid, 450 ft apart
+SEP_M = INTRUDER_FT * FT - OWN_FT * FT
+
+
+def test_almost_equals_is_utils():
+    assert SEP_M != DO365_PHASE_I.zthr_m and almost_equals(SEP_M, DO365_PHASE_I.zthr_m)  # a few ULPs apart
+    assert almost_equals(1.0, 1.0 + 16348 * 2.0**-52) and not almost_equals(1.0, 1.0 + 16349 * 2.0**-52)
+    assert almost_equals(0.0, 9e-14) and not almost_equals(0.0, 2e-13)  # the zero special case ...
+    assert not almost_equals(1e-14, 9e-14)  # ... only when one side is exactly 0
+    assert almost_equals(0.0, 9e-6, PRECISION5) and not almost_equals(0.0, 2e-5, PRECISION5)
+    assert almost_equals(1.0, 1.0 + 1e-12, PRECISION5) and not almost_equals(1.0, 1.0 + 1e-3, PRECISION5)
+    assert not almost_equals(math.nan, math.nan) and almost_equals(math.inf, math.inf)
+    assert not almost_equals(-1e-300, 1e300)  # far apart: no integer wrap makes them equal
+    assert not almost_less(0.0, 5e-14) and almost_less(0.0, 5e-13)
+    assert almost_leq(SEP_M, DO365_PHASE_I.zthr_m) and almost_leq(DO365_PHASE_I.zthr_m, SEP_M)
+    assert almost_geq(SEP_M, DO365_PHASE_I.zthr_m) and not almost_greater(DO365_PHASE_I.zthr_m, SEP_M)
+    a = np.array([0.0, 1.0, 2.0])
+    assert almost_equals(a, a + np.array([5e-14, 1e-17, 1.0])).tolist() == [True, True, False]
+
+
+def _pair(sz, vz):
+    s = np.array([[0.0, 0.5 * NM]])  # head-on, inside the horizontal volume now
+    v = np.array([[0.0, -270 * KT]])
+    return s, v, np.array([sz]), np.array([vz])
+
+
+def test_separation_at_zthr_and_diverging_is_no_conflict():
+    # the intruder 450 ft above (to 1e-13 m) climbing away at 1000 fpm: the vertical loss lasts
+    # (ZTHR - sz) / vz ~ 3e-14 s from 0, almost equal to no time at all (LossData.conflict, zero special case)
+    t_in, t_out = wcv_interval(*_pair(SEP_M, 1000 * FPM), DO365_PHASE_I, 0.0, 180.0)
+    assert t_in[0] == 0.0 and 0.0 < t_out[0] < 1e-13
+    assert not conflict(t_in, t_out)[0]
+    # 1e-9 m further inside: a loss of 1e-12 s, a conflict (no longer almost equal)
+    t_in, t_out = wcv_interval(*_pair(DO365_PHASE_I.zthr_m - 1e-9, 1000 * FPM), DO365_PHASE_I, 0.0, 180.0)
+    assert conflict(t_in, t_out)[0]
+    # the same geometry level: inside ZTHR (|sz| <= ZTHR, WCV_TCOA's own comparison) for the whole lookahead
+    t_in, t_out = wcv_interval(*_pair(SEP_M, 0.0), DO365_PHASE_I, 0.0, 180.0)
+    assert conflict(t_in, t_out)[0]
+
+
+def test_no_relative_vertical_motion_is_almost_zero():
+    # WCV_TCOA: "level" is Util.almost_equals(vz, 0), i.e. |vz| < 1e-13 m/s. 1e-11 m outside ZTHR and closing at
+    # 1e-12 m/s enters the slab in 10 s (a conflict); closing at 5e-14 m/s counts as level, outside: none.
+    s, v, _, _ = _pair(0.0, 0.0)
+    sz = np.array([DO365_PHASE_I.zthr_m + 1e-11])
+    moving = wcv_interval(s, v, sz, np.array([-1e-12]), DO365_PHASE_I, 0.0, 180.0)
+    assert conflict(*moving)[0] and moving[0][0] == pytest.approx(10.0, rel=1e-3)
+    assert not conflict(*wcv_interval(s, v, sz, np.array([-5e-14]), DO365_PHASE_I, 0.0, 180.0))[0]
+
+
+def test_cylinder_at_its_height_is_clear():
+    # CD3D.detection: level flight at |sz| almost equal to H is not inside (Vertical.almost_vertical_los)
+    cyl = Cylinder(500 * FT, 100 * FT)
+    s, v = np.array([[0.0, 100.0]]), np.array([[0.0, -50.0]])
+    sz = np.array([(OWN_FT + 100.0) * FT - OWN_FT * FT])
+    t_in, t_out = cylinder_interval(s, v, sz, np.array([0.0]), cyl, 180.0)
+    assert not conflict(t_in, t_out)[0]
+    t_in, t_out = cylinder_interval(s, v, sz - 1e-6, np.array([0.0]), cyl, 180.0)
+    assert conflict(t_in, t_out)[0]
+
+
+def _bands(intruder_ft, intruder_vs_fpm):
+    own = [0.0, 0.0, OWN_FT * FT]
+    intruder = [[0.0, 0.5 * NM, intruder_ft * FT]]
+    return BandsEngine().compute(0.0, own, [0.0, 150 * KT, 0.0], intruder,
+                                 [[0.0, -120 * KT, intruder_vs_fpm * FPM]], ["tie"], [1])
+
+
+@pytest.mark.parametrize("intruder_ft, intruder_vs_fpm", [(17450.0, 1000.0), (16550.0, -1000.0)])
+def test_bands_at_450_ft_diverging(intruder_ft, intruder_vs_fpm):
+    """Head-on 0.5 nmi, the intruder exactly 450 ft above (below) climbing (descending) away at 1000 fpm, the
+    ownship level. By hand: a vertical speed on the intruder's side beyond its 1000 fpm closes the 450 ft and is
+    a loss (NEAR: within 25 s); one of at most 1000 fpm toward it keeps >= 450 ft and is clear. Now is no loss
+    (the tie above), so no region is saturated and there are no RECOVERY bands; altitude targets are all clear
+    (the level-out climbs at 500 fpm, slower than the intruder's 1000 fpm). DAIDALUS v2.0.4 gives these bands."""
+    b = _bands(intruder_ft, intruder_vs_fpm)
+    up = intruder_vs_fpm > 0
+    vs = [(round(iv.lower / FPM), round(iv.upper / FPM), iv.region) for iv in b.vertical_rate_mps]
+    assert vs == ([(-6000, 1000, "NONE"), (1000, 6000, "NEAR")] if up else
+                  [(-6000, -1000, "NEAR"), (-1000, 6000, "NONE")])
+    assert [iv.region for iv in b.altitude_m] == ["NONE"]
+    assert not any(iv.region == "RECOVERY" for kind in ("track_deg", "ground_speed_mps")
+                   for iv in b.intervals(kind))
+
+
+def test_wcv_taumod_alerts_no_tie():
+    # the detector as the alerter sees it: the same diverging tie raises nothing within 55 s
+    from avionics.advisory.alerting import Encounter
+    from avionics.conflict.cpa import pair_geometry
+
+    s, v, sz, vz = _pair(SEP_M, 1000 * FPM)
+    enc = Encounter(pair_geometry(s, v, sz, vz), np.array([True]))
+    assert not WCV_TAUMOD().conflict(enc, DO365_PHASE_I, 55.0)[0]
+
+
+def test_vertical_speed_recovery_with_both_descending_450_ft_apart():
+    """Ownship at 28 875 ft descending at 1000 fpm, the intruder 450 ft above (to 1e-13 m) descending at 1000 fpm,
+    1190 m away (inside DTHR): in loss now, every region saturated, so recovery bands. By hand: a descent faster
+    than 1000 fpm opens the vertical gap and recovers (RECOVERY); any vertical speed at or above -1000 fpm keeps
+    the gap at or below 450 ft while the intruder is horizontally inside, and never recovers (NEAR). A strict
+    comparison at the recovery cylinder's 450 ft made the whole range RECOVERY; DAIDALUS v2.0.4 gives these."""
+    own = [0.0, 0.0, 28875.0 * FT]
+    intruder = [[-1000.0, -650.0, 29325.0 * FT]]
+    b = BandsEngine().compute(0.0, own, [0.0, 54.0, -1000 * FPM], intruder, [[-88.0, 86.0, -1000 * FPM]],
+                              ["tie"], [3])
+    vs = [(round(iv.lower / FPM), round(iv.upper / FPM), iv.region) for iv in b.vertical_rate_mps]
+    assert vs == [(-6000, -1000, "RECOVERY"), (-1000, 6000, "NEAR")]
