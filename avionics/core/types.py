@@ -93,7 +93,27 @@ class OwnshipPressure:
     pressure_altitude_m: float
 
 
-Input = IntruderReport | OwnshipFix | OwnshipPressure
+@dataclass(frozen=True, slots=True)
+class AutopilotHeartbeat:
+    """Our autopilot's HEARTBEAT: the flight mode in force (the guidance stage's confirmation, avionics/guidance)."""
+
+    time_s: float
+    component: int
+    custom_mode: int
+    base_mode: int
+
+
+@dataclass(frozen=True, slots=True)
+class CommandAck:
+    """Our autopilot's COMMAND_ACK addressed to us (or to everyone): the answer to a command we sent."""
+
+    time_s: float
+    command: int
+    result: int
+
+
+Input = IntruderReport | OwnshipFix | OwnshipPressure | AutopilotHeartbeat | CommandAck
+AUTOPILOT_INPUTS = (AutopilotHeartbeat, CommandAck)  # for the guidance stage, not the DAA core
 
 
 class AdvisoryLevel(IntEnum):
