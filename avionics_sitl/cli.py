@@ -35,16 +35,26 @@ def cmd_replay(args) -> int:
     from avionics.config import load_config
     from avionics_sitl.replay import replay
 
-    config = load_config(args.config, list(args.set) + ["zenoh.enabled=false"])
+    guidance = ["guidance.mode=execute", f"vehicle.profile={args.vehicle}"] if args.fly_guidance else []
+    config = load_config(args.config, guidance + list(args.set) + ["zenoh.enabled=false"])
     for path, option in ((args.misses, "--misses"), (args.out, "--out")):
         if path:
             check_output_file(path, option)  # before the run, not after it
     progress = True if getattr(args, "progress", False) else None
-    result = replay(_scenario(args), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
-                    progress=progress)
+    scenario = _scenario(args)
+    if args.fly_guidance and args.out:  # the rows `avionics run --csv` writes, with the guidance's columns
+        from avionics.ports import CsvOut
+
+        with open(args.out, "w", newline="") as out:
+            csv_out = CsvOut(out, {a.icao_address: a.name for a in scenario.intruders}, guidance=True)
+            result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, progress=progress,
+                            fly_guidance=True, ports=[csv_out])
+    else:
+        result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
+                        progress=progress, fly_guidance=args.fly_guidance)
     if args.misses:
         result.write_misses_csv(args.misses)
-    if args.out:
+    if args.out and not args.fly_guidance:  # (with --fly-guidance the port wrote it)
         result.write_csv(args.out)
     else:
         import csv
@@ -135,9 +145,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE.csv", help="write the advisory changes here (default: stdout)")
     p.add_argument("--fly-ras", action="store_true",
                    help="close the loop: ownship flies the RAs with the profile's response model")
+    p.add_argument("--fly-guidance", action="store_true",
+                   help="close the loop through the guidance stage (guidance.mode=execute): a simulated ArduCopter "
+                        "flies the ownship path as its mission in AUTO and obeys the GUIDED commands")
+    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
+                   help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
     p.add_argument("--misses", metavar="FILE.csv",
                    help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
-                        "(equal without --fly-ras)")
+                        "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
     p.add_argument("--config", metavar="FILE", help="onboard configuration TOML")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE", help="config override")
     p.set_defaults(func=cmd_replay)

@@ -172,7 +172,8 @@ class GuidanceStage:
             why = manoeuvre.reason + "_complies" if manoeuvre is not None else interlock if ras else "no_conflict"
             if self.state == "advising":
                 self._enter("idle", now_s, why)
-            self.reason = why
+            elif self.since_s != now_s or self.reason == "no_conflict":  # keep the reason idle was entered with
+                self.reason = why
         elif self.state == "commanding" and interlock is None:  # the RAs ended: clear of conflict
             self._enter("holding", now_s, "clear_of_conflict")
             self.manoeuvre, self.target, self.clear_s = "level", 0.0, now_s
