@@ -33,9 +33,11 @@ RECOVERY_GAIN_PER_S = 0.5  # AUTO's pull back onto the path (ours; AC_PosControl
 
 class SimCopter:
     def __init__(self, vehicle, system_id: int = 1, component_id: int = 1, refuse: frozenset = frozenset(),
-                 counters: Counter | None = None):
-        """vehicle: advisory/vehicle.py VehicleProfile."""
+                 counters: Counter | None = None, position_lost_s: float | None = None):
+        """vehicle: advisory/vehicle.py VehicleProfile. position_lost_s: from then on no GLOBAL_POSITION_INT or
+        SCALED_PRESSURE is sent (a navigation failure: the DAA's ownship goes stale)."""
         self.vehicle = vehicle
+        self.position_lost_s = position_lost_s
         self.system_id, self.component_id = system_id, component_id
         self.refuse = frozenset(refuse)
         self.counters = counters if counters is not None else Counter()
@@ -45,6 +47,7 @@ class SimCopter:
         self.setpoint: tuple[float, float, float, float] | None = None  # east, north, up, time received
         self.modes: list[tuple[float, int]] = [(0.0, ardupilot.AUTO)]  # (time, mode) at each change
         self._last_t: float | None = None
+        self.min_guided_alt_msl_m = math.inf  # the lowest true altitude flown in GUIDED (the floor's check)
 
     # -- the link ----------------------------------------------------------------------------------------------
     def heartbeat(self):
@@ -72,6 +75,9 @@ class SimCopter:
             self.counters["sim.setpoint"] += 1
             self.setpoint = (msg.vy, msg.vx, -msg.vz, now_s)  # NED -> east, north, up
         return []
+
+    def reports_position(self, now_s: float) -> bool:
+        return self.position_lost_s is None or now_s < self.position_lost_s
 
     def set_mode(self, mode: int, now_s: float) -> None:
         if mode != self.mode:
@@ -114,6 +120,8 @@ class SimCopter:
             self.offset[i] += (0.5 * (self.velocity[i] + new[i]) - path[i]) * dt
         self.velocity = new
         de, dn, du = self.offset
+        if self.mode == ardupilot.GUIDED:
+            self.min_guided_alt_msl_m = min(self.min_guided_alt_msl_m, mission.alt_msl_m + du)
         lat = mission.lat_deg + math.degrees(dn / EARTH_RADIUS_M)
         lon = mission.lon_deg + math.degrees(de / (EARTH_RADIUS_M * math.cos(math.radians(mission.lat_deg))))
         return replace(mission, lat_deg=lat, lon_deg=lon, alt_msl_m=mission.alt_msl_m + du, vel_east_mps=new[0],

@@ -153,12 +153,14 @@ class _ScheduleSource:
                     self.copter.set_mode(self.pilot.pop(0)[1], t_tick)
                 own = self.copter.fly(self.own_traj.state_at(t_tick))
                 self.offsets.append((t_tick, tuple(self.copter.offset)))
-                replies, self.replies = self.replies, []
+                replies = list(self.replies)  # the list the autopilot side appends to: emptied in place
+                self.replies.clear()
                 for msg in replies:
                     yield self._batch(msg, t_tick)
                 if abs(t_tick - round(t_tick)) < 1e-6:  # HEARTBEAT at 1 Hz, as ArduPilot's default stream
                     yield self._batch(self.copter.heartbeat(), t_tick)
-                if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6:
+                if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6 and \
+                        self.copter.reports_position(t_tick):
                     for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):
                         yield self._batch(msg, t_tick)
             elif self.responder is not None:

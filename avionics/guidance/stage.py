@@ -52,12 +52,12 @@ class GuidanceDecision:
     def text(self) -> str:
         """The STATUSTEXT of a change: "DAA GUIDANCE COMMANDING CLIMB +2.5 M/S ra"."""
         words = ["DAA GUIDANCE", self.state.upper()]
-        if self.manoeuvre != "none":
+        if self.state in ("commanding", "holding", "advising"):
             words.append(self.manoeuvre.upper())
-        if self.target_vertical_rate_mps is not None and self.state in ("commanding", "holding", "advising"):
-            words.append(f"{self.target_vertical_rate_mps:+.1f} M/S")
+            if self.target_vertical_rate_mps is not None:
+                words.append(f"{self.target_vertical_rate_mps:+.1f} M/S")
         words.append(self.reason)
-        return " ".join(words)
+        return " ".join(words)[:50]  # STATUSTEXT's text
 
     def as_dict(self) -> dict:
         return {"time_s": self.time_s, "state": self.state, "manoeuvre": self.manoeuvre,
@@ -252,8 +252,7 @@ class GuidanceStage:
             return
         if request.attempts > self.config.retries:
             self.request = None
-            self._enter("failed", now_s, f"{ardupilot.mode_name(request.mode)} not confirmed after "
-                                         f"{request.attempts} requests")
+            self._enter("failed", now_s, f"{ardupilot.mode_name(request.mode)} unconfirmed x{request.attempts}")
             return
         commands.append(ardupilot.set_mode(request.mode, self.system, self.component, confirmation=request.attempts))
         request.attempts += 1
