@@ -75,6 +75,12 @@ def tcp_listen_address(text: str) -> tuple[str, int]:
     return (host or "127.0.0.1"), port_number(port)
 
 
+def ardupilot_mode_name(mode: int) -> str:
+    from avionics.guidance.ardupilot import mode_name
+
+    return mode_name(mode)
+
+
 def cmd_live(args) -> int:
     from avionics_sitl.live import ScenarioClock, feed_servers, fly
 
@@ -93,6 +99,23 @@ def cmd_live(args) -> int:
         print(json.dumps(line), flush=True)
 
     scenario = _scenario(args)
+    if args.fly_guidance:  # the simulated ArduCopter obeys the guidance's commands (avionics_sitl/guided.py)
+        from avionics.advisory.vehicle import load_vehicle
+        from avionics.advisory.tables import ProfileError
+        from avionics.core.params import ConfigError
+        from avionics_sitl.guided import SimCopter
+        from avionics_sitl.live import fly_guided
+
+        try:
+            copter = SimCopter(load_vehicle(args.vehicle))
+        except ProfileError as exc:
+            raise ConfigError(f"--vehicle: {exc}") from exc
+        recording = fly_guided(scenario, args.connection, PRESETS[args.noise], copter, seed=args.seed,
+                               start_s=args.start, duration_s=args.duration, on_receive=show)
+        print(json.dumps({"sent": recording.sent, "received": len(recording.received),
+                          "modes": [[round(t, 2), ardupilot_mode_name(m)] for t, m in copter.modes]}),
+              file=sys.stderr)
+        return 0
     end_s = scenario.duration_s if args.duration is None else min(scenario.duration_s, args.start + args.duration)
     clock = ScenarioClock(args.start)
     # listening before the link opens and the clock starts: a port in use is exit 1 before anything flies
@@ -163,6 +186,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="connection string (default: where avionics run listens by default)")
     p.add_argument("--start", type=seconds, default=0.0, metavar="S", help="start at scenario time S")
     p.add_argument("--duration", type=seconds, metavar="S", help="fly S seconds (default: to the scenario's end)")
+    p.add_argument("--fly-guidance", action="store_true",
+                   help="a simulated ArduCopter flies the ownship path as its mission and obeys the guidance's "
+                        "commands (avionics run with guidance.mode=execute); ownship and traffic on MAVLink only")
+    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
+                   help="with --fly-guidance: the vehicle profile flown (default multirotor)")
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")
@@ -177,6 +205,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "fly_guidance", False) and (args.sbs or args.beast or args.no_adsb_vehicle):
+        parser.error("--fly-guidance sends ownship and traffic on MAVLink only: not with --sbs, --beast, "
+                     "--no-adsb-vehicle")
     if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):
         parser.error("--no-adsb-vehicle needs --sbs or --beast (otherwise no traffic is sent at all)")
     return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file
