@@ -101,6 +101,7 @@ class AutopilotHeartbeat:
     component: int
     custom_mode: int
     base_mode: int
+    autopilot: int = 3  # MAV_AUTOPILOT: 3 ArduPilot, 12 PX4
 
 
 @dataclass(frozen=True, slots=True)

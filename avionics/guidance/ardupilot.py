@@ -56,3 +56,13 @@ def is_velocity_setpoint(msg) -> bool:
     mask = msg.type_mask
     return msg.get_type() == "SET_POSITION_TARGET_GLOBAL_INT" and mask & 0b111 == 0b111 and \
         mask & 0b111000000 == 0b111000000 and not mask & 0b111000
+
+
+def _contract():
+    from avionics.guidance.contract import Contract
+
+    return Contract("ArduCopter", GUIDED, AUTO, (AUTO, GUIDED, LOITER), None, 0.0, mode_name, set_mode,
+                    velocity_setpoint, is_velocity_setpoint)
+
+
+ARDUCOPTER = _contract()

@@ -23,16 +23,19 @@ while commanding gives the vehicle back at once (returning)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Iterable, Mapping
 
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
+from avionics.guidance.ardupilot import ARDUCOPTER
+from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.vertical import vertical_manoeuvre
 
 STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden", "failed")
-TAKEOVER_MODES = (ardupilot.AUTO, ardupilot.GUIDED, ardupilot.LOITER)  # modes we may command from
+MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
 
 
@@ -69,7 +72,7 @@ class GuidanceDecision:
 class GuidanceOutput:
     decision: GuidanceDecision
     changed: bool  # the state changed at this step: announce it
-    commands: tuple  # MAVLink messages for the autopilot (ardupilot.py), in order
+    commands: tuple  # MAVLink messages for the autopilot (ardupilot.py, px4.py), in order
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,6 +125,8 @@ class GuidanceStage:
         self.last_setpoint: tuple[float, float] | None = None  # (time, vertical rate) sent last
         self.clear_s: float | None = None  # when the RAs ended (holding)
         self.conflict = False  # an RA was active at the last step
+        self.contract = ARDUCOPTER  # PX4 once a HEARTBEAT says MAV_AUTOPILOT_PX4 (contract.py)
+        self.prestream_until: float | None = None  # PX4: OFFBOARD is asked for once the stream has run until then
 
     # -- the step ----------------------------------------------------------------------------------------------
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
@@ -131,6 +136,7 @@ class GuidanceStage:
         commands: list = []
         for item in autopilot_inputs:
             self._absorb(item, now_s)
+        c = self.contract
         ras = [a for a in active.values() if a.level is AdvisoryLevel.RA]
         usable = [a for a in ras if a.integrity == "ok" and a.intruder not in spoofed]
         self.conflict = bool(ras)
@@ -139,16 +145,16 @@ class GuidanceStage:
         if self.state in ("overridden", "failed") and not ras:  # the conflict is over: the next one is commanded
             self._enter("idle", now_s, "no_conflict")
         if self.state in ("commanding", "holding"):
-            if self.guided_confirmed and self.mode is not None and self.mode != ardupilot.GUIDED:
-                self._enter("overridden", now_s, f"mode {ardupilot.mode_name(self.mode)} not ours")
+            if self.guided_confirmed and self.mode is not None and self.mode != c.command_mode:
+                self._enter("overridden", now_s, f"mode {c.mode_name(self.mode)} not ours")
                 self.request = None
             elif interlock is not None:
                 self._return(now_s, interlock, commands)
         if self.state == "returning" and self.request is None and self.mode == self.prior_mode:
             self._enter("idle", now_s, "mission_resumed")
-        if self.state == "returning" and self.mode not in (ardupilot.GUIDED, self.prior_mode, None) \
+        if self.state == "returning" and self.mode not in (c.command_mode, self.prior_mode, None) \
                 and self.request is not None and self.request.acked:
-            self._enter("overridden", now_s, f"mode {ardupilot.mode_name(self.mode)} not ours")
+            self._enter("overridden", now_s, f"mode {c.mode_name(self.mode)} not ours")
             self.request = None
 
         manoeuvre = None
@@ -181,27 +187,33 @@ class GuidanceStage:
             self._return(now_s, "quiet_time_over", commands)
 
         if self.execute:
-            self._handshake(now_s, commands)
             if self.state in ("commanding", "holding"):
-                self._setpoint(now_s, commands)
+                self._setpoint(now_s, commands)  # a PX4 stream before its mode change
+            if self.prestream_until is not None and now_s >= self.prestream_until:
+                self.prestream_until = None
+                if self.state in ("commanding", "holding") and self.mode != c.command_mode:
+                    self._request(c.command_mode, now_s, commands)
+            self._handshake(now_s, commands)
         decision = GuidanceDecision(now_s, self.state, self.manoeuvre if self.state != "idle" else "none",
                                     self.target if self.state in ("commanding", "holding", "advising") else None,
-                                    self.reason, ardupilot.mode_name(self.mode), self.since_s)
+                                    self.reason, c.mode_name(self.mode), self.since_s)
         return GuidanceOutput(decision, self.state != before, tuple(commands))
 
     # -- the parts ---------------------------------------------------------------------------------------------
     def _absorb(self, item, now_s: float) -> None:
         if isinstance(item, AutopilotHeartbeat):
+            if self.state == "idle":  # never in the middle of a manoeuvre
+                self.contract = PX4 if item.autopilot == MAV_AUTOPILOT_PX4 else ARDUCOPTER
             self.mode, self.component = item.custom_mode, item.component
             if self.request is not None and item.custom_mode == self.request.mode:
-                if self.request.mode == ardupilot.GUIDED:
+                if self.request.mode == self.contract.command_mode:
                     self.guided_confirmed = True
                 self.request = None  # confirmed by the mode in force (an ACK lost on the way changes nothing)
         elif isinstance(item, CommandAck) and item.command == ardupilot.DO_SET_MODE and self.request is not None:
             if item.result == ardupilot.ACCEPTED:
                 self.request.acked = True
             elif item.result != ardupilot.IN_PROGRESS:
-                wanted = ardupilot.mode_name(self.request.mode)
+                wanted = self.contract.mode_name(self.request.mode)
                 self.request = None
                 self._enter("failed", now_s, f"{wanted} refused: result {item.result}")
 
@@ -216,8 +228,10 @@ class GuidanceStage:
             return "integrity_degraded"
         if self.mode is None:
             return "no_autopilot_heartbeat"
-        if self.state in ("idle", "returning") and self.mode not in TAKEOVER_MODES and self.mode != self.prior_mode:
-            return f"mode {ardupilot.mode_name(self.mode)} not ours to take"
+        c = self.contract
+        if self.state in ("idle", "returning") and self.mode not in c.takeover_modes + (c.command_mode,) and \
+                self.mode != self.prior_mode:
+            return f"mode {c.mode_name(self.mode)} not ours to take"
         return None
 
     def _enter(self, state: str, now_s: float, reason: str) -> None:
@@ -228,23 +242,28 @@ class GuidanceStage:
     def _take(self, now_s: float, own: Ownship, reason: str, commands: list) -> None:
         """Start commanding: GUIDED asked for (unless the vehicle is in it by our doing), the horizontal kept."""
         if self.state == "idle":
-            self.prior_mode = self.mode if self.mode != ardupilot.GUIDED else ardupilot.AUTO
+            c = self.contract
+            self.prior_mode = self.mode if self.mode != c.command_mode else c.return_mode
             self.horizontal = (own.north_mps, own.east_mps)
-            self.guided_confirmed = self.mode == ardupilot.GUIDED
+            self.guided_confirmed = self.mode == c.command_mode
         self.last_setpoint = None
         self._enter("commanding", now_s, reason)
-        if self.mode != ardupilot.GUIDED:
+        if self.mode != self.contract.command_mode:
             self.guided_confirmed = False
-            self._request(ardupilot.GUIDED, now_s, commands)
+            if self.contract.prestream_s > 0:  # the stream first, the mode change once it has run long enough
+                self.prestream_until = now_s + self.contract.prestream_s
+            else:
+                self._request(self.contract.command_mode, now_s, commands)
 
     def _return(self, now_s: float, reason: str, commands: list) -> None:
         self.manoeuvre, self.target = "return", None
         self._enter("returning", now_s, reason)
-        self._request(self.prior_mode if self.prior_mode is not None else ardupilot.AUTO, now_s, commands)
+        self.prestream_until = None
+        self._request(self.prior_mode if self.prior_mode is not None else self.contract.return_mode, now_s, commands)
 
     def _request(self, mode: int, now_s: float, commands: list) -> None:
         self.request = _ModeRequest(mode, now_s)
-        commands.append(ardupilot.set_mode(mode, self.system, self.component))
+        commands.append(self.contract.set_mode(mode, self.system, self.component))
 
     def _handshake(self, now_s: float, commands: list) -> None:
         request = self.request
@@ -252,24 +271,28 @@ class GuidanceStage:
             return
         if request.attempts > self.config.retries:
             self.request = None
-            self._enter("failed", now_s, f"{ardupilot.mode_name(request.mode)} unconfirmed x{request.attempts}")
+            self._enter("failed", now_s, f"{self.contract.mode_name(request.mode)} unconfirmed x{request.attempts}")
             return
-        commands.append(ardupilot.set_mode(request.mode, self.system, self.component, confirmation=request.attempts))
+        commands.append(self.contract.set_mode(request.mode, self.system, self.component,
+                                               confirmation=request.attempts))
         request.attempts += 1
         request.sent_s = now_s
 
     def _setpoint(self, now_s: float, commands: list) -> None:
-        """The velocity setpoint, once GUIDED is accepted (ArduCopter ignores setpoints in other modes)."""
-        if not (self.guided_confirmed or (self.request is not None and self.request.acked)):
+        """The velocity setpoint, once GUIDED is accepted (ArduCopter ignores setpoints in other modes), or from
+        the start for PX4 (OFFBOARD needs the stream before it is engaged)."""
+        if not (self.guided_confirmed or (self.request is not None and self.request.acked)
+                or self.contract.prestream_s > 0):
             return
+        period = min(self.config.setpoint_period_s, self.contract.max_setpoint_period_s or math.inf)
         last = self.last_setpoint
-        if last is not None and now_s - last[0] < self.config.setpoint_period_s and \
+        if last is not None and now_s - last[0] < period - 1e-9 and \
                 abs(last[1] - self.target) < SETPOINT_CHANGE_MPS:
             return
         self.last_setpoint = (now_s, self.target)
         north, east = self.horizontal
-        commands.append(ardupilot.velocity_setpoint(north, east, self.target, self.system, self.component,
-                                                    int(now_s * 1000)))
+        commands.append(self.contract.velocity_setpoint(north, east, self.target, self.system, self.component,
+                                                        int(now_s * 1000)))
 
     @property
     def failed(self) -> bool:

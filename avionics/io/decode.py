@@ -247,7 +247,8 @@ class MessageDecoder:
     def _autopilot_heartbeat(self, msg, now_s: float) -> AutopilotHeartbeat | None:
         if not self._from_autopilot(msg) or msg.autopilot == 8:  # MAV_AUTOPILOT_INVALID: not an autopilot
             return None
-        return AutopilotHeartbeat(now_s, msg.get_srcComponent(), int(msg.custom_mode), int(msg.base_mode))
+        return AutopilotHeartbeat(now_s, msg.get_srcComponent(), int(msg.custom_mode), int(msg.base_mode),
+                                  int(msg.autopilot))
 
     def _command_ack(self, msg, now_s: float) -> CommandAck | None:
         """Our autopilot's answer to us: an ACK for another component (target_component set and not ours; MAVLink 2
