@@ -42,21 +42,23 @@ def cmd_replay(args) -> int:
             check_output_file(path, option)  # before the run, not after it
     progress = True if getattr(args, "progress", False) else None
     scenario = _scenario(args)
-    if args.fly_guidance and args.out:  # the rows `avionics run --csv` writes, with the guidance's columns
+    if args.fly_guidance:  # the rows `avionics run --csv` writes, with the guidance's columns
+        import contextlib
+
         from avionics.ports import CsvOut
 
-        with open(args.out, "w", newline="") as out:
+        with open(args.out, "w", newline="") if args.out else contextlib.nullcontext(sys.stdout) as out:
             csv_out = CsvOut(out, {a.icao_address: a.name for a in scenario.intruders}, guidance=True)
             result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, progress=progress,
-                            fly_guidance=True, ports=[csv_out])
+                            fly_guidance=True, ports=[csv_out], firmware=args.autopilot)
     else:
         result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
-                        progress=progress, fly_guidance=args.fly_guidance)
+                        progress=progress)
     if args.misses:
         result.write_misses_csv(args.misses)
-    if args.out and not args.fly_guidance:  # (with --fly-guidance the port wrote it)
+    if args.out and not args.fly_guidance:  # (with --fly-guidance the rows were written as it flew)
         result.write_csv(args.out)
-    else:
+    elif not args.fly_guidance:
         import csv
 
         from avionics.ports import CSV_COLUMNS
@@ -75,10 +77,10 @@ def tcp_listen_address(text: str) -> tuple[str, int]:
     return (host or "127.0.0.1"), port_number(port)
 
 
-def ardupilot_mode_name(mode: int) -> str:
-    from avionics.guidance.ardupilot import mode_name
+def autopilot_mode_name(mode: int, autopilot: str) -> str:
+    from avionics.guidance import ardupilot, px4
 
-    return mode_name(mode)
+    return (px4 if autopilot == "px4" else ardupilot).mode_name(mode)
 
 
 def cmd_live(args) -> int:
@@ -107,13 +109,13 @@ def cmd_live(args) -> int:
         from avionics_sitl.live import fly_guided
 
         try:
-            copter = SimCopter(load_vehicle(args.vehicle))
+            copter = SimCopter(load_vehicle(args.vehicle), firmware=args.autopilot)
         except ProfileError as exc:
             raise ConfigError(f"--vehicle: {exc}") from exc
         recording = fly_guided(scenario, args.connection, PRESETS[args.noise], copter, seed=args.seed,
                                start_s=args.start, duration_s=args.duration, on_receive=show)
         print(json.dumps({"sent": recording.sent, "received": len(recording.received),
-                          "modes": [[round(t, 2), ardupilot_mode_name(m)] for t, m in copter.modes]}),
+                          "modes": [[round(t, 2), autopilot_mode_name(m, args.autopilot)] for t, m in copter.modes]}),
               file=sys.stderr)
         return 0
     end_s = scenario.duration_s if args.duration is None else min(scenario.duration_s, args.start + args.duration)
@@ -173,6 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "flies the ownship path as its mission in AUTO and obeys the GUIDED commands")
     p.add_argument("--vehicle", default="multirotor", metavar="NAME",
                    help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 (OFFBOARD)")
     p.add_argument("--misses", metavar="FILE.csv",
                    help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
                         "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
@@ -191,6 +195,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "commands (avionics run with guidance.mode=execute); ownship and traffic on MAVLink only")
     p.add_argument("--vehicle", default="multirotor", metavar="NAME",
                    help="with --fly-guidance: the vehicle profile flown (default multirotor)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 (OFFBOARD)")
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")
@@ -205,7 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "fly_guidance", False) and (args.sbs or args.beast or args.no_adsb_vehicle):
+    if getattr(args, "fly_guidance", False) and args.func is cmd_live and (args.sbs or args.beast
+                                                                           or args.no_adsb_vehicle):
         parser.error("--fly-guidance sends ownship and traffic on MAVLink only: not with --sbs, --beast, "
                      "--no-adsb-vehicle")
     if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):

@@ -110,7 +110,8 @@ class _Autopilot:
                 self.result.collisions.append((now_s, back))
             elif kind == "DAA_ADVISORY" and self.responder is not None:
                 self.responder.receive(back, now_s)
-            elif self.copter is not None and kind in ("COMMAND_LONG", "SET_POSITION_TARGET_GLOBAL_INT"):
+            elif self.copter is not None and kind in ("COMMAND_LONG", "SET_POSITION_TARGET_GLOBAL_INT",
+                                                    "SET_POSITION_TARGET_LOCAL_NED"):
                 self.result.sent.append((now_s, back))
                 self.replies.extend(self.copter.receive(back, now_s))
 
@@ -181,12 +182,14 @@ class _ScheduleSource:
 
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
-           progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=()) -> ReplayResult:
+           progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=(),
+           firmware: str = "ardupilot") -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
     simulated ArduCopter (avionics_sitl/guided.py; `copter`, or one of vehicle.profile, multirotor by default)
-    flies the scenario's ownship path as its mission and obeys the MAVLink commands; pilot: (time, custom mode)
+    flies the scenario's ownship path as its mission and obeys the MAVLink commands; firmware: "ardupilot" or
+    "px4" (the default copter's); pilot: (time, custom mode)
     mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.
     progress: a bar of the simulated time on stderr (None: when stderr is a terminal)."""
     counters: Counter = Counter()
@@ -198,7 +201,7 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
         from avionics_sitl.guided import SimCopter
 
         copter = SimCopter(load_vehicle(config.vehicle.profile or "multirotor"), autopilot.system_id,
-                           autopilot.component_id, counters=counters)
+                           autopilot.component_id, counters=counters, firmware=firmware)
     copter = copter if fly_guidance else None
     result.copter = copter
     source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,

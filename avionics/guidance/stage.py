@@ -57,7 +57,7 @@ class GuidanceDecision:
         words = ["DAA GUIDANCE", self.state.upper()]
         if self.state in ("commanding", "holding", "advising"):
             words.append(self.manoeuvre.upper())
-            if self.target_vertical_rate_mps is not None:
+            if self.target_vertical_rate_mps is not None and self.manoeuvre != "level":
                 words.append(f"{self.target_vertical_rate_mps:+.1f} M/S")
         words.append(self.reason)
         return " ".join(words)[:50]  # STATUSTEXT's text
