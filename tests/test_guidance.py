@@ -247,3 +247,47 @@ def test_the_floor_ranks_before_the_miss(seed):
     assert result.guidance[0].manoeuvre == "descend"
     assert agl + vz_own * t_cpa < agl - 20.0  # the mission would have gone below the floor
     assert result.copter.min_guided_alt_msl_m >= agl - 20.0 - 0.5
+
+
+# -- PX4 OFFBOARD --------------------------------------------------------------------------------------------------
+def test_a_px4_multirotor_streams_before_offboard_and_never_lapses_then_resumes_its_mission():
+    from avionics.guidance import px4
+
+    config = _config()
+    result = replay(load_encounter("head-on"), config, PRESETS["none"], fly_guidance=True, firmware="px4")
+    (miss,) = result.misses
+    assert miss.vmd_with_m > NMAC_V_M, miss
+    assert [d.state for d in result.guidance] == ["commanding", "holding", "returning", "idle"]
+    assert result.guidance[-1].autopilot_mode == "AUTO.MISSION"
+    modes = result.copter.modes
+    assert [m for _, m in modes] == [px4.MISSION, px4.OFFBOARD, px4.MISSION]
+    setpoints = [t for t, m in result.sent if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
+    assert all(px4.is_velocity_setpoint(m) for t, m in result.sent if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED")
+    offboard_asked = next(t for t, m in result.sent if m.get_type() == "COMMAND_LONG" and px4.mode_of(m) == px4.OFFBOARD)
+    assert offboard_asked - setpoints[0] >= 1.0  # "more than a second" of stream before OFFBOARD
+    in_offboard = [t for t in setpoints if modes[1][0] <= t <= modes[2][0]]
+    assert max(b - a for a, b in zip(setpoints, setpoints[1:])) <= 0.5  # > 2 Hz from the first to the last
+    assert in_offboard and result.copter.counters["sim.offboard_lost"] == 0
+
+
+def test_the_simulated_px4_refuses_offboard_without_a_stream():
+    from avionics.guidance import px4
+
+    copter = SimCopter(load_vehicle("multirotor"), firmware="px4")
+    (ack,) = copter.receive(px4.set_mode(px4.OFFBOARD, 1, 1), 10.0)
+    assert ack.result == ardupilot.mavlink2.MAV_RESULT_DENIED and copter.mode == px4.MISSION
+    for k in range(6):  # 1.0 s of setpoints at 5 Hz
+        copter.receive(px4.velocity_setpoint(0.0, 0.0, 1.0, 1, 1, 0), 10.0 + 0.2 * k)
+    (ack,) = copter.receive(px4.set_mode(px4.OFFBOARD, 1, 1), 11.0)
+    assert ack.result == ardupilot.mavlink2.MAV_RESULT_ACCEPTED and copter.mode == px4.OFFBOARD
+
+
+def test_nothing_is_commanded_while_px4_is_in_offboard_for_someone_else():
+    from avionics.core.types import AutopilotHeartbeat
+    from avionics.guidance import px4
+
+    stage = GuidanceStage(GuidanceConfig(mode="execute"), load_vehicle("multirotor"), 1)
+    beat = AutopilotHeartbeat(0.0, 1, px4.OFFBOARD, 0, autopilot=12)
+    out = stage.update(1.0, {KEY: _ra()}, None, Ownship(10.0, 0.0, 0.0, 100.0), [beat])
+    assert out.commands == () and out.decision.reason == "mode OFFBOARD not ours to take"
+    assert out.decision.autopilot_mode == "OFFBOARD"

@@ -128,3 +128,21 @@ def test_a_pilot_mode_change_overrides_the_guidance_live(udp_port, tcp_port):
                 if r.msg.get_type() in ("COMMAND_LONG", "SET_POSITION_TARGET_GLOBAL_INT")]
     assert commands and max(commands) < overridden  # nothing after the override
     assert copter.modes[-1][1] == ardupilot.LOITER
+
+
+def test_a_px4_offboard_stream_never_lapses_over_half_a_second_live(udp_port, tcp_port):
+    from avionics.guidance import px4
+
+    end_s = 74.0
+    onboard = _Onboard(udp_port, tcp_port, end_s - START_S)
+    copter = SimCopter(load_vehicle("multirotor"), firmware="px4")
+    try:
+        recording = fly_guided(load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["none"], copter,
+                               start_s=START_S, duration_s=end_s - START_S)
+    finally:
+        err = onboard.close()
+    setpoints = [r.time_s for r in recording.of_type("SET_POSITION_TARGET_LOCAL_NED")]
+    assert len(setpoints) > 20, err[-2000:]
+    assert max(b - a for a, b in zip(setpoints, setpoints[1:])) <= 0.5  # received, on the wall clock
+    assert [m for _, m in copter.modes] == [px4.MISSION, px4.OFFBOARD]
+    assert copter.counters["sim.offboard_lost"] == 0 and copter.counters["sim.mode_denied"] == 0

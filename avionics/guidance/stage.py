@@ -4,7 +4,7 @@ States (GuidanceDecision.state):
 - idle: nothing commanded (no RA, a preventive RA the mission already complies with, or an interlock: the
   decision's reason says which);
 - advising (guidance.mode = "advise"): the manoeuvre is decided and published, nothing is sent;
-- commanding: GUIDED asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm it) and the RA's
+- commanding: GUIDED (PX4: OFFBOARD) asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm it) and the RA's
   vertical rate sent as a velocity setpoint with the horizontal velocity of the RA's start, every
   setpoint_period_s and at each change;
 - holding: the RAs ended (clear of conflict): level flight at that horizontal velocity for quiet_time_s;
@@ -18,8 +18,12 @@ States (GuidanceDecision.state):
 Interlocks (never a command): DAA unavailable (no or stale ownship, a failed stage, a spoof suspected: daa.py),
 the link not authenticated while guidance.require_signing, an RA only against intruders whose ADS-B integrity is
 degraded (tracking/integrity.py), no HEARTBEAT from the autopilot yet, and a vehicle in a mode other than AUTO,
-GUIDED or LOITER (RTL, LAND and the manual modes belong to a failsafe or a pilot). An interlock that arises
-while commanding gives the vehicle back at once (returning)."""
+GUIDED or LOITER for ArduCopter, AUTO.MISSION or AUTO.LOITER for PX4 (RTL, LAND and the manual modes belong to a
+failsafe or a pilot; PX4 OFFBOARD to someone else's offboard control). An interlock that arises while commanding
+gives the vehicle back at once (returning).
+
+The autopilot's contract (contract.py) is ArduCopter's (GUIDED, ardupilot.py) or, when its HEARTBEAT says
+MAV_AUTOPILOT_PX4, PX4's (OFFBOARD after a setpoint stream of more than a second, px4.py)."""
 
 from __future__ import annotations
 
@@ -229,8 +233,8 @@ class GuidanceStage:
         if self.mode is None:
             return "no_autopilot_heartbeat"
         c = self.contract
-        if self.state in ("idle", "returning") and self.mode not in c.takeover_modes + (c.command_mode,) and \
-                self.mode != self.prior_mode:
+        ours = self.state == "returning" and self.mode in (c.command_mode, self.prior_mode)  # still ours
+        if self.state in ("idle", "returning") and self.mode not in c.takeover_modes and not ours:
             return f"mode {c.mode_name(self.mode)} not ours to take"
         return None
 
