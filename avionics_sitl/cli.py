@@ -176,7 +176,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vehicle", default="multirotor", metavar="NAME",
                    help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
     p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 (OFFBOARD)")
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
+                        "(OFFBOARD)")
     p.add_argument("--misses", metavar="FILE.csv",
                    help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
                         "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
@@ -196,7 +197,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vehicle", default="multirotor", metavar="NAME",
                    help="with --fly-guidance: the vehicle profile flown (default multirotor)")
     p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 (OFFBOARD)")
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
+                        "(OFFBOARD)")
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")

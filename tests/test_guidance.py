@@ -263,7 +263,8 @@ def test_a_px4_multirotor_streams_before_offboard_and_never_lapses_then_resumes_
     assert [m for _, m in modes] == [px4.MISSION, px4.OFFBOARD, px4.MISSION]
     setpoints = [t for t, m in result.sent if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
     assert all(px4.is_velocity_setpoint(m) for t, m in result.sent if m.get_type() == "SET_POSITION_TARGET_LOCAL_NED")
-    offboard_asked = next(t for t, m in result.sent if m.get_type() == "COMMAND_LONG" and px4.mode_of(m) == px4.OFFBOARD)
+    offboard_asked = next(t for t, m in result.sent
+                          if m.get_type() == "COMMAND_LONG" and px4.mode_of(m) == px4.OFFBOARD)
     assert offboard_asked - setpoints[0] >= 1.0  # "more than a second" of stream before OFFBOARD
     in_offboard = [t for t in setpoints if modes[1][0] <= t <= modes[2][0]]
     assert max(b - a for a, b in zip(setpoints, setpoints[1:])) <= 0.5  # > 2 Hz from the first to the last

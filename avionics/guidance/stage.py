@@ -4,9 +4,9 @@ States (GuidanceDecision.state):
 - idle: nothing commanded (no RA, a preventive RA the mission already complies with, or an interlock: the
   decision's reason says which);
 - advising (guidance.mode = "advise"): the manoeuvre is decided and published, nothing is sent;
-- commanding: GUIDED (PX4: OFFBOARD) asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm it) and the RA's
-  vertical rate sent as a velocity setpoint with the horizontal velocity of the RA's start, every
-  setpoint_period_s and at each change;
+- commanding: GUIDED (PX4: OFFBOARD) asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm
+  it) and the RA's vertical rate sent as a velocity setpoint with the horizontal velocity of the RA's start, every
+  setpoint_period_s (PX4: 0.2 s, from before the mode change) and at each change;
 - holding: the RAs ended (clear of conflict): level flight at that horizontal velocity for quiet_time_s;
 - returning: the mode the vehicle was in before is asked for again (ArduCopter AUTO resumes the mission's current
   item), until HEARTBEAT shows it: then idle;
