@@ -12,7 +12,7 @@ GUIDANCE_MODES = ("passive", "advise", "execute")
 @dataclass(frozen=True)
 class GuidanceConfig:
     # passive: no guidance (as before issue 27); advise: the manoeuvre is decided and published, nothing is sent to
-    # the autopilot; execute: the autopilot is commanded (ArduCopter GUIDED, docs/integration.md)
+    # the autopilot; execute: the autopilot is commanded (ArduCopter GUIDED or PX4 OFFBOARD: docs/integration.md)
     mode: str = "passive"
     # Never command a descent that ends below this height above home (GLOBAL_POSITION_INT relative_alt): level off.
     # 15 m: ArduCopter's RTL_ALT default (1500 cm, ArduCopter/Parameters.cpp), the height it climbs to before flying
