@@ -154,10 +154,11 @@ class Daa:
         self._ra_inhibited: tuple = ()  # () or (the Diagnostic,) while the watch says so
         self._guidance = None  # avionics/guidance/stage.py GuidanceStage (guidance.mode advise or execute)
         if config.guidance.mode != "passive":
-            from avionics.guidance.stage import GuidanceStage, VerticalLimits
+            from avionics.guidance.stage import GuidanceStage, Ownship, VerticalLimits
 
             self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(self._core.profile.response),
                                            config.mavlink.source_system)
+            self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
         self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
 
     @property
@@ -228,14 +229,12 @@ class Daa:
     def _guide(self, now_s: float, active, unavailable: str | None, sources: SourceStatus):
         """The guidance stage's step (avionics/guidance/stage.py), with ownship's velocity and height above home;
         its fault is contained: the advisories go on, nothing is commanded (the stage is not stepped)."""
-        from avionics.guidance.stage import Ownship
-
         try:
             own = self._core.ownship.state_at(now_s)
             ownship = None
             if own is not None:
                 _, _, (ve, vn) = self._core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
-                ownship = Ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
+                ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
                                          sources.link_authenticated)

@@ -292,3 +292,20 @@ def test_nothing_is_commanded_while_px4_is_in_offboard_for_someone_else():
     out = stage.update(1.0, {KEY: _ra()}, None, Ownship(10.0, 0.0, 0.0, 100.0), [beat])
     assert out.commands == () and out.decision.reason == "mode OFFBOARD not ours to take"
     assert out.decision.autopilot_mode == "OFFBOARD"
+
+
+def test_the_csv_carries_the_guidance_columns_and_a_row_per_change():
+    import csv
+    import io
+
+    from avionics.ports import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS, CsvOut
+
+    config = _config()
+    text = io.StringIO()
+    replay(load_encounter("head-on"), config, PRESETS["none"], fly_guidance=True, ports=[CsvOut(text, guidance=True)])
+    rows = list(csv.DictReader(io.StringIO(text.getvalue())))
+    assert tuple(rows[0]) == CSV_COLUMNS + GUIDANCE_CSV_COLUMNS
+    changes = [(r["guidance_state"], r["autopilot_mode"]) for r in rows if r["advisory"] == "GUIDANCE"]
+    assert changes == [("commanding", "AUTO"), ("holding", "GUIDED"), ("returning", "GUIDED"), ("idle", "AUTO")]
+    ra = next(r for r in rows if r["advisory"] == "RA")
+    assert ra["guidance_state"] == "commanding" and ra["guidance_target_vertical_rate_mps"] == "2.500"
