@@ -1,6 +1,7 @@
 """Avoidance that flies, over real sockets (issue 27): `avionics run` (a child process, guidance.mode=execute, a
-multirotor, small-uas alerting) on UDP, the simulated ArduCopter in this process flying the head-on's ownship path
-as its mission (avionics_sitl/live.py fly_guided), a zenoh subscriber in another session."""
+multirotor, small-uas alerting) on UDP, the simulated ArduCopter or PX4 in this process flying the head-on's ownship
+path as its mission (avionics_sitl/live.py fly_guided), a zenoh subscriber in another session. The acceptance runs
+through `avionics demo --guidance` (avionics_eval/demo.py), the interlocks through the same parts here."""
 
 from __future__ import annotations
 
@@ -20,7 +21,6 @@ from avionics_sitl.encounters import load_encounter
 from avionics_sitl.guided import SimCopter
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import fly_guided
-from avionics_sitl.replay import _vertical_miss
 from tests.conftest import DEADLINE_S, wait_for
 from tests.test_integration_live import _wait_for_tcp
 
@@ -71,25 +71,23 @@ def _statustexts(recording) -> list[str]:
     return [r.msg.text for r in recording.of_type("STATUSTEXT") if r.msg.text.startswith("DAA GUIDANCE")]
 
 
-def test_the_multirotor_avoids_the_head_on_and_resumes_its_mission_live(udp_port, tcp_port):
-    end_s = 97.0
-    scenario = load_encounter("head-on")
-    onboard = _Onboard(udp_port, tcp_port, end_s - START_S)
-    copter = SimCopter(load_vehicle("multirotor"))
-    try:
-        recording = fly_guided(scenario, f"udpout:127.0.0.1:{udp_port}", PRESETS["none"], copter,
-                               start_s=START_S, duration_s=end_s - START_S)
-        wait_for(lambda: onboard.states()[-1:] == ["idle"] and len(onboard.states()) >= 5)
-    finally:
-        err = onboard.close()
-    own, (intruder,) = scenario.trajectories()
-    miss = _vertical_miss(scenario, own, intruder, "intruder", recording.flown)
-    assert miss.vmd_without_m < NMAC_V_M < miss.vmd_with_m, (miss, err[-2000:])  # an NMAC without, a miss with
-    assert onboard.states() == ["idle", "commanding", "holding", "returning", "idle"], err[-2000:]
+def test_the_multirotor_avoids_the_head_on_and_resumes_its_mission_live(capsys, udp_port, tcp_port):
+    """Through `avionics demo --guidance` (avionics_eval/demo.py): the onboard process as a child, the copter here."""
+    from avionics_eval.demo import demo_guidance
+
+    flight: dict = {}
+    assert demo_guidance(port=udp_port, zenoh_port=tcp_port, noise="none", flight=flight) == 0
+    out = capsys.readouterr().out
+    assert "result: avoided, and back on the mission" in out and "autopilot modes: AUTO -> GUIDED -> AUTO" in out
+    recording, copter, (miss,) = flight["recording"], flight["copter"], flight["misses"]
+    assert miss.hmd_m < 500 * FT and miss.vmd_without_m < NMAC_V_M < miss.vmd_with_m, miss  # an NMAC without
+    states = [d["state"] for d in flight["guidance"]]
+    assert [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]] == \
+        ["idle", "commanding", "holding", "returning", "idle"]  # on zenoh
     assert [t.split()[2] for t in _statustexts(recording)] == ["COMMANDING", "HOLDING", "RETURNING", "IDLE"]
     # on the scenario's clock (the onboard process's time_s counts from its own start)
     holding_s = next(r.time_s for r in recording.of_type("STATUSTEXT") if "GUIDANCE HOLDING" in r.msg.text)
-    modes = [(t, m) for t, m in copter.modes if t > START_S]
+    modes = [(t, m) for t, m in copter.modes if t > 0]
     assert [m for _, m in modes] == [ardupilot.GUIDED, ardupilot.AUTO]
     # back on its mission within the quiet time after clear of conflict, plus the loop's and the link's latency
     assert modes[-1][0] - holding_s <= 2.0 + 0.5
