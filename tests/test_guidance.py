@@ -115,7 +115,18 @@ def test_a_refused_mode_change_is_a_failure_said_on_mavlink():
     assert copter.modes == [(0.0, ardupilot.AUTO)]
 
 
-def test_no_command_while_ownship_is_stale():
+def test_ownship_going_stale_mid_manoeuvre_gives_the_mission_back_at_once():
+    copter = SimCopter(load_vehicle("multirotor"), position_lost_s=70.0)  # navigation fails while it climbs
+    result = replay(load_encounter("head-on"), _config(), PRESETS["none"], fly_guidance=True, copter=copter)
+    assert [d.state for d in result.guidance] == ["commanding", "returning", "idle"]
+    returning = result.guidance[1]
+    assert returning.reason == "daa_unavailable no_ownship"  # not holding: nothing is commanded without ownship
+    assert returning.time_s <= 70.0 + 2.0 + 0.2  # input.ownship_timeout_s after the last fix
+    assert max(t for t, _ in _setpoints(result)) < returning.time_s
+    assert [m for _, m in copter.modes] == [ardupilot.AUTO, ardupilot.GUIDED, ardupilot.AUTO]
+
+
+def test_no_command_while_ownship_is_stale_before_the_conflict():
     copter = SimCopter(load_vehicle("multirotor"), position_lost_s=60.0)  # before the RA would come (65 s)
     result = replay(load_encounter("head-on"), _config(), PRESETS["none"], fly_guidance=True, copter=copter)
     assert result.sent == [] and copter.modes == [(0.0, ardupilot.AUTO)]

@@ -144,3 +144,23 @@ def test_a_px4_offboard_stream_never_lapses_over_half_a_second_live(udp_port, tc
     assert max(b - a for a, b in zip(setpoints, setpoints[1:])) <= 0.5  # received, on the wall clock
     assert [m for _, m in copter.modes] == [px4.MISSION, px4.OFFBOARD]
     assert copter.counters["sim.offboard_lost"] == 0 and copter.counters["sim.mode_denied"] == 0
+
+
+def test_ownship_going_stale_mid_manoeuvre_gives_the_mission_back_and_commands_nothing_more_live(udp_port,
+                                                                                                  tcp_port):
+    end_s = 76.0
+    onboard = _Onboard(udp_port, tcp_port, end_s - START_S)
+    copter = SimCopter(load_vehicle("multirotor"), position_lost_s=70.0)  # navigation fails while it climbs
+    try:
+        recording = fly_guided(load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["none"], copter,
+                               start_s=START_S, duration_s=end_s - START_S)
+        wait_for(lambda: onboard.states()[-1:] == ["idle"] and "returning" in onboard.states())
+    finally:
+        err = onboard.close()
+    assert onboard.states() == ["idle", "commanding", "returning", "idle"], err[-2000:]
+    returning = next(d for d in onboard.decisions if d["state"] == "returning")
+    assert returning["reason"] == "daa_unavailable no_ownship"  # not a hold: nothing is commanded without ownship
+    back_s = next(r.time_s for r in recording.of_type("STATUSTEXT") if "GUIDANCE RETURNING" in r.msg.text)
+    setpoints = [r.time_s for r in recording.of_type("SET_POSITION_TARGET_GLOBAL_INT")]
+    assert setpoints and max(setpoints) < back_s
+    assert [m for _, m in copter.modes] == [ardupilot.AUTO, ardupilot.GUIDED, ardupilot.AUTO]
