@@ -9,6 +9,7 @@ Each section is declared, with its units and its checks (`validate()`), next to 
     [advisory]                     avionics/advisory/params.py
     [conflict]                     avionics/conflict/params.py
     [traffic]                      avionics/io/feeds/params.py (receiver feeds: avionics run --traffic)
+    [guidance]                     avionics/guidance/params.py (commanding the autopilot, issue 27)
 
 The generic TOML -> dataclass coercion and ConfigError are avionics/core/params.py. This module is the shells'
 layer (the composition root and the command lines): no component imports it. It re-exports the section classes
@@ -25,12 +26,14 @@ from pathlib import Path
 from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
 from avionics.core.params import ConfigError, _build
+from avionics.guidance.params import GuidanceConfig
 from avionics.io.feeds.params import TrafficConfig
 from avionics.io.params import ROS_NAMESPACE, MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
 from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig, TrackingConfig
 
 __all__ = [
-    "AdvisoryConfig", "AltitudeConfig", "Config", "ConfigError", "ConflictConfig", "InputConfig", "MavlinkConfig",
+    "AdvisoryConfig", "AltitudeConfig", "Config", "ConfigError", "ConflictConfig", "GuidanceConfig", "InputConfig",
+    "MavlinkConfig",
     "TRACK_FILTERS", "TrackingConfig", "TrafficConfig", "VehicleConfig", "ZenohConfig", "as_dict", "load_config",
     "read_toml", "traffic_source_ids", "validate",
 ]
@@ -47,6 +50,7 @@ class Config:
     advisory: AdvisoryConfig = field(default_factory=AdvisoryConfig)
     conflict: ConflictConfig = field(default_factory=ConflictConfig)
     traffic: TrafficConfig = field(default_factory=TrafficConfig)
+    guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
 
 
 def _merge(base: dict, update: dict) -> dict:
@@ -83,6 +87,9 @@ def validate(config: Config) -> Config:
     if z.ros2 and not z.ros2_namespace and not ROS_NAMESPACE.fullmatch(config.vehicle.id):
         raise ConfigError(f"zenoh.ros2: the ROS 2 namespace defaults to vehicle.id {config.vehicle.id!r}, which is not a "
                           "ROS 2 name (letters, digits and '_', not starting with a digit): set zenoh.ros2_namespace")
+    if config.guidance.mode == "execute" and config.vehicle.profile == "fixed-wing":
+        raise ConfigError("guidance.mode \"execute\" flies ArduCopter GUIDED only: a fixed-wing (ArduPlane GUIDED) "
+                          "is a later slice of issue 27; use \"advise\"")
     return config
 
 

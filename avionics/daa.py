@@ -25,7 +25,7 @@ from avionics.config import Config
 from avionics.core.faults import FaultLog
 from avionics.core.schedule import Every
 from avionics.core.types import (
-    Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
+    AUTOPILOT_INPUTS, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
 )
 from avionics.advisory.inhibits import RaInhibitWatch
 from avionics.core.units import FT
@@ -55,6 +55,7 @@ class SourceStatus:
     ownship_inconsistent: bool = False
     mavlink_traffic: bool = False
     wiring: tuple = ()
+    link_authenticated: bool = False  # io/link.py MavlinkLink.authenticated (guidance.require_signing)
 
 
 def traffic_down(sources: SourceStatus) -> tuple:
@@ -125,6 +126,11 @@ class DaaResult:
     rejected_senders: tuple[tuple[int, int, str], ...] = ()
     # the active wiring diagnostics (io/diagnostics.py Diagnostic): ports.py announces each onset
     wiring: tuple = ()
+    # guidance.mode advise / execute (avionics/guidance/stage.py): the decision of this step, whether its state
+    # changed (announce it), and the MAVLink commands for the autopilot (ports.py MavlinkOut sends them)
+    guidance: object | None = None
+    guidance_changed: bool = False
+    guidance_commands: tuple = ()
 
     @property
     def available(self) -> bool:
@@ -146,6 +152,14 @@ class Daa:
         # a profile that leaves a flying drone without RAs, named after a minute (advisory/inhibits.py)
         self._ra_watch = RaInhibitWatch(self._core.profile, config.advisory.ra_enabled)
         self._ra_inhibited: tuple = ()  # () or (the Diagnostic,) while the watch says so
+        self._guidance = None  # avionics/guidance/stage.py GuidanceStage (guidance.mode advise or execute)
+        if config.guidance.mode != "passive":
+            from avionics.guidance.stage import GuidanceStage, Ownship, VerticalLimits
+
+            self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(self._core.profile.response),
+                                           config.mavlink.source_system)
+            self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
+        self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
 
     @property
     def profile(self):
@@ -161,6 +175,11 @@ class Daa:
              tracks: bool = False, status: bool = False) -> DaaResult:
         """One step of the core at now_s with the inputs received since the last one. tracks / status: include
         the track states and the status (the output ports ask for them at their own rates)."""
+        if self._guidance is not None:
+            inputs = list(inputs)
+            self._autopilot_inputs = [i for i in inputs if isinstance(i, AUTOPILOT_INPUTS)]
+            if self._autopilot_inputs:
+                inputs = [i for i in inputs if not isinstance(i, AUTOPILOT_INPUTS)]
         core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline.py)
         return self._result(now_s, tuple(core_result.changes), core_result.assessed, sources, tracks, status,
                             bands=core_result.bands)
@@ -191,6 +210,8 @@ class Daa:
         level = self._core.level
         record = self._core.tracker.tracks.get
         active = self._core.active_view()
+        unavailable = self._unavailable if self._unavailable != STARTUP else "no_ownship"
+        guidance = self._guide(now_s, active, unavailable, sources) if self._guidance is not None else None
         return DaaResult(
             time_s=now_s, changes=changes, assessed=assessed, active=active,
             callsigns=_Callsigns({a.intruder for a in changes}, active, record),
@@ -200,7 +221,26 @@ class Daa:
             status=MappingProxyType(body) if body is not None else None,
             counters=MappingProxyType(dict(self.counters)) if body is not None else None, final=final, bands=bands,
             starting=self._unavailable == STARTUP, rejected_senders=tuple(sorted(sources.rejected_senders)),
-            wiring=sources.wiring + self._ra_inhibited)
+            wiring=sources.wiring + self._ra_inhibited,
+            guidance=guidance.decision if guidance is not None else None,
+            guidance_changed=guidance is not None and guidance.changed,
+            guidance_commands=guidance.commands if guidance is not None else ())
+
+    def _guide(self, now_s: float, active, unavailable: str | None, sources: SourceStatus):
+        """The guidance stage's step (avionics/guidance/stage.py), with ownship's velocity and height above home;
+        its fault is contained: the advisories go on, nothing is commanded (the stage is not stepped)."""
+        try:
+            own = self._core.ownship.state_at(now_s)
+            ownship = None
+            if own is not None:
+                _, _, (ve, vn) = self._core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
+                ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
+            inputs, self._autopilot_inputs = self._autopilot_inputs, []
+            return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
+                                         sources.link_authenticated)
+        except Exception as exc:  # noqa: BLE001
+            self._fault("guidance", exc)
+            return None
 
     def _watch_ra_inhibit(self, now_s: float) -> None:
         try:

@@ -14,7 +14,7 @@ import math
 import threading
 import time
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Iterable, Iterator, Protocol
 
 from avionics.config import Config
@@ -107,7 +107,8 @@ class LinkSource:
             yield Batch(now, self.mavlink.decode(msgs, now))
 
     def status(self) -> SourceStatus:
-        return self.mavlink.status()
+        status = self.mavlink.status()
+        return replace(status, link_authenticated=True) if self.link.authenticated else status
 
 
 class Loop:

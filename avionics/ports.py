@@ -21,7 +21,9 @@ from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
 from avionics.io.diagnostics import Announcements
-from avionics.io.payloads import advisory_payload, bands_payload, ownship_payload, status_payload, track_payload
+from avionics.io.payloads import (
+    advisory_payload, bands_payload, guidance_payload, ownship_payload, status_payload, track_payload,
+)
 from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import TrafficBatch
 
@@ -214,6 +216,13 @@ class MavlinkOut:
             due = result.wiring if "no_mavlink" in ended else onsets
             for diagnostic in due:
                 self._send(encode.statustext(diagnostic.text, encode.mavlink2.MAV_SEVERITY_WARNING))
+        for command in result.guidance_commands:  # to the autopilot (avionics/guidance/ardupilot.py)
+            self._send(command)
+        if result.guidance_changed and self._statustext:
+            decision = result.guidance
+            self._send(encode.statustext(decision.text(), encode.mavlink2.MAV_SEVERITY_WARNING
+                                         if decision.state in ("failed", "overridden")
+                                         else encode.mavlink2.MAV_SEVERITY_NOTICE))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
@@ -268,6 +277,8 @@ class ZenohOut:
             self._refresh.clear()
         for advisory in self._refresh.due(result):
             self._advisory(advisory, result)
+        if result.guidance is not None and (result.guidance_changed or result.status is not None):
+            self._publish("guidance", guidance_payload(self.vehicle, result.guidance))  # on change and with status
         if result.tracks is not None:
             self._traffic(result.tracks, result.time_s)
         if result.bands is not None:
@@ -364,25 +375,48 @@ def csv_row(a: Advisory, name: str = "") -> dict:
     }
 
 
+# With guidance (guidance.mode advise or execute) the CSV has these columns too: every row carries the guidance's
+# decision of its step, and a change of the guidance's state is a row of its own (advisory `GUIDANCE`).
+GUIDANCE_CSV_COLUMNS = ("guidance_state", "guidance_manoeuvre", "guidance_target_vertical_rate_mps",
+                        "guidance_reason", "autopilot_mode")
+
+
+def guidance_cells(decision) -> dict:
+    rate = decision.target_vertical_rate_mps
+    return {"guidance_state": decision.state, "guidance_manoeuvre": decision.manoeuvre,
+            "guidance_target_vertical_rate_mps": "" if rate is None else f"{rate:.3f}",
+            "guidance_reason": decision.reason, "autopilot_mode": decision.autopilot_mode}
+
+
 class CsvOut:
     """Advisory changes as CSV rows on an open text file (the caller owns the file; `avionics run` gives it a
     sinks.FileSink, which fails alone). names: ICAO address -> a name for the `name` column (a scenario's
     aircraft names); without one the intruder's callsign (as `sitl replay --out` names them), empty when none was
-    ever heard. The rows of a step are flushed with it: a write error is seen then, not at exit."""
+    ever heard. The rows of a step are flushed with it: a write error is seen then, not at exit. guidance: the
+    GUIDANCE_CSV_COLUMNS too (guidance.mode advise or execute)."""
 
-    def __init__(self, file: IO[str], names: dict[int, str] | None = None):
+    def __init__(self, file: IO[str], names: dict[int, str] | None = None, guidance: bool = False):
         self._file = file
         self._names = names or {}
-        self._writer = csv.DictWriter(file, fieldnames=CSV_COLUMNS)
+        self._guidance = guidance
+        self._writer = csv.DictWriter(file, fieldnames=CSV_COLUMNS + (GUIDANCE_CSV_COLUMNS if guidance else ()))
         self._writer.writeheader()
 
     def wants(self, now_s: float) -> Demand:
         return NOTHING
 
     def publish(self, result: DaaResult) -> None:
-        if result.changes:
-            self._writer.writerows(csv_row(a, self._names.get(a.intruder.address)
-                                           or result.callsigns.get(a.intruder) or "") for a in result.changes)
+        rows = [csv_row(a, self._names.get(a.intruder.address) or result.callsigns.get(a.intruder) or "")
+                for a in result.changes]
+        if self._guidance and result.guidance is not None:
+            cells = guidance_cells(result.guidance)
+            for row in rows:
+                row.update(cells)
+            if result.guidance_changed:
+                rows.append({**{c: "" for c in CSV_COLUMNS}, "time_s": f"{result.time_s:.2f}", "advisory": "GUIDANCE",
+                             **cells})
+        if rows:
+            self._writer.writerows(rows)
             self._file.flush()
 
     def close(self) -> None:

@@ -62,7 +62,7 @@ class Runner:
             ports.append(ZenohOut(self.bus.publish, config, sinks=self.sinks))
         self._csv = FileSink("csv", csv_out, "w", self.sinks, newline="") if csv_out else None
         if self._csv is not None:
-            ports.append(CsvOut(self._csv))
+            ports.append(CsvOut(self._csv, guidance=config.guidance.mode != "passive"))
         if self.feeds.feeds and self.link.is_log:
             self.link.close()
             raise ConfigError("--traffic needs a live MAVLink link: a log replays its own traffic on its own time")

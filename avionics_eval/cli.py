@@ -28,6 +28,11 @@ def call(prog: str, func, args) -> int:
 def cmd_demo(args) -> int:
     from avionics_eval.demo import demo
 
+    if args.guidance:
+        from avionics_eval.demo import demo_guidance
+
+        return demo_guidance(args.scenario, port=args.port, zenoh_port=args.zenoh_port, noise=args.noise,
+                             profile=args.profile, autopilot=args.autopilot)
     return demo(args.scenario, port=args.port, zenoh_port=args.zenoh_port, noise=args.noise, profile=args.profile)
 
 
@@ -99,6 +104,12 @@ def add_commands(sub) -> None:
     p.add_argument("--noise", choices=("default", "none"), default="default", help="ADS-B impairments")
     p.add_argument("--profile", help="onboard alerting profile (advisory.profile), e.g. do365: DO-365 levels and "
                                      "guidance bands")
+    p.add_argument("--guidance", action="store_true",
+                   help="a multirotor on its mission avoids the encounter: the onboard process commands the "
+                        "simulated autopilot (guidance.mode=execute; profile small-uas unless --profile) and "
+                        "gives the mission back; prints the truth miss without and with")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --guidance: the simulated autopilot, ArduCopter (GUIDED) or PX4 (OFFBOARD)")
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("bench", help="end-to-end throughput and report-to-advisory latency (JSON)")

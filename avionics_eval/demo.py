@@ -73,11 +73,12 @@ def _listening(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
-def _start_onboard(port: int, endpoint: str, duration_s: float, profile: str | None) -> subprocess.Popen:
+def _start_onboard(port: int, endpoint: str, duration_s: float, profile: str | None,
+                   sets: tuple[str, ...] = ()) -> subprocess.Popen:
     return subprocess.Popen([
         sys.executable, "-m", "avionics.cli", "--quiet", "run", "--connection", f"udpin:127.0.0.1:{port}",
         "--set", f'zenoh.listen=["{endpoint}"]', "--duration", f"{duration_s + 5:.0f}", "--counters",
-        *(["--set", f"advisory.profile={profile}"] if profile else []),
+        *(["--set", f"advisory.profile={profile}"] if profile else []), *(a for s in sets for a in ("--set", s)),
     ], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -230,6 +231,112 @@ def demo(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17
     ok = ok and conflict_bands and len(sequence) >= 3 and sequence[-2:] == ["WARNING", "NONE"]
     print("result:", f"DO-365 levels {' -> '.join(sequence)} received, and guidance bands" if ok
           else f"unexpected sequence: COLLISION {levels}, DO-365 levels {sequence}")
+    return 0 if ok else 1
+
+
+GUIDANCE_START_S = {"head-on": 50.0}  # with small-uas: TA ~55 s, RA ~65 s, CPA 86 s, clear ~91 s
+GUIDANCE_END_MARGIN_S = 3.0  # the flight ends this long after the mission was given back
+
+
+def demo_guidance(scenario_name: str = "head-on", port: int = 14650, zenoh_port: int = 17447,
+                  noise: str = "default", profile: str | None = None, autopilot: str = "ardupilot",
+                  flight: dict | None = None) -> int:
+    """`avionics demo --guidance`: a multirotor on its mission (the scenario's ownship path, flown in AUTO by the
+    simulated ArduCopter or PX4 of avionics_sitl/guided.py) meets the encounter; the onboard process
+    (guidance.mode=execute, vehicle.profile=multirotor, advisory.profile small-uas unless given) commands the
+    avoidance over MAVLink and gives the mission back. Prints the guidance's states as zenoh carries them, the
+    autopilot's modes, and the truth miss without and with; exit 0 when the flown miss is outside NMAC
+    (100 ft at the closest approach) and the vehicle is back on its mission. flight: a dict that receives the
+    `recording` (avionics_sitl/live.py), the `copter`, the zenoh `guidance` payloads and the `misses`."""
+    from avionics.advisory.vehicle import load_vehicle
+    from avionics.guidance import ardupilot, px4
+    from avionics.io.zenoh_bus import open_session
+    from avionics_sitl.guided import SimCopter
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.live import fly_guided
+    from avionics_sitl.replay import _vertical_miss
+
+    scenario = load_scenario(scenario_name)
+    start = GUIDANCE_START_S.get(scenario_name, 0.0)
+    duration = scenario.duration_s - start
+    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
+    check_ports_free(port, zenoh_port)
+    profile = profile or "small-uas"
+    onboard = _start_onboard(port, endpoint, duration, profile, ("vehicle.profile=multirotor",
+                                                                 "guidance.mode=execute"))
+    contract = px4 if autopilot == "px4" else ardupilot
+    copter = SimCopter(load_vehicle("multirotor"), firmware=autopilot)
+    states: list[dict] = []
+    try:
+        print(f"avionics demo --guidance: '{scenario.name}' from t={start:.0f} s; a multirotor on its mission, "
+              f"simulated {'PX4' if autopilot == 'px4' else 'ArduCopter'} (this process) on udpin:127.0.0.1:{port}; "
+              f"onboard guidance.mode=execute, profile {profile}, zenoh {endpoint}\n", flush=True)
+        _wait_listening(onboard, zenoh_port, endpoint)
+        onboard_exited = threading.Event()
+        stop = threading.Event()  # the onboard process exited, or the mission was given back: the demo is over
+        threading.Thread(target=lambda: (onboard.wait(), onboard_exited.set(), stop.set()),
+                         name="demo-onboard-watch", daemon=True).start()
+        lock = threading.Lock()
+        session = open_session(ZenohConfig(listen=(), connect=(endpoint,)))
+        resumed_at: list[float] = []
+
+        def on_guidance(sample) -> None:
+            payload = json.loads(sample.payload.to_bytes())
+            with lock:
+                if not states or states[-1]["state"] != payload["state"]:
+                    rate = payload["target_vertical_rate_mps"]
+                    print(f"  zenoh      guidance {payload['state']:10s} {payload['manoeuvre']:7s} "
+                          f"{'' if rate is None else f'{rate:+.1f} m/s':9s} {payload['reason']}  "
+                          f"(autopilot {payload['autopilot_mode']})", flush=True)
+                states.append(payload)
+
+        modes_seen = [copter.mode]
+
+        def on_receive(received) -> None:
+            msg = received.msg
+            if msg.get_type() == "STATUSTEXT" and msg.text.startswith("DAA GUIDANCE"):
+                print(f"t={received.time_s:6.1f} s  STATUSTEXT {msg.text}", flush=True)
+            if copter.mode != modes_seen[-1]:
+                modes_seen.append(copter.mode)
+                print(f"t={received.time_s:6.1f} s  autopilot mode {contract.mode_name(copter.mode)}", flush=True)
+                if len(modes_seen) >= 3 and copter.mode == modes_seen[0]:
+                    resumed_at.append(received.time_s)
+            if resumed_at and received.time_s > resumed_at[0] + GUIDANCE_END_MARGIN_S:
+                stop.set()  # the guidance has said idle by now (HEARTBEAT, 1 Hz)
+
+        subscriber = session.declare_subscriber("daa/*/guidance", on_guidance)
+        try:
+            recording = fly_guided(scenario, f"udpout:127.0.0.1:{port}", PRESETS[noise], copter, start_s=start,
+                                   duration_s=duration, on_receive=on_receive, stop=stop)
+            died = onboard_exited.is_set()
+        finally:
+            _, err = _stop(onboard)
+            subscriber.undeclare()
+            session.close()
+        if died:
+            raise _onboard_failure(onboard.returncode, err, "during the flight")
+    finally:
+        if onboard.poll() is None:
+            _stop(onboard)
+    own, intruders = scenario.trajectories()
+    ok = True
+    misses = []
+    for spec, traj in zip(scenario.intruders, intruders):
+        miss = _vertical_miss(scenario, own, traj, spec.name, recording.flown)
+        misses.append(miss)
+        outside = miss.vmd_with_m > 100 * FT or miss.hmd_flown_m > 500 * FT
+        ok = ok and outside
+        print(f"\ntruth miss with {spec.name}: without guidance HMD {miss.hmd_m:.0f} m VMD "
+              f"{miss.vmd_without_m / FT:.0f} ft; flown HMD {miss.hmd_flown_m:.0f} m VMD {miss.vmd_with_m / FT:.0f} ft "
+              f"({'outside' if outside else 'inside'} NMAC)")
+    modes = [contract.mode_name(m) for _, m in copter.modes]
+    mission = (px4.PX4 if autopilot == "px4" else ardupilot.ARDUCOPTER).return_mode
+    resumed = len(copter.modes) >= 3 and copter.mode == mission  # taken and given back
+    print(f"autopilot modes: {' -> '.join(modes)}")
+    ok = ok and resumed
+    print("result:", "avoided, and back on the mission" if ok else "NOT avoided or not back on the mission")
+    if flight is not None:
+        flight.update(recording=recording, copter=copter, guidance=states, misses=misses)
     return 0 if ok else 1
 
 

@@ -35,18 +35,30 @@ def cmd_replay(args) -> int:
     from avionics.config import load_config
     from avionics_sitl.replay import replay
 
-    config = load_config(args.config, list(args.set) + ["zenoh.enabled=false"])
+    guidance = ["guidance.mode=execute", f"vehicle.profile={args.vehicle}"] if args.fly_guidance else []
+    config = load_config(args.config, guidance + list(args.set) + ["zenoh.enabled=false"])
     for path, option in ((args.misses, "--misses"), (args.out, "--out")):
         if path:
             check_output_file(path, option)  # before the run, not after it
     progress = True if getattr(args, "progress", False) else None
-    result = replay(_scenario(args), config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
-                    progress=progress)
+    scenario = _scenario(args)
+    if args.fly_guidance:  # the rows `avionics run --csv` writes, with the guidance's columns
+        import contextlib
+
+        from avionics.ports import CsvOut
+
+        with open(args.out, "w", newline="") if args.out else contextlib.nullcontext(sys.stdout) as out:
+            csv_out = CsvOut(out, {a.icao_address: a.name for a in scenario.intruders}, guidance=True)
+            result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, progress=progress,
+                            fly_guidance=True, ports=[csv_out], firmware=args.autopilot)
+    else:
+        result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
+                        progress=progress)
     if args.misses:
         result.write_misses_csv(args.misses)
-    if args.out:
+    if args.out and not args.fly_guidance:  # (with --fly-guidance the rows were written as it flew)
         result.write_csv(args.out)
-    else:
+    elif not args.fly_guidance:
         import csv
 
         from avionics.ports import CSV_COLUMNS
@@ -63,6 +75,12 @@ def tcp_listen_address(text: str) -> tuple[str, int]:
     if sep and not host:
         raise argparse.ArgumentTypeError(f"no host before ':' in {text!r} (use PORT or HOST:PORT)")
     return (host or "127.0.0.1"), port_number(port)
+
+
+def autopilot_mode_name(mode: int, autopilot: str) -> str:
+    from avionics.guidance import ardupilot, px4
+
+    return (px4 if autopilot == "px4" else ardupilot).mode_name(mode)
 
 
 def cmd_live(args) -> int:
@@ -83,6 +101,23 @@ def cmd_live(args) -> int:
         print(json.dumps(line), flush=True)
 
     scenario = _scenario(args)
+    if args.fly_guidance:  # the simulated ArduCopter obeys the guidance's commands (avionics_sitl/guided.py)
+        from avionics.advisory.vehicle import load_vehicle
+        from avionics.advisory.tables import ProfileError
+        from avionics.core.params import ConfigError
+        from avionics_sitl.guided import SimCopter
+        from avionics_sitl.live import fly_guided
+
+        try:
+            copter = SimCopter(load_vehicle(args.vehicle), firmware=args.autopilot)
+        except ProfileError as exc:
+            raise ConfigError(f"--vehicle: {exc}") from exc
+        recording = fly_guided(scenario, args.connection, PRESETS[args.noise], copter, seed=args.seed,
+                               start_s=args.start, duration_s=args.duration, on_receive=show)
+        print(json.dumps({"sent": recording.sent, "received": len(recording.received),
+                          "modes": [[round(t, 2), autopilot_mode_name(m, args.autopilot)] for t, m in copter.modes]}),
+              file=sys.stderr)
+        return 0
     end_s = scenario.duration_s if args.duration is None else min(scenario.duration_s, args.start + args.duration)
     clock = ScenarioClock(args.start)
     # listening before the link opens and the clock starts: a port in use is exit 1 before anything flies
@@ -135,9 +170,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE.csv", help="write the advisory changes here (default: stdout)")
     p.add_argument("--fly-ras", action="store_true",
                    help="close the loop: ownship flies the RAs with the profile's response model")
+    p.add_argument("--fly-guidance", action="store_true",
+                   help="close the loop through the guidance stage (guidance.mode=execute): a simulated ArduCopter "
+                        "flies the ownship path as its mission in AUTO and obeys the GUIDED commands")
+    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
+                   help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
+                        "(OFFBOARD)")
     p.add_argument("--misses", metavar="FILE.csv",
                    help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
-                        "(equal without --fly-ras)")
+                        "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
     p.add_argument("--config", metavar="FILE", help="onboard configuration TOML")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE", help="config override")
     p.set_defaults(func=cmd_replay)
@@ -148,6 +191,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="connection string (default: where avionics run listens by default)")
     p.add_argument("--start", type=seconds, default=0.0, metavar="S", help="start at scenario time S")
     p.add_argument("--duration", type=seconds, metavar="S", help="fly S seconds (default: to the scenario's end)")
+    p.add_argument("--fly-guidance", action="store_true",
+                   help="a simulated ArduCopter flies the ownship path as its mission and obeys the guidance's "
+                        "commands (avionics run with guidance.mode=execute); ownship and traffic on MAVLink only")
+    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
+                   help="with --fly-guidance: the vehicle profile flown (default multirotor)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
+                        "(OFFBOARD)")
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")
@@ -162,6 +213,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "fly_guidance", False) and args.func is cmd_live and (args.sbs or args.beast
+                                                                           or args.no_adsb_vehicle):
+        parser.error("--fly-guidance sends ownship and traffic on MAVLink only: not with --sbs, --beast, "
+                     "--no-adsb-vehicle")
     if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):
         parser.error("--no-adsb-vehicle needs --sbs or --beast (otherwise no traffic is sent at all)")
     return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file

@@ -89,6 +89,7 @@ class Recording:
     received: list[Received] = field(default_factory=list)
     sent: int = 0
     counters: Counter = field(default_factory=Counter)
+    flown: list = field(default_factory=list)  # fly_guided: (time, (east, north, up) offset from the mission path)
 
     def of_type(self, kind: str) -> list[Received]:
         return [r for r in self.received if r.msg.get_type() == kind]
@@ -130,6 +131,71 @@ def fly(scenario: Scenario, connection: str, impairments: AdsbImpairments, seed:
                     continue  # our own echo on a shared link
                 received = Received(time.monotonic() - wall0, msg)
                 recording.received.append(received)
+                if on_receive is not None:
+                    on_receive(received)
+    finally:
+        link.close()
+    return recording
+
+
+GUIDED_FLY_PERIOD_S = 0.05  # the simulated copter's dynamics step between messages
+
+
+def fly_guided(scenario: Scenario, connection: str, impairments: AdsbImpairments, copter, seed: int = 0,
+               start_s: float = 0.0, duration_s: float | None = None,
+               autopilot: AutopilotConfig = AutopilotConfig(), on_receive=None, stop=None,
+               pilot=()) -> Recording:
+    """The closed loop in real time (sitl live --fly-guidance): the simulated ArduCopter (avionics_sitl/guided.py)
+    flies the scenario's ownship path as its mission from start_s, sends its GLOBAL_POSITION_INT and
+    SCALED_PRESSURE at autopilot.ownship_hz and HEARTBEAT at 1 Hz as it flies, the intruders' ADSB_VEHICLE on
+    their schedule, and obeys the DAA process's commands (answered with COMMAND_ACK at once). pilot: (scenario
+    time, custom mode) mode changes a pilot makes. The recording holds every message received."""
+    from avionics_sitl.autopilot import ownship_messages
+
+    end_s = scenario.duration_s if duration_s is None else min(scenario.duration_s, start_s + duration_s)
+    events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s, ownship=False)
+              if e.deliver_s >= start_s]
+    own_traj = scenario.trajectories()[0]
+    pilot = sorted(pilot)
+    recording = Recording()
+    link = MavlinkLink(connection, recording.counters, autopilot.system_id, autopilot.component_id)
+    packer = Packer(autopilot)
+    wall0 = time.monotonic() - start_s
+    i = 0
+    next_own = next_beat = start_s
+    own_period = 1.0 / autopilot.ownship_hz
+    try:
+        while True:
+            now = time.monotonic() - wall0
+            if now >= end_s or (stop is not None and stop.is_set()):
+                break
+            while pilot and pilot[0][0] <= now:
+                copter.set_mode(pilot.pop(0)[1], now)
+            state = copter.fly(own_traj.state_at(now))
+            recording.flown.append((now, tuple(copter.offset)))
+            out = []
+            if now >= next_beat:
+                out.append(copter.heartbeat())
+                next_beat += 1.0
+            if now >= next_own:
+                if copter.reports_position(now):
+                    out.extend(ownship_messages(state, scenario.ground_elevation_m, int(now * 1000)))
+                next_own += own_period
+            while i < len(events) and events[i].deliver_s <= now:
+                out.append(events[i].msg)
+                i += 1
+            for msg in out:
+                link.conn.write(packer.pack(msg))
+                recording.sent += 1
+            wait = min(GUIDED_FLY_PERIOD_S, max(0.0, min(next_own, next_beat, end_s) - (time.monotonic() - wall0)))
+            for msg in link.receive(wait):
+                if msg.get_srcSystem() == autopilot.system_id and msg.get_srcComponent() in (
+                        autopilot.component_id, autopilot.adsb_component_id):
+                    continue  # our own echo on a shared link
+                received = Received(time.monotonic() - wall0, msg)
+                recording.received.append(received)
+                for reply in copter.receive(msg, received.time_s):
+                    link.conn.write(packer.pack(reply))
                 if on_receive is not None:
                     on_receive(received)
     finally:

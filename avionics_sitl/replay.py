@@ -32,6 +32,8 @@ from avionics_sitl.scenario import Scenario
 # the lowest height above the scenario's ground that ownship flew (the same on every row).
 PROGRESS_EVERY_TICKS = 50  # the bar moves every 5 s of simulated time at 10 Hz
 MISS_COLUMNS = ("intruder", "name", "t_cpa_s", "hmd_m", "vmd_unflown_m", "vmd_flown_m", "min_agl_m")
+# --fly-guidance: the vehicle also moves horizontally, so the flown miss is taken at the flown closest approach
+GUIDANCE_MISS_COLUMNS = MISS_COLUMNS + ("hmd_flown_m",)
 
 
 @dataclass
@@ -42,6 +44,9 @@ class ReplayResult:
     counters: Counter = field(default_factory=Counter)
     misses: list = field(default_factory=list)  # VerticalMiss per intruder
     min_agl_m: float = math.nan  # the lowest true height above the scenario's ground ownship flew, at any tick
+    copter: object | None = None  # avionics_sitl/guided.py SimCopter: the vehicle the guidance flew (fly_guidance)
+    guidance: list = field(default_factory=list)  # every guidance decision whose state changed (fly_guidance)
+    sent: list = field(default_factory=list)  # (time, message) of every command the DAA process sent the autopilot
 
     def rows(self) -> list[dict]:
         return [csv_row(a, self.names.get(a.intruder.address, "")) for a in self.changes]
@@ -57,26 +62,29 @@ class ReplayResult:
             "intruder": str(m.key) if m.key is not None else "", "name": m.intruder, "t_cpa_s": f"{m.t_cpa_s:.3f}",
             "hmd_m": f"{m.hmd_m:.3f}", "vmd_unflown_m": f"{m.vmd_without_m:.3f}", "vmd_flown_m": f"{m.vmd_with_m:.3f}",
             "min_agl_m": f"{self.min_agl_m:.3f}",
+            **({"hmd_flown_m": f"{m.hmd_flown_m:.3f}"} if self.copter is not None else {}),
         } for m in self.misses]
 
     def write_misses_csv(self, path: str | Path) -> None:
         with open(path, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=MISS_COLUMNS)
+            writer = csv.DictWriter(fh, fieldnames=GUIDANCE_MISS_COLUMNS if self.copter is not None else MISS_COLUMNS)
             writer.writeheader()
             writer.writerows(self.miss_rows())
 
 
 class _Recorder:
-    """The replay's port: the advisory changes, in order."""
+    """The replay's port: the advisory changes, in order (and the guidance's changes of state)."""
 
-    def __init__(self, changes: list):
-        self.changes = changes
+    def __init__(self, changes: list, guidance: list | None = None):
+        self.changes, self.guidance = changes, guidance
 
     def wants(self, now_s):
         return NOTHING
 
     def publish(self, result) -> None:
         self.changes.extend(result.changes)
+        if self.guidance is not None and result.guidance_changed:
+            self.guidance.append(result.guidance)
 
     def close(self) -> None:
         pass
@@ -86,19 +94,26 @@ class _Autopilot:
     """The autopilot's side of the link: every frame the DAA process sends is packed, framed and decoded;
     COLLISION is recorded and DAA_ADVISORY goes to the responder (closed loop)."""
 
-    def __init__(self, config: Config, result: ReplayResult, responder: RaResponder | None, clock):
+    def __init__(self, config: Config, result: ReplayResult, responder: RaResponder | None, clock, copter=None,
+                 replies: list | None = None):
         self.link = mavlink2.MAVLink(None, srcSystem=config.mavlink.source_system,
                                      srcComponent=config.mavlink.source_component)
         self.rx = FrameScanner(Counter())
         self.result, self.responder, self.clock = result, responder, clock
+        self.copter, self.replies = copter, replies  # the simulated ArduCopter and its answers, sent back next tick
 
     def send(self, msg) -> None:
         now_s = self.clock()
         for back in self.rx.feed(bytes(msg.pack(self.link)), end_of_datagram=True):
-            if back.get_type() == "COLLISION":
+            kind = back.get_type()
+            if kind == "COLLISION":
                 self.result.collisions.append((now_s, back))
-            elif back.get_type() == "DAA_ADVISORY" and self.responder is not None:
+            elif kind == "DAA_ADVISORY" and self.responder is not None:
                 self.responder.receive(back, now_s)
+            elif self.copter is not None and kind in ("COMMAND_LONG", "SET_POSITION_TARGET_GLOBAL_INT",
+                                                    "SET_POSITION_TARGET_LOCAL_NED"):
+                self.result.sent.append((now_s, back))
+                self.replies.extend(self.copter.receive(back, now_s))
 
 
 class _ScheduleSource:
@@ -106,15 +121,18 @@ class _ScheduleSource:
     a responder, ownship flies the RAs it received and its GLOBAL_POSITION_INT follows."""
 
     def __init__(self, scenario, impairments, seed, autopilot, tick_s, mavlink: MavlinkInput, counters,
-                 responder: RaResponder | None):
+                 responder: RaResponder | None, copter=None, pilot=()):
         self.scenario, self.tick_s, self.mavlink, self.responder = scenario, tick_s, mavlink, responder
         self.names = {a.icao_address: a.name for a in scenario.intruders}
-        self.events = schedule(scenario, impairments, seed, autopilot, ownship=responder is None)
+        self.copter, self.pilot = copter, sorted(pilot)  # fly_guidance: the SimCopter; (time, mode) a pilot selects
+        self.replies: list = []  # the copter's answers to the DAA process, delivered at the next tick
+        self.events = schedule(scenario, impairments, seed, autopilot,
+                               ownship=responder is None and copter is None)
         self.own_period = 1.0 / autopilot.ownship_hz
         self.scanner = FrameScanner(counters)
         self.packer = Packer(autopilot)
         self.own_traj, self.intruder_trajs = scenario.trajectories()
-        self.offsets: list[tuple[float, float]] = []  # (t, ownship altitude offset from the response)
+        self.offsets: list[tuple] = []  # (t, (east, north, up) offset of ownship from the scenario's path)
         self.min_alt_msl_m = math.inf  # the lowest true ownship altitude at any tick
         self.now_s = 0.0
         self.progress = None  # called with the simulated time now and then
@@ -148,9 +166,24 @@ class _ScheduleSource:
             while i < len(events) and events[i].deliver_s <= t_tick + 1e-9:
                 yield self._batch(events[i].msg, events[i].deliver_s)
                 i += 1
-            if self.responder is not None:
+            if self.copter is not None:
+                while self.pilot and self.pilot[0][0] <= t_tick + 1e-9:
+                    self.copter.set_mode(self.pilot.pop(0)[1], t_tick)
+                own = self.copter.fly(self.own_traj.state_at(t_tick))
+                self.offsets.append((t_tick, tuple(self.copter.offset)))
+                replies = list(self.replies)  # the list the autopilot side appends to: emptied in place
+                self.replies.clear()
+                for msg in replies:
+                    yield self._batch(msg, t_tick)
+                if abs(t_tick - round(t_tick)) < 1e-6:  # HEARTBEAT at 1 Hz, as ArduPilot's default stream
+                    yield self._batch(self.copter.heartbeat(), t_tick)
+                if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6 and \
+                        self.copter.reports_position(t_tick):
+                    for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):
+                        yield self._batch(msg, t_tick)
+            elif self.responder is not None:
                 own = self.responder.fly(self.own_traj.state_at(t_tick))
-                self.offsets.append((t_tick, self.responder.offset_m))
+                self.offsets.append((t_tick, (0.0, 0.0, self.responder.offset_m)))
                 if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6:
                     for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):
                         yield self._batch(msg, t_tick)
@@ -166,23 +199,37 @@ class _ScheduleSource:
 
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
-           progress: bool | None = False) -> ReplayResult:
+           progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=(),
+           firmware: str = "ardupilot") -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
-    ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut. progress: a bar of the
-    simulated time on stderr (None: when stderr is a terminal)."""
+    fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
+    simulated ArduCopter (avionics_sitl/guided.py; `copter`, or one of vehicle.profile, multirotor by default)
+    flies the scenario's ownship path as its mission and obeys the MAVLink commands; firmware: "ardupilot" or
+    "px4" (the default copter's); pilot: (time, custom mode)
+    mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.
+    progress: a bar of the simulated time on stderr (None: when stderr is a terminal)."""
     counters: Counter = Counter()
     daa = Daa(config, counters)
     result = ReplayResult([], {a.icao_address: a.name for a in scenario.intruders}, counters=counters)
-    responder = RaResponder(daa.response_model) if respond else None
+    responder = RaResponder(daa.response_model) if respond and not fly_guidance else None
+    if fly_guidance and copter is None:
+        from avionics.advisory.vehicle import load_vehicle
+        from avionics_sitl.guided import SimCopter
+
+        copter = SimCopter(load_vehicle(config.vehicle.profile or "multirotor"), autopilot.system_id,
+                           autopilot.component_id, counters=counters, firmware=firmware)
+    copter = copter if fly_guidance else None
+    result.copter = copter
     source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,
-                             MavlinkInput(config, counters), counters, responder)
-    autopilot_side = _Autopilot(config, result, responder, lambda: source.now_s)
+                             MavlinkInput(config, counters), counters, responder, copter, pilot)
+    autopilot_side = _Autopilot(config, result, responder, lambda: source.now_s, copter, source.replies)
     bar, task = progress_bar(progress, f"replaying {scenario.name}", scenario.duration_s)
     if bar is not None:
         source.progress = lambda t: bar.update(task, completed=t)
     try:
-        Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes), *ports]).run()
+        Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes, result.guidance),
+                           *ports]).run()
     finally:
         if bar is not None:
             bar.update(task, completed=scenario.duration_s)
@@ -200,20 +247,36 @@ class VerticalMiss:
     t_cpa_s: float  # true time of horizontal closest approach
     hmd_m: float
     vmd_without_m: float  # |vertical separation| at CPA on the scenario's paths
-    vmd_with_m: float  # ... with ownship flying the RAs (equal when the loop is open)
+    vmd_with_m: float  # ... with ownship flying the RAs (equal when the loop is open), at the flown CPA
     key: IntruderKey | None = None  # as the node keys it (the advisory CSV's intruder column)
+    hmd_flown_m: float = math.nan  # the horizontal miss flown (fly_guidance: ownship moves horizontally too)
+    t_cpa_flown_s: float = math.nan
 
 
 def _vertical_miss(scenario, own_traj, traj, name, offsets, key=None) -> VerticalMiss:
-    """Truth at the time of least horizontal distance, sampled at 0.1 s."""
+    """Truth at the time of least horizontal distance, sampled at 0.1 s, on the scenario's paths and on the
+    paths flown (ownship's offsets from its path, the latest at or before each sample; the same time when the
+    flown path has no horizontal offset, as with the RA responder)."""
+    import bisect
+
     times = [k * 0.1 for k in range(int(scenario.duration_s * 10) + 1)]
-    dist = []
+    stamps = [tt for tt, _ in offsets]
+
+    def offset_at(t):
+        i = bisect.bisect_right(stamps, t + 1e-9)
+        return offsets[i - 1][1] if i else (0.0, 0.0, 0.0)
+
+    dist, flown = [], []
     for t in times:
         oe, on, _ = own_traj.enu_at(t)
         ie, in_, _ = traj.enu_at(t)
         dist.append(math.hypot(ie - oe, in_ - on))
+        de, dn, _ = offset_at(t)
+        flown.append(math.hypot(ie - oe - de, in_ - on - dn))
     k = min(range(len(times)), key=dist.__getitem__)
     t = times[k]
     without = traj.enu_at(t)[2] - own_traj.enu_at(t)[2]
-    offset = next((o for tt, o in reversed(offsets) if tt <= t + 1e-9), 0.0) if offsets else 0.0
-    return VerticalMiss(name, t, dist[k], abs(without), abs(without - offset), key)
+    kf = min(range(len(times)), key=flown.__getitem__)
+    tf = times[kf]
+    with_ = traj.enu_at(tf)[2] - own_traj.enu_at(tf)[2] - offset_at(tf)[2]
+    return VerticalMiss(name, t, dist[k], abs(without), abs(with_), key, flown[kf], tf)

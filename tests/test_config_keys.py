@@ -29,6 +29,7 @@ from avionics.advisory.vehicle import builtin_vehicles
 from avionics.config import Config, ConfigError, load_config
 from avionics.conflict.params import CONFLICT_METHODS, PREFILTERS
 from avionics.core.units import FT, KT
+from avionics.guidance.params import GUIDANCE_MODES
 from avionics.io.params import ZENOH_MODES
 from avionics.tracking.params import IMM_HORIZONTAL_MODES, IMM_VERTICAL_MODES, TRACK_FILTERS
 
@@ -100,6 +101,7 @@ ENUMS: dict[str, tuple[str, ...]] = {
     "advisory.profile": BUILTIN_PROFILES,
     "vehicle.profile": tuple(builtin_vehicles()),
     "zenoh.mode": ZENOH_MODES,  # no session is opened in a replay: every mode is safe
+    "guidance.mode": GUIDANCE_MODES,
 }
 # Mode-set keys: each mode alone and all of them together.
 MODE_SETS = {"tracking.imm_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
@@ -124,6 +126,8 @@ EXPLICIT: dict[str, list[str]] = {
     "advisory.ground_elevation_m": ["150.0"],
     "conflict.mc_samples": ["2000"],  # with method mc; 15000 samples would cost seconds per replay
     "conflict.seed": ["7"],
+    "guidance.ceiling_m": ["120.0"],
+    "guidance.retries": ["5"],
 }
 
 # Overrides a key needs to have any effect (applied before the key's own override).
@@ -146,6 +150,10 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     "conflict.n_blocks": ("conflict.method=blocks",),
     "conflict.mc_samples": ("conflict.method=mc",),
     "conflict.prefilter_alpha": ("conflict.prefilter=hwang",),
+    # guidance: any mode but passive flies within a vehicle profile; its keys act in execute
+    "guidance.mode": ("vehicle.profile=multirotor",),
+    **{f"guidance.{k}": ("vehicle.profile=multirotor", "guidance.mode=execute") for k in (
+        "floor_m", "ceiling_m", "quiet_time_s", "setpoint_period_s", "ack_timeout_s", "retries", "require_signing")},
 }
 
 # Keys that cannot run in a replay, with the reason: validated only (test_validation_only_keys).

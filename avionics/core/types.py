@@ -99,7 +99,28 @@ class OwnshipPressure:
     pressure_altitude_m: float
 
 
-Input = IntruderReport | OwnshipFix | OwnshipPressure
+@dataclass(frozen=True, slots=True)
+class AutopilotHeartbeat:
+    """Our autopilot's HEARTBEAT: the flight mode in force (the guidance stage's confirmation, avionics/guidance)."""
+
+    time_s: float
+    component: int
+    custom_mode: int
+    base_mode: int
+    autopilot: int = 3  # MAV_AUTOPILOT: 3 ArduPilot, 12 PX4
+
+
+@dataclass(frozen=True, slots=True)
+class CommandAck:
+    """Our autopilot's COMMAND_ACK addressed to us (or to everyone): the answer to a command we sent."""
+
+    time_s: float
+    command: int
+    result: int
+
+
+Input = IntruderReport | OwnshipFix | OwnshipPressure | AutopilotHeartbeat | CommandAck
+AUTOPILOT_INPUTS = (AutopilotHeartbeat, CommandAck)  # for the guidance stage, not the DAA core
 
 
 class AdvisoryLevel(IntEnum):

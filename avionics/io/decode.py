@@ -29,7 +29,8 @@ from avionics.io.params import DecoderConfig as Config
 from avionics.io.senders import Senders
 from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.core.types import (
-    AddressSource, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
+    AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, OwnshipFix,
+    OwnshipPressure,
 )
 from avionics.core.units import INT16_MAX, INT32_MAX, UINT16_MAX
 
@@ -107,11 +108,18 @@ class MessageDecoder:
             "GLOBAL_POSITION_INT": self._global_position_int,
             "SCALED_PRESSURE": self._scaled_pressure,
         }
+        # guidance.mode = "execute" (avionics/guidance): our autopilot's mode (HEARTBEAT) and its answers
+        # (COMMAND_ACK) are inputs too; otherwise nothing reads them
+        guidance = getattr(config, "guidance", None)
+        self.autopilot_inputs = guidance is not None and guidance.mode == "execute"
+        if self.autopilot_inputs:
+            self._handlers["COMMAND_ACK"] = self._command_ack
 
     def decode(self, msg, now_s: float) -> Input | None:
         kind = msg.get_type()
         if kind == "HEARTBEAT":
-            return self.senders.heartbeat(msg, now_s)  # who is who (io/senders.py); no input
+            self.senders.heartbeat(msg, now_s)  # who is who (io/senders.py)
+            return self._autopilot_heartbeat(msg, now_s) if self.autopilot_inputs else None
         handler = self._handlers.get(kind)
         if handler is None:
             return None  # not ours to use; not a rejection
@@ -231,6 +239,27 @@ class MessageDecoder:
             velocity_en_mps=velocity, vertical_rate_mps=vertical_rate, callsign=callsign, squawk=squawk,
             emitter_type=msg.emitter_type, simulated=bool(flags & SIMULATED),
         )
+
+    # -- our autopilot (the guidance stage's) --------------------------------------------------------------------
+    def _from_autopilot(self, msg) -> bool:
+        return (msg.get_srcSystem(), msg.get_srcComponent()) == (self.senders.system, self.senders.ownship_component)
+
+    def _autopilot_heartbeat(self, msg, now_s: float) -> AutopilotHeartbeat | None:
+        if not self._from_autopilot(msg) or msg.autopilot == 8:  # MAV_AUTOPILOT_INVALID: not an autopilot
+            return None
+        return AutopilotHeartbeat(now_s, msg.get_srcComponent(), int(msg.custom_mode), int(msg.base_mode),
+                                  int(msg.autopilot))
+
+    def _command_ack(self, msg, now_s: float) -> CommandAck | None:
+        """Our autopilot's answer to us: an ACK for another component (target_component set and not ours; MAVLink 2
+        extension, 0 from MAVLink 1 senders) is not an answer to our command."""
+        m = self.config.mavlink
+        if not self._from_autopilot(msg):
+            return self._reject("command_ack.other_sender")
+        target_system, target_component = getattr(msg, "target_system", 0), getattr(msg, "target_component", 0)
+        if target_system not in (0, m.source_system) or target_component not in (0, m.source_component):
+            return None  # someone else's command
+        return CommandAck(now_s, int(msg.command), int(msg.result))
 
     # -- ownship ----------------------------------------------------------------------------------------------
     def _from_own_vehicle(self, msg, prefix: str, now_s: float) -> bool:

@@ -398,6 +398,12 @@ class MavlinkLink:
         """(datagrams, bytes) read from the socket and not framed yet."""
         return len(self._small) + len(self._large), self._backlog_bytes
 
+    @property
+    def authenticated(self) -> bool:
+        """Every frame used is signed with our key (signing on and required) and signed frames have come: what the
+        guidance stage needs before it commands the autopilot (guidance.require_signing)."""
+        return self.signing is not None and self.signing.required and self.counters["signing.accepted"] > 0
+
     def _authentic(self, msgs) -> list:
         """With signing: only the frames whose signature (or, when allowed, absence of one) passes."""
         if self.signing is None:

@@ -129,3 +129,9 @@ def bands_payload(vehicle: str, alerter: str, bands) -> dict:
         "intruders": [{"intruder": key, "alert_level": level, "alert_name": name}
                       for key, level, name in bands.intruders],
     }
+
+
+def guidance_payload(vehicle: str, decision) -> dict:
+    """Topic guidance (guidance.mode advise or execute): the guidance's decision (avionics/guidance/stage.py
+    GuidanceDecision), on each change of state and with the status."""
+    return {"schema": SCHEMA_VERSION, "vehicle": vehicle, **decision.as_dict()}

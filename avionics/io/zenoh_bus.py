@@ -50,6 +50,8 @@ SLICE_S = 0.0005
 PROBE_S = 0.0002
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed", "ra_composite")
+# advisories and the guidance's decisions (what the aircraft was told to do): reliable, never dropped, ahead of data
+RELIABLE_KINDS = ("advisories", "guidance")
 VITAL_KINDS = ("status", "ownship", "bands")  # their own queue, ahead of the tracks
 VITAL_QUEUE = 32  # samples (16 status periods of status + ownship)
 UPDATES_PER_BATCH = 64  # the publisher thread comes back for advisories after this many track updates
@@ -175,9 +177,10 @@ class ZenohBus:
         with self._cond:
             if self._closing:
                 return
-            if kind == "advisories":
+            if kind in RELIABLE_KINDS:
                 self._advisories.append((suffix, payload))
-                self._note_advisory(name, payload)
+                if kind == "advisories":
+                    self._note_advisory(name, payload)
             elif kind in VITAL_KINDS:
                 if len(self._vital) == self._vital.maxlen:
                     self.stats["dropped_status"] += 1

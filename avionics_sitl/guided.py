@@ -1,0 +1,178 @@
+"""The simulated ArduCopter of the guidance contract (avionics/guidance/ardupilot.py): modes, commands, setpoints.
+
+It flies the scenario's ownship path as its mission in AUTO and answers as ArduCopter does:
+- HEARTBEAT (MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_ARDUPILOTMEGA) with the mode in custom_mode;
+- MAV_CMD_DO_SET_MODE (COMMAND_LONG): an ArduCopter mode number is taken at once and ACCEPTED; any other
+  number, or one in `refuse` (a test's stand-in for a mode whose checks fail), is DENIED;
+- SET_POSITION_TARGET_GLOBAL_INT with a velocity-only mask: flown in GUIDED, ignored in every other mode (counted);
+  with no setpoint for GUID_TIMEOUT (3 s), or in GUIDED before the first one, the vehicle stops (ArduCopter
+  mode_guided.cpp: velocity control "stops" at the timeout); LOITER and the other modes stop too.
+- Dynamics: the vehicle profile's (advisory/vehicle.py) vertical rates and acceleration and its horizontal
+  acceleration, per axis toward the wanted velocity.
+- Back in AUTO it re-joins the mission where the scenario's ownship is now (the mission's current item at the
+  current time): the offset from the path is flown out at a gain of RECOVERY_GAIN_PER_S, within the vehicle's climb
+  and descent rates, so the altitude gained returns at the profile's rate, as AUTO flying back to the current
+  waypoint's altitude does.
+A pilot's mode change is `set_mode(mode, now)`.
+
+firmware="px4" is a PX4 multicopter instead (avionics/guidance/px4.py): HEARTBEAT MAV_AUTOPILOT_PX4 with PX4's
+custom_mode (main and sub mode), the mission in AUTO.MISSION, SET_POSITION_TARGET_LOCAL_NED velocity setpoints
+taken in any mode and flown in OFFBOARD, OFFBOARD DENIED unless the stream has run for more than a second and is
+alive, and OFFBOARD left for Hold (AUTO.LOITER) when no setpoint came for COM_OF_LOSS_T (1 s): PX4's failsafe
+action depends on COM_OBL_RC_ACT and the RC; Hold is ours.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import replace
+
+import avionics.io  # noqa: F401
+from avionics.guidance import ardupilot, px4
+from avionics.io.dialect import daa as mavlink2
+from avionics_sitl.trajectory import KinematicState
+
+EARTH_RADIUS_M = 6371008.8
+RECOVERY_GAIN_PER_S = 0.5  # AUTO's pull back onto the path (ours; AC_PosControl's position P is 1.0 per second)
+
+
+class SimCopter:
+    def __init__(self, vehicle, system_id: int = 1, component_id: int = 1, refuse: frozenset = frozenset(),
+                 counters: Counter | None = None, position_lost_s: float | None = None, firmware: str = "ardupilot"):
+        """vehicle: advisory/vehicle.py VehicleProfile. position_lost_s: from then on no GLOBAL_POSITION_INT or
+        SCALED_PRESSURE is sent (a navigation failure: the DAA's ownship goes stale). firmware: "ardupilot"
+        (ArduCopter: AUTO, GUIDED) or "px4" (PX4 multicopter: AUTO.MISSION, OFFBOARD; see px4.py)."""
+        if firmware not in ("ardupilot", "px4"):
+            raise ValueError(f"firmware {firmware!r}: ardupilot or px4")
+        self.px4 = firmware == "px4"
+        self.mission_mode = px4.MISSION if self.px4 else ardupilot.AUTO
+        self.command_mode = px4.OFFBOARD if self.px4 else ardupilot.GUIDED
+        self.stream: tuple[float, float] | None = None  # PX4: (first, last) time of the running setpoint stream
+        self.vehicle = vehicle
+        self.position_lost_s = position_lost_s
+        self.system_id, self.component_id = system_id, component_id
+        self.refuse = frozenset(refuse)
+        self.counters = counters if counters is not None else Counter()
+        self.mode = self.mission_mode
+        self.offset = [0.0, 0.0, 0.0]  # east, north, up from the mission path
+        self.velocity: list[float] | None = None  # east, north, up (None until the first fly())
+        self.setpoint: tuple[float, float, float, float] | None = None  # east, north, up, time received
+        self.modes: list[tuple[float, int]] = [(0.0, self.mission_mode)]  # (time, mode) at each change
+        self._last_t: float | None = None
+        self.min_guided_alt_msl_m = math.inf  # the lowest true altitude flown in GUIDED (the floor's check)
+
+    # -- the link ----------------------------------------------------------------------------------------------
+    def heartbeat(self):
+        return mavlink2.MAVLink_heartbeat_message(
+            mavlink2.MAV_TYPE_QUADROTOR,
+            mavlink2.MAV_AUTOPILOT_PX4 if self.px4 else mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink2.MAV_MODE_FLAG_SAFETY_ARMED, self.mode,
+            mavlink2.MAV_STATE_ACTIVE, 3)
+
+    def receive(self, msg, now_s: float) -> list:
+        """A message from the DAA process; the answers to send back."""
+        kind = msg.get_type()
+        if kind == "COMMAND_LONG" and self._for_us(msg):
+            if msg.command != ardupilot.DO_SET_MODE:
+                return [self._ack(msg, mavlink2.MAV_RESULT_UNSUPPORTED)]
+            if self.px4:
+                mode = px4.mode_of(msg) if msg.param2 == int(msg.param2) and msg.param3 == int(msg.param3) else -1
+                known = mode in px4.PX4_MODES
+            else:
+                mode = int(msg.param2) if msg.param2 == int(msg.param2) else -1
+                known = mode in ardupilot.COPTER_MODES
+            if not known or mode in self.refuse or (mode == px4.OFFBOARD and self.px4 and
+                                                    not self._stream_running(now_s)):
+                self.counters["sim.mode_denied"] += 1
+                return [self._ack(msg, mavlink2.MAV_RESULT_DENIED)]
+            self.set_mode(mode, now_s)
+            return [self._ack(msg, mavlink2.MAV_RESULT_ACCEPTED)]
+        wanted = "SET_POSITION_TARGET_LOCAL_NED" if self.px4 else "SET_POSITION_TARGET_GLOBAL_INT"
+        if kind == wanted and self._for_us(msg):
+            if not (px4 if self.px4 else ardupilot).is_velocity_setpoint(msg):
+                self.counters["sim.setpoint_ignored"] += 1
+                return []
+            if self.px4:  # PX4 takes the stream in any mode and flies it in OFFBOARD
+                fresh = self.stream is not None and now_s - self.stream[1] <= px4.OFFBOARD_LOSS_S
+                self.stream = (self.stream[0] if fresh else now_s, now_s)
+            elif self.mode != self.command_mode:  # ArduCopter ignores setpoints outside GUIDED
+                self.counters["sim.setpoint_ignored"] += 1
+                return []
+            self.counters["sim.setpoint" if self.mode == self.command_mode else "sim.setpoint_streamed"] += 1
+            self.setpoint = (msg.vy, msg.vx, -msg.vz, now_s)  # NED -> east, north, up
+        return []
+
+    def _stream_running(self, now_s: float) -> bool:
+        """PX4 engages OFFBOARD only on a stream it has received for more than a second, still alive."""
+        return self.stream is not None and now_s - self.stream[1] <= px4.OFFBOARD_LOSS_S and \
+            self.stream[1] - self.stream[0] >= 1.0
+
+    def reports_position(self, now_s: float) -> bool:
+        return self.position_lost_s is None or now_s < self.position_lost_s
+
+    def set_mode(self, mode: int, now_s: float) -> None:
+        if mode != self.mode:
+            self.modes.append((now_s, mode))
+            if mode == ardupilot.GUIDED and not self.px4:
+                self.setpoint = None  # GUIDED starts by holding until told otherwise
+        self.mode = mode
+
+    def _for_us(self, msg) -> bool:
+        return msg.target_system == self.system_id and msg.target_component in (0, self.component_id)
+
+    def _ack(self, msg, result: int):
+        return mavlink2.MAVLink_command_ack_message(msg.command, result, 0, 0, msg.get_srcSystem(),
+                                                    msg.get_srcComponent())
+
+    # -- the flight --------------------------------------------------------------------------------------------
+    def fly(self, mission: KinematicState) -> KinematicState:
+        """Advance to mission.t_s (the scenario ownship's state then) and return the vehicle's true state."""
+        t = mission.t_s
+        path = (mission.vel_east_mps, mission.vel_north_mps, mission.vel_up_mps)
+        if self.velocity is None:
+            self.velocity = list(path)
+        dt = 0.0 if self._last_t is None else max(t - self._last_t, 0.0)
+        self._last_t = t
+        v = self.vehicle
+        wanted = self._wanted(path, t)
+        wanted[2] = min(max(wanted[2], -v.descent_rate_mps), v.climb_rate_mps) if self.mode != self.mission_mode \
+            else wanted[2]
+        new = list(self.velocity)
+        dz = v.vertical_accel_mps2 * dt
+        new[2] += min(max(wanted[2] - new[2], -dz), dz)
+        dh = (wanted[0] - new[0], wanted[1] - new[1])
+        norm = math.hypot(*dh)
+        step = v.horizontal_accel_mps2 * dt
+        if norm > step:
+            dh = (dh[0] * step / norm, dh[1] * step / norm)
+        new[0] += dh[0]
+        new[1] += dh[1]
+        for i in range(3):
+            self.offset[i] += (0.5 * (self.velocity[i] + new[i]) - path[i]) * dt
+        self.velocity = new
+        de, dn, du = self.offset
+        if self.mode == self.command_mode:
+            self.min_guided_alt_msl_m = min(self.min_guided_alt_msl_m, mission.alt_msl_m + du)
+        lat = mission.lat_deg + math.degrees(dn / EARTH_RADIUS_M)
+        lon = mission.lon_deg + math.degrees(de / (EARTH_RADIUS_M * math.cos(math.radians(mission.lat_deg))))
+        return replace(mission, lat_deg=lat, lon_deg=lon, alt_msl_m=mission.alt_msl_m + du, vel_east_mps=new[0],
+                       vel_north_mps=new[1], vel_up_mps=new[2])
+
+    def _wanted(self, path, t: float) -> list[float]:
+        v = self.vehicle
+        if self.mode == self.mission_mode:  # the mission, re-joined where it is now
+            up = -RECOVERY_GAIN_PER_S * self.offset[2]
+            return [path[0] - RECOVERY_GAIN_PER_S * self.offset[0], path[1] - RECOVERY_GAIN_PER_S * self.offset[1],
+                    path[2] + min(max(up, -v.descent_rate_mps), v.climb_rate_mps)]
+        if self.px4 and self.mode == px4.OFFBOARD and (self.setpoint is None or
+                                                      t - self.setpoint[3] > px4.OFFBOARD_LOSS_S):
+            self.counters["sim.offboard_lost"] += 1  # COM_OF_LOSS_T: the offboard-loss failsafe, Hold (ours)
+            self.set_mode(px4.HOLD, t)
+        if self.mode == self.command_mode and self.setpoint is not None and \
+                t - self.setpoint[3] <= ardupilot.GUIDED_TIMEOUT_S:
+            return list(self.setpoint[:3])
+        if self.mode == ardupilot.GUIDED and not self.px4 and self.setpoint is not None:
+            self.counters["sim.guided_timeout"] += 1
+            self.setpoint = None
+        return [0.0, 0.0, 0.0]  # stop: GUIDED without a (fresh) setpoint, LOITER, BRAKE, ...
