@@ -1,8 +1,9 @@
-"""The `avionics` console script: the flight commands of avionics.cli (run, config, monitor, router) plus the
-two that compose the onboard process with the simulator, `demo` and `bench`.
+"""The lab's commands of the `avionics` console script: `demo` and `bench` (they compose the onboard process with
+the simulator) and `evaluate`.
 
-It lives here, not in the flight package, so that flight code never imports the simulator; demo and bench are
-imported only when their command runs.
+The flight install's `avionics` (avionics.cli) finds them through this distribution's entry point
+(`avionics.commands`, eval/pyproject.toml: add_commands and ERRORS); `python -m avionics_eval.cli` is the same
+script. Each command imports its code only when it runs.
 """
 
 from __future__ import annotations
