@@ -216,8 +216,6 @@ class ZenohConfig:
             try:
                 zenoh.Config.from_file(z.config_file)
             except zenoh.ZError as exc:
-                from avionics.io.zenoh_bus import zenoh_error_text  # noqa: PLC0415
-
                 raise ConfigError(f"zenoh.config_file: {z.config_file!r} is not a zenoh configuration: "
                                   f"{zenoh_error_text(exc)}") from None
         require_positive("zenoh", z, ("tracks_hz", "status_hz"))
@@ -231,3 +229,14 @@ class DecoderConfig(Protocol):
     mavlink: MavlinkConfig
     input: InputConfig
     tracking: TrackingConfig
+
+
+# zenoh's errors end with the Rust source location of the raise ("at src/...rs:12:5"): not for a user's eyes.
+_RUST_LOCATION = re.compile(r"\s*\bat \S+\.rs:\d+(:\d+)?\.?")
+
+
+def zenoh_error_text(exc: BaseException) -> str:
+    """A zenoh error's message without the Rust source locations, on one line (here, below zenoh_bus, because
+    the configuration's check of zenoh.config_file needs it too)."""
+    text = _RUST_LOCATION.sub("", str(exc))
+    return " ".join(text.split()) or type(exc).__name__

@@ -24,7 +24,6 @@ Peer mode on loopback with multicast and gossip scouting off unless configured o
 from __future__ import annotations
 
 import json
-import re
 import threading
 import time
 from collections import Counter, deque
@@ -32,7 +31,7 @@ from collections import Counter, deque
 import zenoh
 
 from avionics.core.jsonsafe import dumps
-from avionics.io.params import ZenohConfig, read_password
+from avionics.io.params import ZenohConfig, read_password, zenoh_error_text
 from avionics.io.ros2 import Ros2Publisher
 from avionics.io.sinks import SinkHealth
 from avionics.io.traffic import ARROW_STREAM, TrafficBatch
@@ -96,15 +95,6 @@ def session_config(cfg: ZenohConfig) -> zenoh.Config:
 
 # zenoh's Rust errors end with where they were raised, e.g. "... !  at /root/.cargo/git/checkouts/zenoh-.../
 # orchestrator.rs:447." : the user needs the message, not the source path.
-_RUST_LOCATION = re.compile(r"\s*\bat \S+\.rs:\d+(:\d+)?\.?")
-
-
-def zenoh_error_text(exc: BaseException) -> str:
-    """A zenoh error's message without the Rust source locations, on one line."""
-    text = _RUST_LOCATION.sub("", str(exc))
-    return " ".join(text.split()) or type(exc).__name__
-
-
 def open_session(cfg: ZenohConfig) -> zenoh.Session:
     try:
         return zenoh.open(session_config(cfg))
