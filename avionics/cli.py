@@ -43,6 +43,7 @@ ERRORS = (  # (module, class, exit code, prefix of the line)
 )
 EXIT_INTERNAL = 70  # EX_SOFTWARE: anything else is a bug, shown with its traceback and one summary line
 EXIT_INTERRUPTED = 130  # Ctrl-C
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a command whose reader went away
 
 
 def _one_line(exc: BaseException) -> str:
@@ -66,6 +67,9 @@ def call(prog: str, func, args, errors=ERRORS) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `sitl list | head`: the reader left; nothing to report (Python docs, signal: SIGPIPE)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so that the exit's flush does not raise
+        return EXIT_BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001  (expected errors by type, in ERRORS; the rest is reported as a bug)
         known = classify(exc, errors)
         if known is None:

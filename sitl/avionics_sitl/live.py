@@ -45,7 +45,7 @@ class ScenarioClock:
 
 def feed_servers(scenario: Scenario, impairments: AdsbImpairments, seed: int, clock: ScenarioClock, end_s: float,
                  sbs: tuple[str, int] | None = None, beast: tuple[str, int] | None = None) -> list:
-    """The simulated receiver's SBS (avionics_sitl/sbs.py) and Beast (avionics_sitl/beast.py) servers, listening
+    """The simulated receiver's SBS (sitl/avionics_sitl/sbs.py) and Beast (sitl/avionics_sitl/beast.py) servers, listening
     (not yet sending: start() them), paced by `clock` from its start_s (nothing due before it is sent). The same
     seed as the MAVLink schedule: the SBS lines are its ADSB_VEHICLE reports exactly. FeedServerError when one
     cannot listen; none is left open then."""
