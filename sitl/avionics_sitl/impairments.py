@@ -2,9 +2,12 @@
 
 The simulator calls `impair(state)` once per report it would broadcast; `None` means the report is lost.
 The returned state keeps `t_s` as its time of applicability; the simulator delivers it `latency_s` later.
-Errors are drawn independently per report (white), which is harsher on a tracker than real GNSS errors
-(correlated over minutes) and so is the conservative choice for testing one. docs/scenarios.md explains the
-DEFAULT numbers.
+Errors are drawn independently per report (white) unless a correlation time is set: white errors are harsher
+on a tracker than real GNSS errors (correlated over minutes) and so the conservative choice for testing one;
+with position_correlation_s / velocity_correlation_s the horizontal errors are first-order Gauss-Markov
+processes of that time constant, as the DAA MOPS' ADS-B model has them (DO365_ADSB). docs/scenarios.md explains
+the DEFAULT numbers, docs/evaluation.md DO365_ADSB's. One instance per aircraft (with_seed): a correlated
+error's state is the instance's.
 """
 
 from __future__ import annotations
@@ -61,12 +64,16 @@ class AdsbImpairments:
     altitude_quantum_m: float = 0.0  # 0: not quantised
     vertical_rate_quantum_mps: float = 0.0
     velocity_quantum_mps: float = 0.0  # per east/north component
+    position_correlation_s: float = 0.0  # 0: white; else the Gauss-Markov time constant of the horizontal error
+    velocity_correlation_s: float = 0.0
     rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0), compare=False)
+    # (time, error) of the last report per correlated quantity; not copied by replace(): with_seed starts afresh
+    _markov: dict = field(default_factory=dict, init=False, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("position_sigma_m", "velocity_sigma_mps", "altitude_sigma_m", "vertical_rate_sigma_mps",
                      "latency_s", "latency_jitter_s", "altitude_quantum_m", "vertical_rate_quantum_mps",
-                     "velocity_quantum_mps"):
+                     "velocity_quantum_mps", "position_correlation_s", "velocity_correlation_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
@@ -82,6 +89,21 @@ class AdsbImpairments:
         seed=(run_seed, icao_address), so that adding an aircraft does not change the others' noise."""
         return replace(self, rng=np.random.default_rng(seed))
 
+    def _error(self, name: str, t_s: float, sigma: float, tau_s: float) -> np.ndarray:
+        """Two per-axis errors of standard deviation sigma: white (tau_s 0), or a first-order Gauss-Markov
+        process, e(t) = phi e(t0) + sigma sqrt(1 - phi^2) n, phi = exp(-(t - t0) / tau_s), stationary from its
+        first draw e = sigma n (the exact discretisation at any report interval; n standard normal)."""
+        n = self.rng.normal(0.0, 1.0, 2)
+        last = self._markov.get(name) if tau_s > 0.0 else None
+        if last is None:
+            error = sigma * n
+        else:
+            phi = math.exp(-max(0.0, t_s - last[0]) / tau_s)
+            error = phi * last[1] + sigma * math.sqrt(1.0 - phi * phi) * n
+        if tau_s > 0.0:
+            self._markov[name] = (t_s, error)
+        return error
+
     def impair(self, state: KinematicState) -> ImpairedState | None:
         """The report an ADS-B transmitter would produce for this truth state, or None if it is lost."""
         rng = self.rng
@@ -89,12 +111,12 @@ class AdsbImpairments:
             return None
         lat, lon = state.lat_deg, state.lon_deg
         if self.position_sigma_m > 0.0:
-            d_north, d_east = rng.normal(0.0, self.position_sigma_m, 2)
+            d_north, d_east = self._error("position", state.t_s, self.position_sigma_m, self.position_correlation_s)
             d_lat, d_lon = _meters_to_degrees(lat, d_north, d_east)
             lat, lon = lat + d_lat, lon + d_lon
         ve, vn = state.vel_east_mps, state.vel_north_mps
         if self.velocity_sigma_mps > 0.0:
-            n_e, n_n = rng.normal(0.0, self.velocity_sigma_mps, 2)
+            n_e, n_n = self._error("velocity", state.t_s, self.velocity_sigma_mps, self.velocity_correlation_s)
             ve, vn = ve + n_e, vn + n_n
         alt = state.alt_msl_m
         if self.altitude_sigma_m > 0.0:
@@ -138,4 +160,19 @@ DEFAULT = AdsbImpairments(
     velocity_quantum_mps=1 * KT,
 )
 
-PRESETS: dict[str, AdsbImpairments] = {"none": NONE, "default": DEFAULT}
+# The ADS-B model of the DAA MOPS, RTCA DO-365 Appendix Q, as MIT Lincoln Laboratory's DEGAS simulation codes it
+# (surveillance library, SC228_AdsbModel.m, "Values from DAA MOPS DO-365 Appendix Q"): north and east position
+# errors of 75.6 m sigma and north and east rate errors of 1.22 m/s sigma, each a Gauss-Markov process of 300 s
+# correlation time, no bias; altitude exact but in 25 ft steps; a report received in a second with probability
+# 1 - 0.05^(1/3) (at least one in any 3 s with 95 %, its figure within 10 nmi; beyond, 1 - 0.05^(1/7), not
+# modelled: alerts are raised inside 10 nmi). No latency and no vertical-rate error are given there: none here.
+DO365_ADSB = AdsbImpairments(
+    position_sigma_m=75.6,
+    position_correlation_s=300.0,
+    velocity_sigma_mps=1.22,
+    velocity_correlation_s=300.0,
+    altitude_quantum_m=25 * FT,
+    dropout_probability=0.05 ** (1 / 3),
+)
+
+PRESETS: dict[str, AdsbImpairments] = {"none": NONE, "default": DEFAULT, "do365-adsb": DO365_ADSB}

@@ -12,6 +12,23 @@ DEFAULT_PROFILES = "tcas2,daidalus-tcas3d,do365"
 def add_arguments(p) -> None:
     p.add_argument("--encounters", type=int, default=1000, metavar="N", help="encounters 0..N-1 of the set")
     p.add_argument("--seed", type=int, default=1, help="the set's seed: encounter i is drawn from (seed, i) alone")
+    p.add_argument("--generator", choices=("ours", "lincoln"),
+                   help="ours: the project's own encounter model (generator.py; the default without --model); "
+                        "lincoln: the MIT LL models paired with importance weights (implied by --model)")
+    p.add_argument("--model", metavar="FILE[,FILE]",
+                   help="intruder model(s): MIT LL parameter files or names of shipped ones, e.g. "
+                        "uncor_1200code_v2p1.txt (several: one drawn uniformly per encounter)")
+    p.add_argument("--ownship", metavar="OWNSHIP",
+                   help="with --model: uav-survey, uav-corridor, uav-hover, uav-transit (multirotor missions) "
+                        "or a Lincoln model file")
+    p.add_argument("--surveillance", choices=("sitl", "do365-adsb"), default="sitl",
+                   help="intruder surveillance: sitl (the SITL's ADS-B noise, the default) or do365-adsb (DO-365 "
+                        "Appendix Q as MIT LL DEGAS: 75.6 m / 1.22 m/s Gauss-Markov errors, 300 s)")
+    p.add_argument("--altitude-quantum-ft", type=float, metavar="FT",
+                   help="reported altitude step: 25 (ADS-B, the models' own) or 100 (Mode C)")
+    p.add_argument("--pilot", choices=("spread", "standard", "trams"), default="spread",
+                   help="spread (the profile's response, delay x U[0.6, 1.4]; the default), standard (TCAS "
+                        "standard pilot: 5 s, 0.25 g; 2.5 s, 0.35 g) or trams (responds with p = 0.62)")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
     p.add_argument("--out", help="results: a directory of Parquet partitions (created in an existing directory; "
@@ -44,6 +61,36 @@ def _new_directory(path: str, option: str) -> None:
         raise EvaluationError(f"{option} {path!r}: exists and is not a directory")
     if not target.parent.is_dir():
         raise EvaluationError(f"{option} {path!r}: no such directory {str(target.parent)!r}")
+
+
+def encounter_source(args):
+    """None for the project's generator, else the Lincoln source of --model and --ownship (files read now)."""
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    generator = args.generator or ("lincoln" if args.model else "ours")
+    if generator == "ours":
+        if args.model or args.ownship:
+            raise EvaluationError("--model and --ownship choose the Lincoln models: not with --generator ours")
+        return None
+    if not args.model or not args.ownship:
+        raise EvaluationError("--generator lincoln needs --model FILE[,FILE] and --ownship")
+    from avionics_eval.evaluation.lincoln import LincolnSource, LincolnSourceError
+
+    try:
+        return LincolnSource.of(args.model, args.ownship)
+    except LincolnSourceError as exc:
+        raise EvaluationError(str(exc)) from None
+
+
+def conditions(args):
+    """evaluate.Conditions of --surveillance, --altitude-quantum-ft and --pilot."""
+    from avionics_eval.evaluation.evaluate import Conditions
+    from avionics_eval.evaluation.runner import EvaluationError
+
+    try:
+        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot)
+    except ValueError as exc:
+        raise EvaluationError(f"--altitude-quantum-ft: {exc}") from None
 
 
 def evaluate_command(args) -> int:
@@ -81,6 +128,7 @@ def evaluate_command(args) -> int:
 
     profiles = tuple(p.strip() for p in args.profiles.split(",") if p.strip())
     summary = run(args.encounters, args.seed, profiles, args.out, scheduler=args.scheduler,
-                  partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress)
+                  partition_size=args.partition_size, max_partitions=args.max_partitions, progress=args.progress,
+                  source=encounter_source(args), conditions=conditions(args))
     print(json.dumps(summary, indent=1))
     return 0

@@ -6,10 +6,11 @@ configuration, which is read-only.
 
 The core (avionics.daa.Daa) is stepped once a second, the TCAS II surveillance and logic cycle (and DAIDALUS's,
 the do365 alerter's `period_s`): each step gets ownship's fix and pressure altitude and the intruder's ADS-B
-reports received since the last step (1 Hz, through avionics_sitl.impairments.DEFAULT: noise, quantisation,
-0.2-0.5 s latency, 5 % lost), stamped on receipt as the MAVLink path stamps them (tslc 0). Ownship flies the RAs
-it gets with the SITL response model (avionics_sitl.response.RaResponder, fed the DAA_ADVISORY the MAVLink port
-would send), integrated every 0.1 s; its delay is drawn per encounter around the profile's standard delay.
+reports received since the last step (1 Hz, through an avionics_sitl.impairments model, by default DEFAULT:
+noise, quantisation, 0.2-0.5 s latency, 5 % lost), stamped on receipt as the MAVLink path stamps them (tslc 0).
+Ownship flies the RAs it gets with the SITL response model (avionics_sitl.response.RaResponder, fed the
+DAA_ADVISORY the MAVLink port would send), integrated every 0.1 s; by default its delay is drawn per encounter
+around the profile's standard delay. Conditions choose other standard surveillance and pilot models.
 
 NMAC: horizontal separation < 500 ft and vertical separation < 100 ft at the same time (Kochenderfer et al.,
 ATC-344/345 and the 2010 JGCD paper; Kuchar and Drumm, Lincoln Laboratory Journal 16(2), 2007), on the 0.1 s
@@ -19,13 +20,14 @@ truth grid.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import cache
 
 import numpy as np
 import pyarrow as pa
 
 from avionics.advisory.tables import load_profile
+from avionics.advisory.wcv import DO365_PHASE_I, wcv_violation
 from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
@@ -37,11 +39,11 @@ from avionics.core.types import (
     OwnshipFix,
     OwnshipPressure,
 )
-from avionics.core.units import FPM, FT, KT
+from avionics.core.units import FT
 from avionics.daa import Daa
 from avionics.io.encode import daa_advisory
 from avionics_eval.evaluation.generator import DT_S, DURATION_S, T_CPA_S, Encounter
-from avionics_sitl.impairments import DEFAULT
+from avionics_sitl.impairments import DEFAULT, DO365_ADSB
 from avionics_sitl.response import RaResponder
 from avionics_sitl.trajectory import KinematicState
 
@@ -50,6 +52,47 @@ NMAC_VERTICAL_M = 100 * FT
 STEP_S = 1.0  # the core's logic cycle
 REPORT_PERIOD_S = 1.0  # ADS-B position reports
 DELAY_SPREAD = 0.4  # pilot delay uniform in standard x [1 - this, 1 + this] (docs/evaluation.md)
+SURVEILLANCE = {"sitl": DEFAULT, "do365-adsb": DO365_ADSB}  # avionics_sitl.impairments presets
+PILOTS = ("spread", "standard", "trams")
+# The share of RAs pilots follow in the TRAMS data (issue 28, citing it; the primary report is not verified here)
+TRAMS_RESPONSE_PROBABILITY = 0.62
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """The surveillance and pilot models of a set (docs/evaluation.md, "Surveillance and pilot models"):
+    surveillance, an avionics_sitl.impairments preset (sitl: DEFAULT; do365-adsb: DO-365 Appendix Q as DEGAS);
+    altitude_quantum_ft, None for the preset's (25 ft, ADS-B) or e.g. 100 (Mode C); pilot, spread (the profile's
+    response, its delay uniform in standard x [0.6, 1.4]), standard (the TCAS standard pilot of DO-185B, the
+    tcas2 profile's: 5 s, 0.25 g; strengthening and reversal 2.5 s, 0.35 g; the profile's rates) or trams
+    (responds with TRAMS_RESPONSE_PROBABILITY, delay as spread)."""
+
+    surveillance: str = "sitl"
+    altitude_quantum_ft: float | None = None
+    pilot: str = "spread"
+
+    def __post_init__(self) -> None:
+        if self.surveillance not in SURVEILLANCE:
+            raise ValueError(f"surveillance {self.surveillance!r}: one of {', '.join(SURVEILLANCE)}")
+        if self.pilot not in PILOTS:
+            raise ValueError(f"pilot {self.pilot!r}: one of {', '.join(PILOTS)}")
+        q = self.altitude_quantum_ft
+        if q is not None and not (isinstance(q, (int, float)) and math.isfinite(q) and q > 0):
+            raise ValueError(f"altitude quantum must be a number of feet > 0, got {q!r}")
+
+    @property
+    def name(self) -> str:
+        quantum = "" if self.altitude_quantum_ft is None else f",altitude_quantum_ft={self.altitude_quantum_ft:g}"
+        return f"surveillance={self.surveillance}{quantum},pilot={self.pilot}"
+
+    def impairments(self):
+        preset = SURVEILLANCE[self.surveillance]
+        if self.altitude_quantum_ft is None:
+            return preset
+        return replace(preset, altitude_quantum_m=self.altitude_quantum_ft * FT)
+
+
+DEFAULT_CONDITIONS = Conditions()
 PLANE = LocalTangentPlane(47.4, 8.5)  # where the encounters are flown (any mid-latitude point)
 KEY = IntruderKey(0xC0FFEE, AddressSource.ES1090)
 STRENGTH_RANK = {"preventive": 0, "level_off": 1, "corrective": 2, "increase": 3}
@@ -62,8 +105,11 @@ EVALUATION_OVERRIDES = ("zenoh.enabled=false", "conflict.within_samples=0", "con
                         "advisory.guidance_bands=false")
 
 RECORD_SCHEMA = pa.schema([
-    ("seed", pa.int64()), ("index", pa.int64()), ("profile", pa.string()),
-    # the drawn geometry
+    ("seed", pa.int64()), ("index", pa.int64()), ("profile", pa.string()), ("conditions", pa.string()),
+    # the encounter generator (generator.SOURCE, or lincoln.LincolnSource.name) and the encounter's importance
+    # weight under it (1 for ours; weighted metrics in metrics.py)
+    ("source", pa.string()), ("weight", pa.float64()),
+    # the drawn geometry (layer and manoeuvre counts: ours only)
     ("layer", pa.int8()), ("alt_ft", pa.float64()), ("hmd_drawn_ft", pa.float64()), ("vmd_drawn_ft", pa.float64()),
     ("rel_heading_deg", pa.float64()), ("own_speed_kt", pa.float64()), ("int_speed_kt", pa.float64()),
     ("own_vrate_fpm", pa.float64()), ("int_vrate_fpm", pa.float64()),
@@ -72,13 +118,16 @@ RECORD_SCHEMA = pa.schema([
     ("t_cpa_s", pa.float64()), ("hmd_ft", pa.float64()), ("vmd_unequipped_ft", pa.float64()),
     ("vmd_equipped_ft", pa.float64()), ("min_vsep_within_nmac_hmd_equipped_ft", pa.float64()),
     ("nmac_unequipped", pa.bool_()), ("nmac_equipped", pa.bool_()), ("induced_nmac", pa.bool_()),
+    # loss of DO-365 well clear at any truth sample, without and with the RAs flown
+    ("lowc_unequipped", pa.bool_()), ("lowc_equipped", pa.bool_()),
     # alerts
     ("alerted", pa.bool_()), ("first_alert_s", pa.float64()), ("alert_lead_s", pa.float64()),
     ("alert_duration_s", pa.float64()),
     ("ra", pa.bool_()), ("first_ra_s", pa.float64()), ("ra_lead_s", pa.float64()), ("ra_duration_s", pa.float64()),
     ("ra_sl", pa.int8()), ("ra_words", pa.string()), ("ra_episodes", pa.int16()),
     ("ra_reversals", pa.int16()), ("ra_strengthenings", pa.int16()),
-    ("response_delay_s", pa.float64()), ("late_ra", pa.bool_()), ("outside_protection", pa.bool_()),
+    ("response_delay_s", pa.float64()), ("pilot_responds", pa.bool_()), ("late_ra", pa.bool_()),
+    ("outside_protection", pa.bool_()),
     ("nuisance_ra", pa.bool_()),
 ])
 
@@ -98,9 +147,9 @@ def check_profile(profile: str) -> None:
     _setup(profile)
 
 
-def _reports(t, intruder, rng, step_s: float) -> dict[int, list[IntruderReport]]:
+def _reports(t, intruder, rng, step_s: float, impairments=DEFAULT) -> dict[int, list[IntruderReport]]:
     """The intruder's ADS-B reports (1 Hz at a random phase on the truth grid) by the step that receives them."""
-    impair = DEFAULT.with_seed(int(rng.integers(2**63)))
+    impair = impairments.with_seed(int(rng.integers(2**63)))
     phase = int(rng.integers(REPORT_SUBSTEPS))
     idx = np.arange(phase, len(t), REPORT_SUBSTEPS)
     lat, lon = PLANE.to_geodetic(intruder[idx, 0], intruder[idx, 1])
@@ -128,20 +177,28 @@ def _fly(responder, own, t, offsets, rates, j0, j1) -> None:
 
 
 def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...] = (), *,
-             step_s: float = STEP_S) -> dict:
-    """The record of one encounter flown with one alerting profile; seed (an int or a sequence of ints) draws the
+             step_s: float = STEP_S, conditions: Conditions = DEFAULT_CONDITIONS) -> dict:
+    """The record of one encounter (generator.Encounter or lincoln.LincolnEncounter: truth() and geometry())
+    flown with one alerting profile; seed (an int or a sequence of ints) draws the
     ADS-B noise and the pilot's delay. Use the same seed for every profile: the profiles then see the same reports
     (common random numbers), and their differences are the logic's. overrides: more configuration key=value
     (e.g. advisory.criterion), for studies of a profile's variants. step_s: the core's step (and ownship's fix)
-    period, a multiple of DT_S (docs/evaluation.md compares 1 s with 0.1 s)."""
+    period, a multiple of DT_S (docs/evaluation.md compares 1 s with 0.1 s). conditions: the surveillance and
+    pilot models (Conditions)."""
     config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
     substeps = round(step_s / DT_S)
-    by_step = _reports(t, intruder, rng, step_s)
+    by_step = _reports(t, intruder, rng, step_s, conditions.impairments())
     daa = Daa(config)
     standard = daa.response_model
     delay = standard.delay_s * rng.uniform(1 - DELAY_SPREAD, 1 + DELAY_SPREAD)
+    response, responds = replace(standard, delay_s=delay), True
+    if conditions.pilot == "standard":
+        response = _tcas_standard_pilot(standard)
+        delay = response.delay_s
+    elif conditions.pilot == "trams":
+        responds = bool(rng.random() < TRAMS_RESPONSE_PROBABILITY)
     own_lat, own_lon = PLANE.to_geodetic(own[::substeps, 0], own[::substeps, 1])
     offsets, rates = np.zeros(len(t)), np.zeros(len(t))
     responder, flown_to = None, -1
@@ -158,18 +215,29 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
                   OwnshipPressure(now, alt), *by_step.get(k, ())]
         for change in daa.step(now, inputs).changes:
             changes.append(change)
-            if responder is None and change.level is AdvisoryLevel.RA:
-                responder = RaResponder(replace(standard, delay_s=delay))
+            if responder is None and responds and change.level is AdvisoryLevel.RA:
+                responder = RaResponder(response)
                 responder.fly(KinematicState(now, 0.0, 0.0, float(own[j, 2]), 0.0, 0.0, float(own[j, 5])))
                 flown_to = j
             if responder is not None:
                 responder.receive(daa_advisory(change), now)
     if responder is not None:
         _fly(responder, own, t, offsets, rates, flown_to + 1, len(t) - 1)
-    return _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels)
+    return _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels,
+                   conditions=conditions, responds=responds)
 
 
-def _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels) -> dict:
+@cache
+def _tcas_standard_pilot(profile_response):
+    """The profile's response model with the TCAS standard pilot's delays and accelerations (DO-185B, as the
+    tcas2 profile states them) and the profile's own target rates."""
+    tcas = load_profile("tcas2").response
+    return replace(profile_response, delay_s=tcas.delay_s, accel_mps2=tcas.accel_mps2,
+                   strengthen_delay_s=tcas.strengthen_delay_s, strengthen_accel_mps2=tcas.strengthen_accel_mps2)
+
+
+def _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels, *,
+            conditions: Conditions = DEFAULT_CONDITIONS, responds: bool = True) -> dict:
     dh = np.hypot(intruder[:, 0] - own[:, 0], intruder[:, 1] - own[:, 1])
     dz = intruder[:, 2] - own[:, 2]
     dz_flown = dz - offsets
@@ -190,25 +258,23 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
         dh[k] > protection_hmd or abs(dz[k]) > level.alim_m)
     # An RA is late when it leaves less time than the standard response needs to reach its rate.
     needed = standard.delay_s + standard.rate_mps / standard.accel_mps2
-    own0, int0 = encounter.own, encounter.intruder
+    lowc_u, lowc_e = _loss_of_well_clear(t, own, intruder, offsets)
     return {
-        "seed": encounter.seed, "index": encounter.index, "profile": profile,
-        "layer": encounter.layer, "alt_ft": own0.alt_m / FT, "hmd_drawn_ft": encounter.hmd_m / FT,
-        "vmd_drawn_ft": encounter.vmd_m / FT, "rel_heading_deg": encounter.rel_heading_deg,
-        "own_speed_kt": own0.speed_mps / KT, "int_speed_kt": int0.speed_mps / KT,
-        "own_vrate_fpm": own0.vrate_mps / FPM, "int_vrate_fpm": int0.vrate_mps / FPM,
-        "own_manoeuvres": _manoeuvre_count(own0), "int_manoeuvres": _manoeuvre_count(int0),
+        "seed": encounter.seed, "index": encounter.index, "profile": profile, "conditions": conditions.name,
+        **encounter.geometry(),
         "t_cpa_s": t_cpa, "hmd_ft": float(dh[k]) / FT, "vmd_unequipped_ft": abs(float(dz[k])) / FT,
         "vmd_equipped_ft": abs(float(dz_flown[k])) / FT,
         "min_vsep_within_nmac_hmd_equipped_ft": float(np.abs(dz_flown[near]).min()) / FT if near.any() else None,
         "nmac_unequipped": nmac_u, "nmac_equipped": nmac_e, "induced_nmac": nmac_e and not nmac_u,
+        "lowc_unequipped": lowc_u, "lowc_equipped": lowc_e,
         "alerted": bool(alerts), "first_alert_s": first_alert, "alert_lead_s": _lead(t_cpa, first_alert),
         "alert_duration_s": alert_on,
         "ra": bool(ras), "first_ra_s": first_ra, "ra_lead_s": _lead(t_cpa, first_ra), "ra_duration_s": ra_on,
         "ra_sl": ras[0].sensitivity_level if ras else None,
         "ra_words": "|".join(c.ra_words or "" for c in ras), "ra_episodes": episodes,
         "ra_reversals": reversals, "ra_strengthenings": strengthenings,
-        "response_delay_s": float(delay), "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
+        "response_delay_s": float(delay), "pilot_responds": responds,
+        "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
         "outside_protection": bool(outside), "nuisance_ra": bool(ras) and bool(outside),
     }
 
@@ -217,8 +283,16 @@ def _lead(t_cpa: float, first: float | None) -> float | None:
     return None if first is None else t_cpa - first
 
 
-def _manoeuvre_count(a) -> int:
-    return int(a.turn_dps != 0.0) + int(a.accel_mps2 != 0.0) + int(a.vrate_before_mps is not None)
+def _loss_of_well_clear(t, own, intruder, offsets) -> tuple[bool, bool]:
+    """Whether the DO-365 well-clear volume (Phase I: DTHR 4000 ft, ZTHR 450 ft, modified tau 35 s;
+    avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown vertical offset."""
+    s_xy = intruder[:, 0:2] - own[:, 0:2]
+    v_xy = intruder[:, 3:5] - own[:, 3:5]
+    sz, vz = intruder[:, 2] - own[:, 2], intruder[:, 5] - own[:, 5]
+    offset_rate = np.gradient(offsets, t)
+    unequipped = wcv_violation(s_xy, v_xy, sz, vz, DO365_PHASE_I)
+    equipped = wcv_violation(s_xy, v_xy, sz - offsets, vz - offset_rate, DO365_PHASE_I)
+    return bool(unequipped.any()), bool(equipped.any())
 
 
 def _durations(changes) -> tuple[float, float]:

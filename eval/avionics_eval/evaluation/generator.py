@@ -27,6 +27,7 @@ T_CPA_S = 80.0  # time of CPA from the start: longer than DO-365's 75 s early al
 AFTER_CPA_S = 15.0  # flown past the CPA: an RA's effect and its end are seen
 DURATION_S = T_CPA_S + AFTER_CPA_S
 
+SOURCE = "ours"  # the records' name for this generator (`avionics evaluate --generator ours`)
 MANOEUVRE_TRIES = 5  # manoeuvre draws per geometry, then the geometry is drawn again
 
 
@@ -121,6 +122,21 @@ class Encounter:
         """(t, ownship, intruder) sampled every DT_S (Aircraft.sample columns)."""
         t = grid()
         return t, self.own.sample(t), self.intruder.sample(t)
+
+    def geometry(self) -> dict:
+        """The drawn geometry as the record keeps it (evaluate.RECORD_SCHEMA); every encounter weighs 1."""
+        own, intruder = self.own, self.intruder
+        return {
+            "source": SOURCE, "weight": 1.0, "layer": self.layer, "alt_ft": own.alt_m / FT,
+            "hmd_drawn_ft": self.hmd_m / FT, "vmd_drawn_ft": self.vmd_m / FT, "rel_heading_deg": self.rel_heading_deg,
+            "own_speed_kt": own.speed_mps / KT, "int_speed_kt": intruder.speed_mps / KT,
+            "own_vrate_fpm": own.vrate_mps / FPM, "int_vrate_fpm": intruder.vrate_mps / FPM,
+            "own_manoeuvres": _manoeuvre_count(own), "int_manoeuvres": _manoeuvre_count(intruder),
+        }
+
+
+def _manoeuvre_count(a: Aircraft) -> int:
+    return int(a.turn_dps != 0.0) + int(a.accel_mps2 != 0.0) + int(a.vrate_before_mps is not None)
 
 
 def _uniform_magnitude(rng, bounds) -> float:

@@ -8,7 +8,13 @@ Risk ratio P(NMAC | equipped) / P(NMAC | unequipped) (the ACAS safety measure: K
 Laboratory Journal 16(2), 2007; ICAO Doc 9863): the two are measured on the same encounters, so the interval is
 the matched-pair one, log RR +- z sqrt((b + c) / ((a + b)(a + c))) with a = NMAC both ways, b = equipped only
 (induced), c = unequipped only (resolved) (Rothman and Greenland, Modern Epidemiology, 2nd ed., 1998, matched
-cohort data). With no equipped NMAC, RR = 0 and the upper bound uses b = 0.5 (a continuity correction).
+cohort data). With no equipped NMAC, RR = 0 and the upper bound uses b = 0.5 (a continuity correction). The
+loss-of-well-clear ratio (DO-365's measure of a DAA system's well-clear performance) is the same ratio of the
+records' losses of DO-365 well clear.
+
+Importance-weighted sets (the Lincoln models: any record source but generator.SOURCE) get
+weighted_profile_metrics instead: an effective-sample-size Wilson interval for probabilities and the
+weighted bootstrap for ratios (encounter_models/weighted.py), each figure with the encounters behind it.
 """
 
 from __future__ import annotations
@@ -19,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+
+from avionics_eval.evaluation.generator import SOURCE
 
 Z95 = 1.959963984540054  # two-sided 95 %
 
@@ -86,6 +94,7 @@ def profile_metrics(table: pa.Table) -> dict:
         "p_nmac_equipped": wilson(int(nmac_e.sum()), n),
         "risk_ratio": paired_risk_ratio(a, b, c),
         "nmac_counts": {"both": a, "induced": b, "resolved": c},
+        "lowc_ratio": _lowc_ratio(table),
         # of the equipped NMACs, those the unequipped encounter did not have
         "induced_share": wilson(b, a + b),
         "alert_rate": wilson(int(alerted.sum()), n),
@@ -101,6 +110,64 @@ def profile_metrics(table: pa.Table) -> dict:
         "alert_duration_s_mean": float(_column(table, "alert_duration_s")[alerted].mean()) if alerted.any()
         else math.nan,
     }
+
+
+BOOTSTRAP_RESAMPLES = 2000
+BOOTSTRAP_SEED = 0  # the same resamples for every ratio of a report: reproducible, and ratios comparable
+
+
+def weighted_profile_metrics(table: pa.Table) -> dict:
+    """The metrics of one profile's importance-weighted records (the Lincoln models, lincoln.py), table already
+    filtered to it. Probabilities: weighted proportion sum(w x) / sum(w) with the effective-sample-size Wilson
+    interval; ratios (risk ratio, loss-of-well-clear ratio and its parts): sum(w a) / sum(w b) with the
+    weighted-bootstrap percentile interval (encounters resampled with their weights, so each pair of equipped
+    and unequipped outcomes stays together) (encounter_models/weighted.py, docs/evaluation.md). `events`: the
+    encounters behind each figure (for a ratio: numerator, denominator)."""
+    from avionics_eval.encounter_models.weighted import weighted_proportion, weighted_ratio
+
+    w = _column(table, "weight").astype(float)
+    nmac_u, nmac_e = _column(table, "nmac_unequipped"), _column(table, "nmac_equipped")
+    lowc_u, lowc_e = _column(table, "lowc_unequipped"), _column(table, "lowc_equipped")
+    induced, unresolved = nmac_e & ~nmac_u, nmac_e & nmac_u
+    result = {"encounters": table.num_rows, "seeds": sorted(set(table["seed"].to_pylist())),
+              "sources": sorted(set(table["source"].to_pylist())), "weighted": True}
+    events = {}
+
+    def proportion(key, x):
+        est = weighted_proportion(x, w)
+        result[key], events[key] = (est.estimate, est.low, est.high), est.events
+        return est
+
+    def ratio(key, a, b):
+        r = weighted_ratio(a, b, w, np.random.default_rng(BOOTSTRAP_SEED), BOOTSTRAP_RESAMPLES)
+        result[key], events[key] = (r.estimate, r.low, r.high), (r.numerator_events, r.denominator_events)
+
+    n_eff = proportion("p_nmac_unequipped", nmac_u).effective_n
+    proportion("p_nmac_equipped", nmac_e)
+    ratio("risk_ratio", nmac_e, nmac_u)
+    ratio("unresolved_ratio", unresolved, nmac_u)  # the risk ratio's two parts: NMACs the DAA left ...
+    ratio("induced_ratio", induced, nmac_u)        # ... and NMACs it caused
+    proportion("p_unresolved_nmac", unresolved)
+    proportion("p_induced_nmac", induced)
+    proportion("p_lowc_unequipped", lowc_u)
+    proportion("p_lowc_equipped", lowc_e)
+    ratio("lowc_ratio", lowc_e, lowc_u)
+    proportion("alert_rate", _column(table, "alerted"))
+    proportion("ra_rate", _column(table, "ra"))
+    proportion("nuisance_ra_rate", _column(table, "nuisance_ra"))
+    result["effective_n"] = n_eff
+    result["nmac_counts"] = {"both": int(unresolved.sum()), "induced": int(induced.sum()),
+                             "resolved": int((nmac_u & ~nmac_e).sum())}
+    result["events"] = events
+    return result
+
+
+def _lowc_ratio(table: pa.Table) -> tuple[float, float, float]:
+    """Matched-pair ratio of losses of well clear with and without the RAs flown; NaNs for records without them."""
+    if "lowc_unequipped" not in table.column_names or table["lowc_unequipped"].null_count:
+        return math.nan, math.nan, math.nan
+    u, e = _column(table, "lowc_unequipped"), _column(table, "lowc_equipped")
+    return paired_risk_ratio(int((u & e).sum()), int((e & ~u).sum()), int((u & ~e).sum()))
 
 
 def profiles_of(paths) -> list[str]:
@@ -120,13 +187,27 @@ def metrics(table: pa.Table, order=()) -> dict:
     present = set(table["profile"].to_pylist())
     profiles = list(dict.fromkeys([p for p in order if p in present] + table["profile"].to_pylist()))
     mask = _column(table, "profile")
-    return {p: profile_metrics(table.filter(pa.array(mask == p))) for p in profiles}
+    weighted = _weighted(table)
+    return {p: (weighted_profile_metrics if weighted else profile_metrics)(table.filter(pa.array(mask == p)))
+            for p in profiles}
+
+
+def _weighted(table: pa.Table) -> bool:
+    """Whether the records are importance-weighted (any source but the project's generator); one source only,
+    since weights of different models are not on one scale."""
+    if "source" not in table.column_names:
+        return False
+    sources = {s for s in table["source"].to_pylist() if s is not None}
+    if len(sources) > 1:
+        raise ValueError(f"the results mix encounter sources ({', '.join(sorted(sources))}): report each alone")
+    return bool(sources) and sources != {SOURCE}
 
 
 ROWS = (  # (label, key, is a probability)
     ("P(NMAC) unequipped", "p_nmac_unequipped", True),
     ("P(NMAC) equipped (closed loop)", "p_nmac_equipped", True),
     ("risk ratio", "risk_ratio", False),
+    ("loss-of-well-clear ratio", "lowc_ratio", False),
     ("induced share of equipped NMACs", "induced_share", True),
     ("alert rate (TA or RA)", "alert_rate", True),
     ("RA rate", "ra_rate", True),
@@ -138,16 +219,55 @@ ROWS = (  # (label, key, is a probability)
 )
 
 
-def _cell(value) -> str:
+WEIGHTED_ROWS = (  # (label, key): weighted sets (weighted_profile_metrics)
+    ("P(NMAC) without DAA", "p_nmac_unequipped"),
+    ("P(NMAC) with DAA (closed loop)", "p_nmac_equipped"),
+    ("risk ratio", "risk_ratio"),
+    ("  unresolved part (NMAC both ways)", "unresolved_ratio"),
+    ("  induced part (NMAC with DAA only)", "induced_ratio"),
+    ("P(unresolved NMAC)", "p_unresolved_nmac"),
+    ("P(induced NMAC)", "p_induced_nmac"),
+    ("P(LoWC) without DAA", "p_lowc_unequipped"),
+    ("P(LoWC) with DAA", "p_lowc_equipped"),
+    ("loss-of-well-clear ratio", "lowc_ratio"),
+    ("alert rate (TA or RA)", "alert_rate"),
+    ("RA rate", "ra_rate"),
+    ("nuisance-RA rate", "nuisance_ra_rate"),
+)
+
+
+def _cell(value, events=None) -> str:
     est, lo, hi = value
     if math.isnan(est):
-        return "n/a"
-    return f"{est:.4f} [{lo:.4f}, {hi:.4f}]"
+        return "n/a" if events is None else f"n/a ({_events(events)})"
+    cell = f"{est:.4g} [{lo:.4g}, {hi:.4g}]" if events is not None else f"{est:.4f} [{lo:.4f}, {hi:.4f}]"
+    return cell if events is None else f"{cell} ({_events(events)})"
+
+
+def _events(events) -> str:
+    return f"{events[0]}/{events[1]}" if isinstance(events, (tuple, list)) else str(events)
+
+
+def weighted_markdown(result: dict) -> str:
+    """Weighted metrics side by side: estimate [95 % interval] (encounters behind it; numerator/denominator for a
+    ratio)."""
+    profiles = list(result)
+    first = result[profiles[0]]
+    lines = [f"source: {', '.join(first['sources'])}", "",
+             "| metric | " + " | ".join(profiles) + " |", "|---" * (len(profiles) + 1) + "|",
+             "| encounters (effective n) | " + " | ".join(
+                 f"{result[p]['encounters']} ({result[p]['effective_n']:.0f})" for p in profiles) + " |"]
+    for label, key in WEIGHTED_ROWS:
+        lines.append(f"| {label} | " + " | ".join(_cell(result[p][key], result[p]["events"][key])
+                                                  for p in profiles) + " |")
+    return "\n".join(lines)
 
 
 def markdown(result: dict) -> str:
     """The metrics side by side: one column per profile, estimates with their 95 % intervals."""
     profiles = list(result)
+    if profiles and result[profiles[0]].get("weighted"):
+        return weighted_markdown(result)
     lines = ["| metric | " + " | ".join(profiles) + " |", "|---" * (len(profiles) + 1) + "|",
              "| encounters | " + " | ".join(str(result[p]["encounters"]) for p in profiles) + " |"]
     for label, key, _ in ROWS:

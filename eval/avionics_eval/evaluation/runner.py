@@ -7,7 +7,8 @@ complete, so a run that is interrupted (or stopped by --max-partitions) is resum
 finished partitions are skipped. At most WINDOW tasks per worker are in flight and each result is written and
 dropped at once, so memory does not grow with the number of encounters.
 
-Every record depends on (seed, index, profile) alone (generator.generate, evaluate.evaluate), so the scheduler
+Every record depends on (source, seed, index, profile) alone (generator.generate or lincoln.LincolnSource,
+evaluate.evaluate), so the scheduler
 (in-process, a LocalCluster, a remote cluster) does not change a single value.
 """
 
@@ -24,10 +25,12 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from avionics_eval.evaluation.evaluate import RECORD_SCHEMA, check_profile, evaluate
-from avionics_eval.evaluation.generator import generate
+from avionics_eval.evaluation.evaluate import DEFAULT_CONDITIONS, RECORD_SCHEMA, Conditions, check_profile, evaluate
+from avionics_eval.evaluation.generator import SOURCE, generate
 
-MODEL_VERSION = 1  # bump when the generator or the record changes: a resumed run must not mix versions
+# Bump when the generator or the record changes: a resumed run must not mix versions. 2: the source, weight,
+# conditions, pilot_responds and loss-of-well-clear columns.
+MODEL_VERSION = 2
 MANIFEST = "_manifest.json"  # '_' and '.' names are not read as data by pyarrow's dataset reader
 RUN_LOG = "_runs.jsonl"
 PARTITION_LOG = "_partitions.jsonl"
@@ -53,13 +56,21 @@ def partitions(n: int, size: int) -> list[Partition]:
     return [Partition(start, min(start + size, n)) for start in range(0, n, size)]
 
 
-def run_partition(seed: int, part: Partition, profiles: tuple[str, ...]) -> tuple[pa.Table, float]:
-    """The task: every encounter of the partition with every profile, and the CPU seconds it took."""
+def source_name(source) -> str:
+    """The manifest's and the records' name of an encounter source: None is ours (generator.py)."""
+    return SOURCE if source is None else source.name
+
+
+def run_partition(seed: int, part: Partition, profiles: tuple[str, ...], source=None,
+                  conditions: Conditions = DEFAULT_CONDITIONS) -> tuple[pa.Table, float]:
+    """The task: every encounter of the partition with every profile, and the CPU seconds it took. source: None
+    for the project's generator, else an object whose encounter(seed, index) makes one (lincoln.LincolnSource);
+    conditions: the surveillance and pilot models (evaluate.Conditions)."""
     cpu0 = time.process_time()
     records = []
     for index in range(part.start, part.stop):
-        encounter = generate(seed, index)
-        records.extend(evaluate(encounter, profile, (seed, index)) for profile in profiles)
+        encounter = generate(seed, index) if source is None else source.encounter(seed, index)
+        records.extend(evaluate(encounter, profile, (seed, index), conditions=conditions) for profile in profiles)
     return pa.Table.from_pylist(records, schema=RECORD_SCHEMA), time.process_time() - cpu0
 
 
@@ -69,9 +80,11 @@ def write_partition(out: Path, part: Partition, table: pa.Table) -> None:
     os.replace(tmp, out / part.name)  # atomic: a reader or a resume never sees half a partition
 
 
-def _prepare(out: Path, seed: int, size: int, profiles: tuple[str, ...]) -> None:
+def _prepare(out: Path, seed: int, size: int, profiles: tuple[str, ...], source=None,
+             conditions: Conditions = DEFAULT_CONDITIONS) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    manifest = {"model_version": MODEL_VERSION, "seed": seed, "partition_size": size, "profiles": list(profiles)}
+    manifest = {"model_version": MODEL_VERSION, "seed": seed, "partition_size": size, "profiles": list(profiles),
+                "source": source_name(source), "conditions": conditions.name}
     path = out / MANIFEST
     if path.exists():
         found = json.loads(path.read_text())
@@ -83,12 +96,12 @@ def _prepare(out: Path, seed: int, size: int, profiles: tuple[str, ...]) -> None
         stale.unlink()
 
 
-def _synchronous(pending, seed, profiles, done):
+def _synchronous(pending, seed, profiles, source, conditions, done):
     for part in pending:
-        done(part, *run_partition(seed, part, profiles))
+        done(part, *run_partition(seed, part, profiles, source, conditions))
 
 
-def _distributed(client, pending, seed, profiles, done):
+def _distributed(client, pending, seed, profiles, source, conditions, done):
     from distributed import as_completed
 
     workers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
@@ -99,7 +112,7 @@ def _distributed(client, pending, seed, profiles, done):
         part = queue.pop()
         key = f"evaluate-{seed}-{part.start}-{part.stop}"
         in_flight[key] = part
-        return client.submit(run_partition, seed, part, profiles, key=key, pure=False)
+        return client.submit(run_partition, seed, part, profiles, source, conditions, key=key, pure=False)
 
     futures = as_completed([submit() for _ in range(min(len(queue), WINDOW * workers))], with_results=True)
     for future, (table, cpu_s) in futures:
@@ -145,16 +158,17 @@ def _client(kind: str, arg):
 
 
 def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler: str = "local",
-        partition_size: int = 100, max_partitions: int | None = None, progress: bool | None = None) -> dict:
+        partition_size: int = 100, max_partitions: int | None = None, progress: bool | None = None,
+        source=None, conditions: Conditions = DEFAULT_CONDITIONS) -> dict:
     """Evaluate encounters [0, n) of set `seed` with each profile into the Parquet directory `out`; returns a
-    summary of this invocation (also appended to <out>/_runs.jsonl)."""
+    summary of this invocation (also appended to <out>/_runs.jsonl). source, conditions: see run_partition."""
     from avionics_sitl.progress import progress_bar
 
     kind, arg = _scheduler(scheduler)
     for profile in profiles:  # a bad name fails here, before a worker starts or a manifest is written
         check_profile(profile)
     out = Path(out)
-    _prepare(out, seed, partition_size, profiles)
+    _prepare(out, seed, partition_size, profiles, source, conditions)
     todo = [p for p in partitions(n, partition_size) if not (out / p.name).exists()]
     pending = todo[:max_partitions] if max_partitions is not None else todo
     bar, task = progress_bar(progress, f"evaluating {n} encounters", n)
@@ -176,9 +190,9 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
     client, cluster = _client(kind, arg)
     try:
         if client is None:
-            _synchronous(pending, seed, profiles, done)
+            _synchronous(pending, seed, profiles, source, conditions, done)
         else:
-            _distributed(client, pending, seed, profiles, done)
+            _distributed(client, pending, seed, profiles, source, conditions, done)
     finally:
         if bar is not None:
             bar.stop()
@@ -190,7 +204,8 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
     remaining = len(todo) - len(pending)
     summary = {
         "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "command": " ".join(sys.argv),
-        "seed": seed, "encounters_in_set": n, "profiles": list(profiles), "scheduler": scheduler,
+        "seed": seed, "source": source_name(source), "conditions": conditions.name, "encounters_in_set": n,
+        "profiles": list(profiles), "scheduler": scheduler,
         "evaluated_now": stats["encounters"], "partitions_now": len(pending), "partitions_left": remaining,
         "wall_s": round(wall, 1), "cpu_s": round(stats["cpu_s"], 1),
         "encounters_per_cpu_s": round(stats["encounters"] / stats["cpu_s"], 3) if stats["cpu_s"] else None,

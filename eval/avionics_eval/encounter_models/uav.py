@@ -1,0 +1,71 @@
+"""Ownship trajectories of a multirotor UAV on its missions at 50-1,200 ft AGL (the band issue 28 asks for),
+as Tracks at 1 Hz for pairing. Speeds and rates are ArduCopter's waypoint-navigation defaults
+(ArduPilot libraries/AC_WPNav/AC_WPNav.cpp: WPNAV_WP_SPEED_CMS 1000 cm/s horizontal, WPNAV_WP_SPEED_UP_CMS 250
+cm/s climb, WPNAV_WP_SPEED_DOWN_CMS 150 cm/s descent; AC_WPNav.h: WPNAV_ACCELERATION_MS 2.5 m/s^2, which here
+sets the turn rate of a turn flown at speed, a/v).
+
+- hover: stationary at its altitude;
+- transit: straight and level at the waypoint speed;
+- survey: a lawnmower pattern, legs of SURVEY_LEG_S seconds joined by 180-degree turns;
+- corridor: straight at the waypoint speed, stepping CORRIDOR_STEP_FT up or down every CORRIDOR_PERIOD_S
+  seconds at the climb/descent rates (a linear inspection following the ground), inside the band.
+Heading, altitude and the time into the pattern are uniform random per track."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from avionics_eval.encounter_models.tracks import KT_TO_FTPS, Tracks
+
+FT = 0.3048
+SPEED_MPS = 10.0     # WPNAV_WP_SPEED_CMS
+CLIMB_MPS = 2.5      # WPNAV_WP_SPEED_UP_CMS
+DESCENT_MPS = 1.5    # WPNAV_WP_SPEED_DOWN_CMS
+ACCEL_MPS2 = 2.5     # WPNAV_ACCELERATION_MS
+ALT_BAND_FT = (50.0, 1200.0)
+SURVEY_LEG_S = 60    # mission geometry, not a vehicle limit: 600 m legs
+CORRIDOR_STEP_FT = 100.0
+CORRIDOR_PERIOD_S = 60
+MISSIONS = ("hover", "transit", "survey", "corridor")
+
+
+def mission_tracks(mission: str, n: int, duration_s: int, rng: np.random.Generator) -> Tracks:
+    if mission not in MISSIONS:
+        raise ValueError(f"unknown UAV mission {mission!r} (one of {', '.join(MISSIONS)})")
+    points = duration_s + 1
+    t = np.arange(points, dtype=float)
+    heading0 = rng.uniform(0.0, 360.0, n)
+    alt0 = rng.uniform(*ALT_BAND_FT, n)
+    speed_kts = np.full((n, points), SPEED_MPS / FT / KT_TO_FTPS)
+    turn_rate = np.degrees(ACCEL_MPS2 / SPEED_MPS)  # deg/s
+    dpsi = np.zeros((n, points))
+    dh_fpm = np.zeros((n, points))
+    if mission == "hover":
+        speed_kts[:] = 0.0
+    elif mission == "survey":
+        turn_s = 180.0 / turn_rate
+        period = SURVEY_LEG_S + turn_s
+        phase = (t[None, :] + rng.uniform(0, 2 * period, n)[:, None]) % (2 * period)
+        # alternate right and left turns so the legs advance across the area
+        in_turn = (phase % period) >= SURVEY_LEG_S
+        direction = np.where(phase < period, 1.0, -1.0)
+        dpsi = np.where(in_turn, direction * turn_rate, 0.0)
+    elif mission == "corridor":
+        phase = (t[None, :] + rng.uniform(0, CORRIDOR_PERIOD_S, n)[:, None]) // CORRIDOR_PERIOD_S
+        up = rng.random((n, int(phase.max()) + 2)) < 0.5
+        step_up = np.take_along_axis(up, phase.astype(int), axis=1)
+        climb_s = CORRIDOR_STEP_FT * FT / CLIMB_MPS
+        descent_s = CORRIDOR_STEP_FT * FT / DESCENT_MPS
+        into = (t[None, :] + 0.0) % CORRIDOR_PERIOD_S
+        dh_fpm = np.where(step_up & (into < climb_s), CLIMB_MPS / FT * 60,
+                          np.where(~step_up & (into < descent_s), -DESCENT_MPS / FT * 60, 0.0))
+    heading = heading0[:, None] + np.concatenate([np.zeros((n, 1)), np.cumsum(dpsi[:, :-1], axis=1)], axis=1)
+    alt = alt0[:, None] + np.concatenate([np.zeros((n, 1)), np.cumsum(dh_fpm[:, :-1] / 60, axis=1)], axis=1)
+    alt = np.clip(alt, *ALT_BAND_FT)
+    step = speed_kts[:, :-1] * KT_TO_FTPS
+    rad = np.radians(heading[:, :-1])
+    zeros = np.zeros((n, 1))
+    north = np.concatenate([zeros, np.cumsum(step * np.cos(rad), axis=1)], axis=1)
+    east = np.concatenate([zeros, np.cumsum(step * np.sin(rad), axis=1)], axis=1)
+    return Tracks(np.broadcast_to(t, (n, points)), north, east, alt, speed_kts, np.mod(heading, 360.0),
+                  np.gradient(alt, axis=1) * 60 if points > 1 else dh_fpm)
