@@ -47,9 +47,9 @@ def test_the_wheels_carry_their_own_package_and_licence_and_their_commands_run_f
         assert {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")} == {package}
         if package == "avionics":  # docs/mavlink.md: the dialect XML stock MAVLink tools are pointed at
             assert {"avionics/io/dialect/daa.xml", "avionics/io/dialect/ardupilotmega.xml"} <= set(names)
-        target = tmp_path / "site"
-        subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target),
-                        str(wheel)], check=True, timeout=600)
+    target = tmp_path / "site"  # one pip call: a second --target install skips the folders the first made (bin/)
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target),
+                    *map(str, sorted(tmp_path.glob("*.whl")))], check=True, timeout=600)
     env = {**os.environ, "PYTHONPATH": str(target)}  # the wheels' packages, not the source tree's
     version = subprocess.run([str(target / "bin" / "avionics"), "--version"], capture_output=True, text=True,
                              env=env, timeout=120, cwd=tmp_path)
