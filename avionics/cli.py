@@ -1,8 +1,8 @@
-"""`avionics` command line of the flight package: run, warmup, config, monitor, router.
+"""`avionics`, the console script of the flight install: run, warmup, config, monitor, router.
 
-Flight code only: nothing here imports the simulator (sitl) or avionics_eval, not even lazily. The `avionics`
-console script is avionics_eval.cli, which adds `demo` and `bench` to this parser through `add_commands`;
-`python -m avionics.cli` has the flight commands only.
+Flight code only: nothing here imports the simulator (sitl) or avionics_eval by name. Other distributions add
+commands through entry points (COMMANDS_GROUP): eval/ (avionics-eval) adds demo, bench and evaluate; without it
+those say how to install them. `python -m avionics_eval.cli` is the same script with the lab's commands.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ ERRORS = (  # (module, class, exit code, prefix of the line)
 )
 EXIT_INTERNAL = 70  # EX_SOFTWARE: anything else is a bug, shown with its traceback and one summary line
 EXIT_INTERRUPTED = 130  # Ctrl-C
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a command whose reader went away
 
 
 def _one_line(exc: BaseException) -> str:
@@ -66,6 +67,9 @@ def call(prog: str, func, args, errors=ERRORS) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `sitl list | head`: the reader left; nothing to report (Python docs, signal: SIGPIPE)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so that the exit's flush does not raise
+        return EXIT_BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001  (expected errors by type, in ERRORS; the rest is reported as a bug)
         known = classify(exc, errors)
         if known is None:
@@ -290,7 +294,44 @@ def build_parser(add_commands=None) -> argparse.ArgumentParser:
     return parser
 
 
+# Commands other distributions add to `avionics` (entry points of this group: a module with add_commands(sub) and
+# ERRORS). eval/ (avionics-eval) adds demo, bench and evaluate; the flight install has none of them and says where
+# they are instead of argparse's "invalid choice".
+COMMANDS_GROUP = "avionics.commands"
+LAB_COMMANDS = ("demo", "bench", "evaluate")
+LAB_INSTALL = "pip install ./sitl ./eval (the simulator and the lab, from the repository; README)"
+
+
+def extensions() -> list:
+    """The installed modules that add commands (entry points COMMANDS_GROUP), in name order."""
+    from importlib.metadata import entry_points
+
+    return [ep.load() for ep in sorted(entry_points(group=COMMANDS_GROUP), key=lambda ep: ep.name)]
+
+
+def _not_installed(args) -> int:
+    raise ConfigError(f"avionics {args.command}: not in the flight install: {LAB_INSTALL}")
+
+
+def _add_missing_lab_commands(sub) -> None:
+    for name in LAB_COMMANDS:
+        if name not in sub.choices:
+            p = sub.add_parser(name, help=f"(not installed: {LAB_INSTALL})", add_help=False)
+            p.add_argument("rest", nargs=argparse.REMAINDER)
+            p.set_defaults(func=_not_installed)
+
+
 def main(argv=None, add_commands=None, errors=ERRORS) -> int:
+    """The `avionics` console script. add_commands and errors: given by a shell that extends it (avionics_eval.cli);
+    otherwise those of the installed extensions."""
+    if add_commands is None:
+        found = extensions()
+        errors = errors + tuple(e for module in found for e in module.ERRORS if e not in errors)
+
+        def add_commands(sub):
+            for module in found:
+                module.add_commands(sub)
+            _add_missing_lab_commands(sub)
     args = build_parser(add_commands).parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)

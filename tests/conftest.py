@@ -1,8 +1,20 @@
 import os
 import socket
+import sys
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
+
+# The three distributions' source folders (pyproject.toml, sitl/, eval/). The tests, and every process they start,
+# run this checkout's code, never an installed copy of it.
+ROOT = Path(__file__).resolve().parent.parent
+SOURCES = {"avionics": ROOT, "avionics_sitl": ROOT / "sitl", "avionics_eval": ROOT / "eval"}
+for _folder in reversed(SOURCES.values()):
+    if str(_folder) not in sys.path:
+        sys.path.insert(0, str(_folder))
+os.environ["PYTHONPATH"] = os.pathsep.join([*map(str, SOURCES.values()),
+                                            *filter(None, [os.environ.get("PYTHONPATH")])])
 
 # Every wait in the tests polls for its condition and returns as soon as it holds: the deadline only bounds how
 # long a failure takes to report. It is generous on purpose, so that a slow success on a loaded CI machine

@@ -1,4 +1,4 @@
-"""Beast binary input (avionics/io/feeds/beast.py) and the simulator's 1090ES encoder (avionics_sitl/beast.py).
+"""Beast binary input (avionics/io/feeds/beast.py) and the simulator's 1090ES encoder (sitl/avionics_sitl/beast.py).
 
 Oracles: published messages from Junzi Sun, "The 1090 MHz Riddle" (2nd ed., mode-s.org/1090mhz), decoded by our
 decoder; pyModeS 3.x (an independent implementation) decoding what our encoder writes, to the format's

@@ -1,4 +1,4 @@
-"""The head-on encounter with the intruder heard as Beast binary (the simulator's DF17 encoder, avionics_sitl/beast.py)
+"""The head-on encounter with the intruder heard as Beast binary (the simulator's DF17 encoder, sitl/avionics_sitl/beast.py)
 and the ownship over MAVLink gives the TA and RA of the ADSB_VEHICLE path.
 
 Fast time: every byte goes through the real deframer, decoder, clock alignment and merger (BeastParser) on a 0.1 s

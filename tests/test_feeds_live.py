@@ -1,6 +1,6 @@
 """Receiver feeds over real sockets on 127.0.0.1, with the real reader threads (avionics/io/feeds/source.py):
 
-- the head-on encounter served by the simulated receiver's SBS or Beast output (avionics_sitl/sbs.py, beast.py)
+- the head-on encounter served by the simulated receiver's SBS or Beast output (sitl/avionics_sitl/sbs.py, beast.py)
   while ownship arrives as MAVLink messages gives the TA and RA onsets of the ADSB_VEHICLE path (within 1 s), run
   in fast time: the server, the loop and the feed's clock are one scenario clock running SPEED times real time;
 - the same aircraft on both paths (ADSB_VEHICLE and SBS) is one track;

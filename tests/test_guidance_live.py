@@ -1,7 +1,7 @@
 """Avoidance that flies, over real sockets (issue 27): `avionics run` (a child process, guidance.mode=execute, a
 multirotor, small-uas alerting) on UDP, the simulated ArduCopter or PX4 in this process flying the head-on's ownship
-path as its mission (avionics_sitl/live.py fly_guided), a zenoh subscriber in another session. The acceptance runs
-through `avionics demo --guidance` (avionics_eval/demo.py), the interlocks through the same parts here."""
+path as its mission (sitl/avionics_sitl/live.py fly_guided), a zenoh subscriber in another session. The acceptance runs
+through `avionics demo --guidance` (eval/avionics_eval/demo.py), the interlocks through the same parts here."""
 
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def _statustexts(recording) -> list[str]:
 
 
 def test_the_multirotor_avoids_the_head_on_and_resumes_its_mission_live(capsys, udp_port, tcp_port):
-    """Through `avionics demo --guidance` (avionics_eval/demo.py): the onboard process as a child, the copter here."""
+    """Through `avionics demo --guidance` (eval/avionics_eval/demo.py): the onboard process as a child, the copter here."""
     from avionics_eval.demo import demo_guidance
 
     flight: dict = {}

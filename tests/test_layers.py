@@ -18,11 +18,10 @@ from __future__ import annotations
 import ast
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.conftest import ROOT, SOURCES
 PACKAGES = ("avionics", "avionics_eval", "avionics_sitl")
 
 STAGES = ("avionics.tracking", "avionics.conflict", "avionics.advisory")
@@ -72,8 +71,8 @@ def discover() -> dict[str, Path]:
     """Dotted module name -> source file, for every module of PACKAGES."""
     modules = {}
     for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+        for path in sorted((SOURCES[package] / package).rglob("*.py")):
+            parts = path.relative_to(SOURCES[package]).with_suffix("").parts
             if "__pycache__" in parts:
                 continue
             if parts[-1] == "__init__":
@@ -131,7 +130,7 @@ GRAPH, LINES = build_graph()
 
 
 def where(importer: str, imported: str) -> str:
-    path = discover()[importer].relative_to(ROOT)
+    path = discover()[importer].relative_to(ROOT)  # sitl/avionics_sitl/..., eval/avionics_eval/...
     return f"{path}:{LINES[(importer, imported)]} {importer} -> {imported}"
 
 

@@ -228,7 +228,9 @@ def test_late_join_comes_from_the_snapshot_and_exit_is_seen(tcp_port, capsys):
         feed = ZenohFeed(state, monitor_zenoh_config([endpoint]))
         assert wait_for(lambda: state.tracks("lonely"), DEADLINE_S)
         join_ms = (time.monotonic() - joined) * 1e3
-        assert state.stats["samples.tracks"] == 0 and state.stats["snapshots"] == 1
+        # the tracks came from the snapshot, not a live sample; a second snapshot may follow (the vehicle's first
+        # sample and its liveliness token can ask one each when the first query was already out on a loaded machine)
+        assert state.stats["samples.tracks"] == 0 and state.stats["snapshots"] >= 1
         assert [(e["level"], e["source"]) for e in state.advisory_log("lonely")] == [("TA", "snapshot")]
         assert state.tracks("lonely")[0]["range_m"] > 1000 and state.vehicles["lonely"].online
         closed = time.monotonic()

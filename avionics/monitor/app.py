@@ -8,6 +8,7 @@ import sys
 import threading
 
 from avionics.core.params import ConfigError
+from avionics.extras import import_extra
 from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import ZenohBusError
 from avionics.monitor.feed import ZenohFeed
@@ -98,7 +99,7 @@ def run_monitor(cfg: ZenohConfig, prefix: str = "daa", http: str = "127.0.0.1:80
     feed = None
     try:
         if tui:
-            from avionics.monitor.tui import run_tui
+            run_tui = import_extra("avionics.monitor.tui", "avionics monitor --tui").run_tui
 
             holder: list = []  # the feed, once its session is open (the TUI shows "waiting" until then)
             opener = threading.Thread(target=lambda: holder.append(_open_feed(state, cfg, prefix, stop, quiet=True)),

@@ -48,6 +48,8 @@ class ZenohFeed:
         self._own_session = session is None
         self.session = session if session is not None else open_session(cfg)
         self._sync_queue: queue.Queue = queue.Queue()
+        self._pending: set[str] = set()  # vehicles queued for a snapshot and not yet asked
+        self._pending_lock = threading.Lock()
         self._stop = threading.Event()
         self.errors = 0
         state.on_new_vehicle = self.request_sync
@@ -154,6 +156,10 @@ class ZenohFeed:
 
     def request_sync(self, vehicle: str) -> None:
         self.state.begin_sync(vehicle)
+        with self._pending_lock:  # its first data sample and its liveliness token both ask: one query serves both
+            if vehicle in self._pending:
+                return
+            self._pending.add(vehicle)
         self._sync_queue.put(vehicle)
 
     def _sync_loop(self) -> None:
@@ -162,6 +168,8 @@ class ZenohFeed:
                 vehicle = self._sync_queue.get(timeout=0.2)
             except queue.Empty:
                 continue
+            with self._pending_lock:  # a request from now on (a reconnection) asks again
+                self._pending.discard(vehicle)
             snap = None
             try:
                 for reply in self.session.get(f"{self.prefix}/{vehicle}/snapshot", timeout=self.query_timeout_s):

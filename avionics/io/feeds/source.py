@@ -21,7 +21,6 @@ end (or close()) stops and joins them.
 
 from __future__ import annotations
 
-import importlib
 import logging
 import re
 import threading
@@ -31,6 +30,7 @@ from typing import Callable, Iterator
 
 from avionics.core.params import ConfigError
 from avionics.core.types import IntruderReport
+from avionics.extras import import_extra
 from avionics.io.diagnostics import feed_diagnostics
 
 log = logging.getLogger("avionics.traffic")
@@ -206,7 +206,7 @@ def open_feed(spec: str, config, clock: Callable[[], float]) -> Feed:
     """A Feed for one --traffic SPEC (not started). ConfigError for a malformed spec or an unknown scheme."""
     scheme, target = parse_spec(spec)
     try:
-        module = importlib.import_module(SESSIONS[scheme])
+        module = import_extra(SESSIONS[scheme], f"--traffic {spec!r}")
     except ImportError as exc:  # a scheme whose module is not installed in this build
         raise ConfigError(f"--traffic {spec!r}: the {scheme} source is not available ({exc})") from None
     path = f"{scheme}:{target}"

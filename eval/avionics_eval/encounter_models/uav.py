@@ -1,8 +1,7 @@
 """Ownship trajectories of a multirotor UAV on its missions at 50-1,200 ft AGL (the band issue 28 asks for),
-as Tracks at 1 Hz for pairing. Speeds and rates are ArduCopter's waypoint-navigation defaults
-(ArduPilot libraries/AC_WPNav/AC_WPNav.cpp: WPNAV_WP_SPEED_CMS 1000 cm/s horizontal, WPNAV_WP_SPEED_UP_CMS 250
-cm/s climb, WPNAV_WP_SPEED_DOWN_CMS 150 cm/s descent; AC_WPNav.h: WPNAV_ACCELERATION_MS 2.5 m/s^2, which here
-sets the turn rate of a turn flown at speed, a/v).
+as Tracks at 1 Hz for pairing. Speeds, rates and the turn rate are the `multirotor` vehicle profile's
+(avionics/advisory/vehicles/multirotor.toml: ArduCopter's waypoint-navigation defaults, AC_WPNav.cpp and .h), the
+one source the RA logic and the guidance read too.
 
 - hover: stationary at its altitude;
 - transit: straight and level at the waypoint speed;
@@ -15,13 +14,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from avionics.advisory.vehicle import load_vehicle
+from avionics.core.units import FT
 from avionics_eval.encounter_models.tracks import KT_TO_FTPS, Tracks
 
-FT = 0.3048
-SPEED_MPS = 10.0     # WPNAV_WP_SPEED_CMS
-CLIMB_MPS = 2.5      # WPNAV_WP_SPEED_UP_CMS
-DESCENT_MPS = 1.5    # WPNAV_WP_SPEED_DOWN_CMS
-ACCEL_MPS2 = 2.5     # WPNAV_ACCELERATION_MS
+_VEHICLE = load_vehicle("multirotor")
+SPEED_MPS = _VEHICLE.max_ground_speed_mps  # WPNAV_SPEED
+CLIMB_MPS = _VEHICLE.climb_rate_mps  # WPNAV_SPEED_UP
+DESCENT_MPS = _VEHICLE.descent_rate_mps  # WPNAV_SPEED_DN
+TURN_RATE_DEG_S = _VEHICLE.turn_rate_deg_s  # WPNAV_ACCEL / WPNAV_SPEED
 ALT_BAND_FT = (50.0, 1200.0)
 SURVEY_LEG_S = 60    # mission geometry, not a vehicle limit: 600 m legs
 CORRIDOR_STEP_FT = 100.0
@@ -37,7 +38,7 @@ def mission_tracks(mission: str, n: int, duration_s: int, rng: np.random.Generat
     heading0 = rng.uniform(0.0, 360.0, n)
     alt0 = rng.uniform(*ALT_BAND_FT, n)
     speed_kts = np.full((n, points), SPEED_MPS / FT / KT_TO_FTPS)
-    turn_rate = np.degrees(ACCEL_MPS2 / SPEED_MPS)  # deg/s
+    turn_rate = TURN_RATE_DEG_S
     dpsi = np.zeros((n, points))
     dh_fpm = np.zeros((n, points))
     if mission == "hover":

@@ -11,7 +11,7 @@ bench       us per pair-timestep of every method batched over 10^4 pairs, error 
             dblquad (the 1e-13 reference of the tests, and plain dblquad over the disk at default tolerance)
             and the 10^6-point grid in the same run.
 
-Choices where the paper is silent are those of avionics_sitl/builtin.py (baek-bang-1/2): A 360 kt in scenario 1; A 240 kt
+Choices where the paper is silent are those of sitl/avionics_sitl/builtin.py (baek-bang-1/2): A 360 kt in scenario 1; A 240 kt
 and B 120 kt in scenario 2 (relative speed 2 nm/min, abeam at t = 150 s). P in scenario 2 is the relative
 position covariance P_AB. Scenario 1 tracking: ADS-B position and velocity noise 50 m and 3 m/s (Hwang's GPS/INS
 values), CV sigma 0.5 m/s^2, CA sigma 2 m/s^2 per step with the heading-rotated noise of eq 31, Pi of eq 30.

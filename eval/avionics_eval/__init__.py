@@ -1,6 +1,6 @@
 """Evaluation shells outside the flight package: what composes the onboard code with the SITL simulator.
 
-cli             the `avionics` console script: avionics.cli's flight commands plus `demo` and `bench`
+cli             `demo`, `bench`, `evaluate`: added to the `avionics` console script (entry point avionics.commands)
 demo            `avionics demo`: the onboard process and a SITL encounter as two processes on loopback
 bench           `avionics bench`: end-to-end throughput and report-to-advisory latency
 capacity_bench  `avionics bench --capacity`: capacity, latency, start-up and memory (issue 13's instrument)

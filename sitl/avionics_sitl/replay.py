@@ -44,7 +44,7 @@ class ReplayResult:
     counters: Counter = field(default_factory=Counter)
     misses: list = field(default_factory=list)  # VerticalMiss per intruder
     min_agl_m: float = math.nan  # the lowest true height above the scenario's ground ownship flew, at any tick
-    copter: object | None = None  # avionics_sitl/guided.py SimCopter: the vehicle the guidance flew (fly_guidance)
+    copter: object | None = None  # sitl/avionics_sitl/guided.py SimCopter: the vehicle the guidance flew (fly_guidance)
     guidance: list = field(default_factory=list)  # every guidance decision whose state changed (fly_guidance)
     sent: list = field(default_factory=list)  # (time, message) of every command the DAA process sent the autopilot
 
@@ -204,7 +204,7 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
-    simulated ArduCopter (avionics_sitl/guided.py; `copter`, or one of vehicle.profile, multirotor by default)
+    simulated ArduCopter (sitl/avionics_sitl/guided.py; `copter`, or one of vehicle.profile, multirotor by default)
     flies the scenario's ownship path as its mission and obeys the MAVLink commands; firmware: "ardupilot" or
     "px4" (the default copter's); pilot: (time, custom mode)
     mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.

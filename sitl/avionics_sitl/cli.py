@@ -101,7 +101,7 @@ def cmd_live(args) -> int:
         print(json.dumps(line), flush=True)
 
     scenario = _scenario(args)
-    if args.fly_guidance:  # the simulated ArduCopter obeys the guidance's commands (avionics_sitl/guided.py)
+    if args.fly_guidance:  # the simulated ArduCopter obeys the guidance's commands (sitl/avionics_sitl/guided.py)
         from avionics.advisory.vehicle import load_vehicle
         from avionics.advisory.tables import ProfileError
         from avionics.core.params import ConfigError

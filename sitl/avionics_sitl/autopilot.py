@@ -48,7 +48,7 @@ def _clamp_int16(v: float) -> int:
     return max(-32767, min(32766, int(round(v))))
 
 
-# Every state the encoders see is within the aircraft limits a scenario is checked against (avionics_sitl/aircraft.py;
+# Every state the encoders see is within the aircraft limits a scenario is checked against (sitl/avionics_sitl/aircraft.py;
 # a trajectory table's rows too). Between samples a cubic can overshoot a little: each field is clamped to what its
 # MAVLink type carries (common.xml: alt int32 mm, hor_velocity uint16 cm/s) and the pressure to the atmosphere's
 # span, so an overshoot is a saturated value, never a struct.error in the middle of a run.

@@ -345,7 +345,7 @@ def read_table(path: str | Path, units: str | None = None, progress: bool | None
 
 def _check_physical(layout: Layout, factors: dict, row: int, lat: float, alt: float, speed: float, direction: float,
                     vertical: float) -> None:
-    """A complete row within the simulator's aircraft limits (avionics_sitl/aircraft.py: those of a scenario
+    """A complete row within the simulator's aircraft limits (sitl/avionics_sitl/aircraft.py: those of a scenario
     file's aircraft, ALT_RANGE_M the span of the standard atmosphere the simulator computes pressure with), so that
     an extreme but finite value (1e20 ft, 1e9 kt) is an error naming its row, not a crash of the MAVLink encoder or
     of the tangent plane later."""

@@ -45,7 +45,7 @@ class ScenarioClock:
 
 def feed_servers(scenario: Scenario, impairments: AdsbImpairments, seed: int, clock: ScenarioClock, end_s: float,
                  sbs: tuple[str, int] | None = None, beast: tuple[str, int] | None = None) -> list:
-    """The simulated receiver's SBS (avionics_sitl/sbs.py) and Beast (avionics_sitl/beast.py) servers, listening
+    """The simulated receiver's SBS (sitl/avionics_sitl/sbs.py) and Beast (sitl/avionics_sitl/beast.py) servers, listening
     (not yet sending: start() them), paced by `clock` from its start_s (nothing due before it is sent). The same
     seed as the MAVLink schedule: the SBS lines are its ADSB_VEHICLE reports exactly. FeedServerError when one
     cannot listen; none is left open then."""
@@ -145,7 +145,7 @@ def fly_guided(scenario: Scenario, connection: str, impairments: AdsbImpairments
                start_s: float = 0.0, duration_s: float | None = None,
                autopilot: AutopilotConfig = AutopilotConfig(), on_receive=None, stop=None,
                pilot=()) -> Recording:
-    """The closed loop in real time (sitl live --fly-guidance): the simulated ArduCopter (avionics_sitl/guided.py)
+    """The closed loop in real time (sitl live --fly-guidance): the simulated ArduCopter (sitl/avionics_sitl/guided.py)
     flies the scenario's ownship path as its mission from start_s, sends its GLOBAL_POSITION_INT and
     SCALED_PRESSURE at autopilot.ownship_hz and HEARTBEAT at 1 Hz as it flies, the intruders' ADSB_VEHICLE on
     their schedule, and obeys the DAA process's commands (answered with COMMAND_ACK at once). pilot: (scenario

@@ -1,8 +1,9 @@
-"""The `avionics` console script: the flight commands of avionics.cli (run, config, monitor, router) plus the
-two that compose the onboard process with the simulator, `demo` and `bench`.
+"""The lab's commands of the `avionics` console script: `demo` and `bench` (they compose the onboard process with
+the simulator) and `evaluate`.
 
-It lives here, not in the flight package, so that flight code never imports the simulator; demo and bench are
-imported only when their command runs.
+The flight install's `avionics` (avionics.cli) finds them through this distribution's entry point
+(`avionics.commands`, eval/pyproject.toml: add_commands and ERRORS); `python -m avionics_eval.cli` is the same
+script. Each command imports its code only when it runs.
 """
 
 from __future__ import annotations
@@ -119,12 +120,12 @@ def add_commands(sub) -> None:
     p.add_argument("--capacity", action="store_true",
                    help="the capacity bench: the most intruders a real avionics run keeps up with at 1 Hz, its "
                         "report-to-advisory latency there and for one report alone, start-up time, memory, and "
-                        "filterpy's IMM step as a reference (avionics_eval/capacity_bench.py, docs/performance.md)")
+                        "filterpy's IMM step as a reference (eval/avionics_eval/capacity_bench.py, docs/performance.md)")
     p.add_argument("--trial-seconds", type=_positive, default=20.0, metavar="S",
                    help="--capacity: length of each trial of the capacity search and of the 1 Hz run")
     p.add_argument("--soak", type=_positive, metavar="S",
                    help="memory soak: a real avionics run fed --intruders (one count, default 1000) at "
-                        "1 Hz for S seconds, its VmRSS sampled (avionics_eval/soak_bench.py, docs/performance.md)")
+                        "1 Hz for S seconds, its VmRSS sampled (eval/avionics_eval/soak_bench.py, docs/performance.md)")
     p.add_argument("--sample-seconds", type=_positive, default=5.0, metavar="S",
                    help="--soak: seconds between samples of the child's memory")
     p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,

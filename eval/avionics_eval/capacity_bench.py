@@ -26,7 +26,7 @@ socket read left out, zenoh on a real loopback session with `--zenoh`, MAVLink o
   WARMUP_S simulated seconds (track starts) are left out.
 - `tracker_update_us_per_track`: the configured tracker (compose.build_tracker, IMM by default) updating N
   established tracks with one report each per ingest_many call, per track, CPU time
-  (avionics_eval/tracking_bench.py `bench_tracker`, as docs/tracking.md); `tracker_vs_filterpy` is
+  (eval/avionics_eval/tracking_bench.py `bench_tracker`, as docs/tracking.md); `tracker_vs_filterpy` is
   reference_filterpy_imm_step_us over it: how many times faster than filterpy a track update is.
 - `resident_memory_mb` / `resident_memory_peak_mb`: VmRSS at the end and VmHWM of a real `avionics run` child
   fed N intruders at 1 Hz over loopback UDP for `trial_s` seconds (the same traffic), read from /proc before it

@@ -242,12 +242,12 @@ def demo_guidance(scenario_name: str = "head-on", port: int = 14650, zenoh_port:
                   noise: str = "default", profile: str | None = None, autopilot: str = "ardupilot",
                   flight: dict | None = None) -> int:
     """`avionics demo --guidance`: a multirotor on its mission (the scenario's ownship path, flown in AUTO by the
-    simulated ArduCopter or PX4 of avionics_sitl/guided.py) meets the encounter; the onboard process
+    simulated ArduCopter or PX4 of sitl/avionics_sitl/guided.py) meets the encounter; the onboard process
     (guidance.mode=execute, vehicle.profile=multirotor, advisory.profile small-uas unless given) commands the
     avoidance over MAVLink and gives the mission back. Prints the guidance's states as zenoh carries them, the
     autopilot's modes, and the truth miss without and with; exit 0 when the flown miss is outside NMAC
     (100 ft at the closest approach) and the vehicle is back on its mission. flight: a dict that receives the
-    `recording` (avionics_sitl/live.py), the `copter`, the zenoh `guidance` payloads and the `misses`."""
+    `recording` (sitl/avionics_sitl/live.py), the `copter`, the zenoh `guidance` payloads and the `misses`."""
     from avionics.advisory.vehicle import load_vehicle
     from avionics.guidance import ardupilot, px4
     from avionics.io.zenoh_bus import open_session

@@ -1,4 +1,4 @@
-"""`avionics evaluate`: run a set (runner.py) or report on one (metrics.py). Kept apart from avionics_eval/cli.py
+"""`avionics evaluate`: run a set (runner.py) or report on one (metrics.py). Kept apart from eval/avionics_eval/cli.py
 so that its arguments live beside the code they drive."""
 
 from __future__ import annotations
