@@ -139,6 +139,15 @@ def cmd_live(args) -> int:
     return 0
 
 
+def _vehicle_args(p) -> None:
+    """--vehicle and --autopilot of the closed loop through the guidance (replay and live --fly-guidance)."""
+    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
+                   help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
+                        "(OFFBOARD)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="sitl", description="Simulated ownship and ADS-B traffic over MAVLink.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -173,11 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fly-guidance", action="store_true",
                    help="close the loop through the guidance stage (guidance.mode=execute): a simulated ArduCopter "
                         "flies the ownship path as its mission in AUTO and obeys the GUIDED commands")
-    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
-                   help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
-    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
-                        "(OFFBOARD)")
+    _vehicle_args(p)
     p.add_argument("--misses", metavar="FILE.csv",
                    help="write the true miss per intruder at horizontal CPA, without and with the RAs flown "
                         "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
@@ -194,11 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fly-guidance", action="store_true",
                    help="a simulated ArduCopter flies the ownship path as its mission and obeys the guidance's "
                         "commands (avionics run with guidance.mode=execute); ownship and traffic on MAVLink only")
-    p.add_argument("--vehicle", default="multirotor", metavar="NAME",
-                   help="with --fly-guidance: the vehicle profile flown (default multirotor)")
-    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
-                        "(OFFBOARD)")
+    _vehicle_args(p)
     f = p.add_argument_group("ground receiver feeds (docs/traffic-inputs.md): the same intruders, same clock and seed")
     f.add_argument("--sbs", type=tcp_listen_address, metavar="[HOST:]PORT",
                    help="serve SBS-1 BaseStation lines on TCP (as dump1090/readsb port 30003; HOST default 127.0.0.1)")
