@@ -37,14 +37,11 @@ from typing import Iterable, Mapping
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.arduplane import ARDUPLANE
-from avionics.guidance.px4 import PX4
+from avionics.guidance.contract import contract_for
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.vertical import vertical_manoeuvre
 
 STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden", "failed")
-MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
-MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
 
 
@@ -215,8 +212,7 @@ class GuidanceStage:
     def _absorb(self, item, now_s: float) -> None:
         if isinstance(item, AutopilotHeartbeat):
             if self.state == "idle":  # never in the middle of a manoeuvre
-                self.contract = PX4 if item.autopilot == MAV_AUTOPILOT_PX4 else \
-                    ARDUPLANE if item.mav_type == MAV_TYPE_FIXED_WING else ARDUCOPTER
+                self.contract = contract_for(item)
             self.mode, self.component = item.custom_mode, item.component
             if self.request is not None and item.custom_mode == self.request.mode:
                 if self.request.mode == self.contract.command_mode:
