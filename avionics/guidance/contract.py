@@ -26,18 +26,3 @@ class Contract:
     # (guidance config, system, component) -> arduplane.py PlaneCommands, used instead of the setpoint stream
     guided_commands: Callable | None = None
 
-
-MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
-MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
-
-
-def contract_for(heartbeat) -> Contract:
-    """The contract of the autopilot whose HEARTBEAT (core/types.py AutopilotHeartbeat) this is: PX4's for
-    MAV_AUTOPILOT_PX4, ArduPlane's for an ArduPilot MAV_TYPE_FIXED_WING, else ArduCopter's."""
-    from avionics.guidance.ardupilot import ARDUCOPTER
-    from avionics.guidance.arduplane import ARDUPLANE
-    from avionics.guidance.px4 import PX4
-
-    if heartbeat.autopilot == MAV_AUTOPILOT_PX4:
-        return PX4
-    return ARDUPLANE if heartbeat.mav_type == MAV_TYPE_FIXED_WING else ARDUCOPTER

@@ -31,9 +31,8 @@ from typing import Iterable, Mapping
 from avionics.core.types import AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot, arduplane, px4
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.contract import contract_for
 from avionics.guidance.params import LADDER_ACTIONS, GuidanceConfig
-from avionics.guidance.stage import GuidanceDecision, GuidanceOutput
+from avionics.guidance.stage import GuidanceDecision, GuidanceOutput, contract_for
 
 SEVERITY = {action: k for k, action in enumerate(LADDER_ACTIONS)}  # none 0, warn 1, hold 2, return 3, land 4
 NEVER = len(LADDER_ACTIONS)  # a mode no action is more severe than (someone else's offboard control, GUIDED)

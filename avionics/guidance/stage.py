@@ -37,12 +37,23 @@ from typing import Iterable, Mapping
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.contract import contract_for
+from avionics.guidance.arduplane import ARDUPLANE
+from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.vertical import vertical_manoeuvre
 
 STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden", "failed")
+MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
+MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
+
+
+def contract_for(heartbeat):
+    """The contract (contract.py) of the autopilot whose HEARTBEAT this is: PX4's for MAV_AUTOPILOT_PX4, ArduPlane's
+    for an ArduPilot MAV_TYPE_FIXED_WING, else ArduCopter's."""
+    if heartbeat.autopilot == MAV_AUTOPILOT_PX4:
+        return PX4
+    return ARDUPLANE if heartbeat.mav_type == MAV_TYPE_FIXED_WING else ARDUCOPTER
 
 
 @dataclass(frozen=True, slots=True)
