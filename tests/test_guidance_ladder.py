@@ -90,3 +90,14 @@ def test_a_refused_mode_is_a_failure():
 def test_a_bad_ladder_is_a_clear_error(ladder):
     with pytest.raises(ConfigError, match="guidance.ladder"):
         _config(ladder)
+
+
+def test_a_plane_has_no_land_mode_and_returns_instead():
+    from avionics.guidance import arduplane
+
+    stage = ModeLadder(GuidanceConfig(mode="execute", ladder=("warn", "land")), 1)
+    stage.update(0.0, {}, None, None, [AutopilotHeartbeat(0.0, 1, arduplane.AUTO, 0, mav_type=1)])
+    out = stage.update(1.0, {KEY: _ra()}, None, None)
+    (ask,) = out.commands
+    assert ask.param2 == arduplane.RTL and out.decision.reason == "level 2 land_as_return"
+    assert out.decision.autopilot_mode == "AUTO" and out.decision.manoeuvre == "return"

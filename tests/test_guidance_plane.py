@@ -266,3 +266,25 @@ def test_the_executed_manoeuvre_never_goes_below_the_floor_nor_leaves_a_smaller_
     if agl + min(0.0, vz_own * scenario.duration_s) >= floor:
         (miss,) = result.misses
         assert miss.vmd_with_m >= miss.vmd_without_m - 15 * FT or miss.hmd_flown_m >= NMAC_H_M, (seed, miss)
+
+
+def test_sitl_replay_flies_the_fixed_wing_through_arduplane_by_default(tmp_path, capsys):
+    """`sitl replay ... --fly-guidance --vehicle fixed-wing`: the vehicle profile picks the simulated ArduPlane."""
+    import csv
+
+    from avionics_sitl.cli import main
+
+    misses = tmp_path / "misses.csv"
+    assert main(["replay", ENCOUNTER, "--fly-guidance", "--vehicle", "fixed-wing", "--noise", "none",
+                 "--set", "advisory.profile=small-uas", "--misses", str(misses)]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert any(",GUIDANCE," in r and r.endswith("mission_resumed,AUTO") for r in rows)  # ArduPlane's AUTO (10)
+    (miss,) = csv.DictReader(misses.open())
+    assert float(miss["vmd_unflown_m"]) < NMAC_V_M < float(miss["vmd_flown_m"])
+    from avionics_sitl.guided_plane import simulated_autopilot
+
+    plane = load_vehicle("fixed-wing")
+    assert type(simulated_autopilot(plane)) is SimPlane  # what --vehicle fixed-wing flies without --autopilot
+    assert type(simulated_autopilot(plane, "ardupilot")) is not SimPlane
+    with pytest.raises(ValueError, match="autopilot 'inav'"):
+        simulated_autopilot(plane, "inav")
