@@ -158,6 +158,10 @@ class Daa:
 
             self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(self._core.profile.response),
                                            config.mavlink.source_system)
+            if config.guidance.ladder:  # a mode per alert level instead of the manoeuvre (guidance/ladder.py)
+                from avionics.guidance.ladder import ModeLadder
+
+                self._guidance = ModeLadder(config.guidance, config.mavlink.source_system)
             self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
         self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
 

@@ -34,9 +34,9 @@ GUIDANCE = ["advisory.profile=small-uas", "vehicle.profile=multirotor", "guidanc
 class _Onboard:
     """`avionics run` with the guidance on, and a zenoh subscriber to its `guidance` topic."""
 
-    def __init__(self, udp_port: int, tcp_port: int, duration_s: float):
+    def __init__(self, udp_port: int, tcp_port: int, duration_s: float, settings=GUIDANCE):
         self.endpoint = f"tcp/127.0.0.1:{tcp_port}"
-        sets = [a for s in [*GUIDANCE, f'zenoh.listen=["{self.endpoint}"]', "vehicle.id=guideduav"]
+        sets = [a for s in [*settings, f'zenoh.listen=["{self.endpoint}"]', "vehicle.id=guideduav"]
                 for a in ("--set", s)]
         self.process = subprocess.Popen(
             [sys.executable, "-m", "avionics.cli", "run", "--connection", f"udpin:127.0.0.1:{udp_port}", *sets,
