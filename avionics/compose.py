@@ -113,7 +113,7 @@ def build_bands(profile):
 
     levels = [BandsLevel(i, lv.region, lv.thresholds, lv.alerting_time_s, lv.early_alerting_time_s)
               for i, lv in enumerate(spec.levels, start=1)]
-    return BandsEngine(profile.bands, levels)
+    return BandsEngine(profile.bands, levels, sum_z=spec.sum)  # SUM: the bands' tests are the alerter's
 
 
 def build_gate(advisory_params):

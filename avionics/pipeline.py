@@ -171,7 +171,8 @@ class DaaCore:
         self._alert_names = self.alerter.names()
         self.bands = parts.bands  # a DO-365 alerter's guidance bands (advisory/bands.py); None: none
         self._bands_slot: int | None = None  # the second of the last bands computed
-        self._bands_traffic: dict[IntruderKey, tuple] = {}  # key -> (time, position, velocity) for _guidance
+        # key -> (time, position, velocity, SUM errors (4,) or None) for _guidance
+        self._bands_traffic: dict[IntruderKey, tuple] = {}
         self.hysteresis = parts.hysteresis  # a DO-365 alerter's M of N and persistence (DAIDALUS HysteresisData)
         self.gate = parts.gate  # advisory.criterion and advisory.persistence
         self.conflict = parts.conflict  # conflict.prefilter and conflict.method
@@ -373,13 +374,17 @@ class DaaCore:
             if own is None:
                 return None
             period = 1.0 / self.config.advisory.assessment_hz
-            keys = sorted(k for k, (t, _, _) in self._bands_traffic.items() if now_s - t <= period - TIME_EPSILON_S)
-            pos, vel = np.empty((len(keys), 3)), np.empty((len(keys), 3))
+            keys = sorted(k for k, (t, *_) in self._bands_traffic.items() if now_s - t <= period - TIME_EPSILON_S)
+            pos, vel, errors = np.empty((len(keys), 3)), np.empty((len(keys), 3)), np.zeros((len(keys), 4))
+            stated = False
             for i, k in enumerate(keys):
-                t, pos[i], vel[i] = self._bands_traffic[k]
+                t, pos[i], vel[i], err = self._bands_traffic[k]
                 pos[i] += vel[i] * (now_s - t)
+                if err is not None:
+                    errors[i], stated = err, True
             levels = [int(self.states.alert[r]) if (r := self.states.row(k)) is not None else NONE for k in keys]
-            bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels)
+            bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels,
+                                       errors if stated else None)
             return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
         except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
             self.counters["fault.bands"] += 1
@@ -432,8 +437,9 @@ class DaaCore:
         keys, xs, has_alt, geometry = ev.keys, ev.xs, ev.has_alt, ev.geometry
         if self.bands is not None:  # the traffic of the guidance bands (_guidance)
             pos = np.column_stack([xs[:, :2], own.x[2] + geometry.sz_m])
+            errors = ev.encounter.uncertainty  # the SUM detector's inputs: the bands use them as the alerter does
             for i in np.flatnonzero(has_alt):
-                self._bands_traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6])
+                self._bands_traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6], None if errors is None else errors[i])
             for i in np.flatnonzero(~has_alt):
                 self._bands_traffic.pop(keys[i], None)
         self.counters["assessment.datum_mismatch"] += int(ev.mismatch.sum())

@@ -342,3 +342,84 @@ def test_engine_validates_lengths_and_resets():
     b2 = engine.compute(0.0, [0, 0, 1000], [0, 100, 0], [[0, 9000, 1000]], [[0, -100, 0]], ["a"], [2])
     assert b1 == b2
     assert DO365B_LEVELS[1].region == "MID" and DO365B_LEVELS[2].region == "NEAR"
+
+
+# --- the bands with sensor uncertainty mitigation (a profile with [alerter.sum]) -----------------------------------
+
+def _sum_engine():
+    from avionics.advisory.tables import load_profile
+    from avionics.compose import build_bands
+
+    return build_bands(load_profile("daidalus-do365b-sum"))
+
+
+def _in_region(bands, kind, region):
+    """The set of grid values (1 deg, 100 fpm) of a kind whose region is `region`."""
+    grid = np.arange(0.5, 360.0, 1.0) if kind == "track_deg" else np.arange(-6000, 6001, 100) * FPM
+    return {round(float(x), 6) for x in grid if bands.region_at(kind, float(x)) == region}
+
+
+def test_sum_bands_pass_1300_m_abeam():
+    """Head-on, the intruder passing 1300 m abeam (outside DTHR 1222 m): without uncertainty the current course
+    000 is conflict free; with 15 m of position error (s_err 22.5 m, DTHR + s_err 1245 m) and 1.5 m/s of velocity
+    error it is in the corrective region, as DAIDALUS's bands ask WCV_TAUMOD_SUM (CD_future_traj ->
+    conflictWithTrafficState with both aircraft's SUMData); zero errors change nothing."""
+    so, vo = np.array([0.0, 0.0, 3000 * FT]), np.array([0.0, 110 * KT, 0.0])
+    si, vi = np.array([[1300.0, 9000.0, 3000 * FT]]), np.array([[0.0, -130 * KT, 0.0]])
+    plain = _sum_engine().compute(0.0, so, vo, si, vi, ["a"], [0])
+    zero = _sum_engine().compute(0.0, so, vo, si, vi, ["a"], [0], np.zeros((1, 4)))
+    with_sum = _sum_engine().compute(0.0, so, vo, si, vi, ["a"], [0], np.array([[15.0, 5.0, 1.5, 0.5]]))
+    assert plain.region_at("track_deg", 0.0) == "NONE"
+    assert zero.track_deg == plain.track_deg and zero.vertical_rate_mps == plain.vertical_rate_mps
+    assert with_sum.region_at("track_deg", 0.0) == "MID"
+    assert _in_region(with_sum, "track_deg", "NONE") < _in_region(plain, "track_deg", "NONE")
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(-4 * NM, 4 * NM), st.floats(2 * NM, 8 * NM), st.floats(0.0, 360.0), st.floats(-800 * FT, 800 * FT),
+       st.floats(-1500 * FPM, 1500 * FPM), st.tuples(st.floats(0.0, 150.0), st.floats(0.0, 30.0),
+                                                     st.floats(0.0, 5.0), st.floats(0.0, 2.0)))
+def test_sum_bands_never_free_what_the_plain_bands_paint(east, north, course, dz, vz, err):
+    """Over random geometries: every track and vertical-speed value conflict free with SUM is conflict free
+    without it (the worst case contains the nominal line), where neither computes recovery bands."""
+    so, vo = np.array([0.0, 0.0, 3000 * FT]), np.array([0.0, 110 * KT, 0.0])
+    c = math.radians(course)
+    si = np.array([[east, north, 3000 * FT + dz]])
+    vi = np.array([[130 * KT * math.sin(c), 130 * KT * math.cos(c), vz]])
+    plain = _sum_engine().compute(0.0, so, vo, si, vi, ["a"], [0])
+    with_sum = _sum_engine().compute(0.0, so, vo, si, vi, ["a"], [0], np.array([err]))
+    for kind in ("track_deg", "vertical_rate_mps"):
+        if plain.recovery.get(kind) or with_sum.recovery.get(kind):
+            continue
+        assert _in_region(with_sum, kind, "NONE") <= _in_region(plain, kind, "NONE"), kind
+
+
+@settings(max_examples=200)
+@given(st.lists(st.tuples(st.floats(-5 * NM, 5 * NM), st.floats(-5 * NM, 5 * NM), st.floats(-700 * FT, 700 * FT),
+                          st.floats(-150.0, 150.0), st.floats(-150.0, 150.0), st.floats(-15.0, 15.0)),
+                min_size=1, max_size=6),
+       st.tuples(st.floats(0.0, 300.0), st.floats(0.0, 60.0), st.floats(0.0, 10.0), st.floats(0.0, 3.0)))
+def test_bands_sum_lines_are_the_scalar_detector(lines, err):
+    """The bands' line test with SUM (bands._lines over (J, n) lines at once) equals, line by line, the scalar
+    port (wcv_sum.wcv_uncertain_interval with the velocity z-score weighed at the line's range, each relative
+    error floored at MinError), to 1e-9 s."""
+    from avionics.advisory.bands import _lines
+    from avionics.advisory.wcv_sum import MIN_ERROR, wcv_uncertain_interval
+    from avionics.advisory.wcv import conflict
+
+    z = _sum_engine().sum_z
+    arr = np.array(lines)
+    s, v = arr[:, None, 0:3], arr[:, None, 3:6]  # (J, 1, 3): J lines of one intruder
+    t_in, t_out = _lines(DO365_PHASE_I, s, v, 180.0, (z, np.array([err])))
+    for j, (sx, sy, sz, vx, vy, vz) in enumerate(lines):
+        r = math.hypot(sx, sy)
+        s_err = z.h_pos * err[0]
+        rel = [s_err, z.v_pos * err[1], z.weighted_h_vel(max(r - s_err, 0.0)) * err[2], z.v_vel * err[3]]
+        if not any(rel):
+            continue
+        a, b = wcv_uncertain_interval(0.0, 180.0, (-sx, -sy), (-vx, -vy), -sz, -vz,
+                                      *(max(e, MIN_ERROR) for e in rel), DO365_PHASE_I)
+        if not conflict(a, b):
+            a, b = math.inf, -math.inf
+        for ours, ref in ((t_in[j, 0], a), (t_out[j, 0], b)):
+            assert ours == ref or abs(ours - ref) <= 1e-9, (j, (a, b), (t_in[j, 0], t_out[j, 0]))

@@ -27,7 +27,9 @@ from hypothesis import strategies as st
 from avionics.advisory.alerting import Encounter, wcv_alerter
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import DO365_PHASE_I, WCV_TAUMOD
-from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM, SumZScores
+from avionics.advisory.wcv_sum import (
+    MIN_ERROR, WCV_TAUMOD_SUM, SumZScores, wcv_uncertain_interval, wcv_uncertain_intervals,
+)
 from avionics.core.uncertainty import SumData, horizontal_uncertainty
 from avionics.conflict.cpa import pair_geometry
 from avionics.core.units import FPM, FT, KT, NM
@@ -194,3 +196,51 @@ def test_stated_and_track_uncertainty_reach_the_alerter():
     assert _first_alert(["advisory.sum_from_tracks=true"]) is None
     assert _first_alert([], abeam_m=1235.0) is None
     assert _first_alert(["advisory.sum_from_tracks=true"], abeam_m=1235.0) is not None
+
+
+# --- the vectorised SUM interval against the scalar reference -----------------------------------------------------
+
+def _canonical(t_in, t_out):
+    return (math.inf, -math.inf) if t_in > t_out else (t_in, t_out)
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or abs(a - b) <= 1e-9
+
+
+near = st.tuples(  # geometries around the volume's edges, where the branches of the worst case differ
+    st.floats(-3 * NM, 3 * NM), st.floats(-3 * NM, 3 * NM),
+    st.floats(-150.0, 150.0), st.floats(-150.0, 150.0),
+    st.floats(-700 * FT, 700 * FT), st.floats(-2000 * FPM, 2000 * FPM))
+relative = st.tuples(st.floats(MIN_ERROR, 1500.0), st.floats(MIN_ERROR, 200.0), st.floats(MIN_ERROR, 200.0),
+                     st.floats(MIN_ERROR, 15.0))
+
+
+@settings(max_examples=400)
+@given(st.lists(st.tuples(st.one_of(geometries, near), relative), min_size=1, max_size=8),
+       st.sampled_from([0.0, 10.0]), st.sampled_from([25.0, 180.0]))
+def test_vectorised_uncertain_interval_is_the_scalar_one(rows, b, t):
+    """wcv_uncertain_intervals over arrays equals wcv_uncertain_interval (the line-by-line port) row by row, to
+    1e-9 s, with every non-interval (time_in > time_out) as (inf, -inf)."""
+    geo = np.array([g for g, _ in rows])
+    err = np.array([e for _, e in rows])
+    t_in, t_out = wcv_uncertain_intervals(b, t, geo[:, 0:2], geo[:, 2:4], geo[:, 4], geo[:, 5], *err.T, DO365_PHASE_I)
+    for i, ((sx, sy, vx, vy, sz, vz), e) in enumerate(rows):
+        ref = _canonical(*wcv_uncertain_interval(b, t, (sx, sy), (vx, vy), sz, vz, *e, DO365_PHASE_I))
+        assert _same(ref[0], t_in[i]) and _same(ref[1], t_out[i]), (i, ref, (t_in[i], t_out[i]))
+
+
+def test_vectorised_uncertain_interval_on_random_pairs_near_the_volume():
+    """3,000 seeded pairs within 3 nmi and 700 ft with errors up to DTHR and ZTHR: the same intervals, and
+    enough of them losses of well clear that every branch is exercised."""
+    rng = np.random.default_rng(29)
+    n = 3000
+    s, v = rng.uniform(-3 * NM, 3 * NM, (n, 2)), rng.uniform(-150.0, 150.0, (n, 2))
+    sz, vz = rng.uniform(-700 * FT, 700 * FT, n), rng.uniform(-10.0, 10.0, n)
+    err = rng.uniform(MIN_ERROR, 1.0, (n, 4)) * np.array([1200.0, 140.0, 60.0, 8.0])
+    t_in, t_out = wcv_uncertain_intervals(0.0, 180.0, s, v, sz, vz, *err.T, DO365_PHASE_I)
+    assert 0.2 * n < np.isfinite(t_in).sum() < 0.95 * n
+    for i in range(n):
+        ref = _canonical(*wcv_uncertain_interval(0.0, 180.0, tuple(s[i]), tuple(v[i]), sz[i], vz[i], *err[i],
+                                                 DO365_PHASE_I))
+        assert _same(ref[0], t_in[i]) and _same(ref[1], t_out[i]), (i, ref, (t_in[i], t_out[i]))

@@ -25,6 +25,15 @@ How DAIDALUS computes one kind of bands (DaidalusRealBands.compute), and so does
 4. Colouring (color_values, ColorValue), then the hysteresis kept between calls (BandsHysteresis): M-of-N on
    every colour boundary (BandsMofN, MofN) and bands persistence of the conflict band the ownship is in.
 
+Sensor uncertainty mitigation (a profile with [alerter.sum]): DAIDALUS's bands ask the alerter's detector, so
+with WCV_TAUMOD_SUM every well-clear test of the bands is the SUM one: DaidalusIntegerBands.CD_future_traj copies
+the ownship's TrafficState (its SUMData with it), moves it to the line after the manoeuvre and calls
+det.conflictWithTrafficState(own, traffic, max(B, tsk), T), whose WCV_TAUMOD_SUM.conflictDetectionWithTrafficState
+widens by both aircraft's SUMData at the range of that line (DaidalusCore.conflict_aircraft does the same for the
+aircraft per region). Here `errors` (per intruder: ownship's + intruder's SumData.errors, the alerter's
+Encounter.uncertainty) and the z-scores reach `_lines`, which uses advisory/wcv_sum.py's vectorised interval for
+the WcvThresholds detectors; the recovery and NMAC cylinders (CDCylinder) have no SUM.
+
 Internally the direction bands work in radians on a circle of 2 pi (DAIDALUS's internal units); the Bands result
 is in degrees true for track_deg and SI for the other kinds.
 """
@@ -43,6 +52,7 @@ from avionics.advisory.bands_kinematics import (
 )
 from avionics.advisory.persistence import MofN
 from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval
+from avionics.advisory.wcv_sum import MIN_ERROR, SumZScores, relative_errors, wcv_uncertain_intervals
 from avionics.core.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
 from avionics.core.units import FPM, FT, G0, KT, NM
 
@@ -405,6 +415,14 @@ class _Candidates:
     green(det, B, T, rec, idx) -> (candidates, len(idx)) bool and any_red(det, T) -> (n,) bool."""
 
     lookahead: float
+    sum_data: tuple | None = None  # (SumZScores, (n, 4) errors per intruder): the SUM detector (module docstring)
+
+    def _sum_of(self, sel):
+        """The SUM data of the intruders `sel` (a slice or an index array), or None."""
+        if self.sum_data is None:
+            return None
+        z, errors = self.sum_data
+        return z, errors[sel]
 
     def green_segments(self, idx: np.ndarray, det: Detector, B: float, T: np.ndarray,
                        rec: Cylinder | None) -> np.ndarray:
@@ -426,23 +444,36 @@ class _Candidates:
         return seg
 
 
-def _lines(det, s, v, lookahead):
+def _lines(det, s, v, lookahead, sum_data=None):
     """For a detector (a WcvThresholds or the recovery Cylinder): (t_in, t_out) of the loss over [0, lookahead]
-    on the straight lines (s, v) (inf, -inf where there is no conflict: LossData.conflict)."""
+    on the straight lines (s, v) (inf, -inf where there is no conflict: LossData.conflict). sum_data: (z-scores,
+    (n, 4) errors of the lines' intruders, the last axis of s before the coordinates) for WCV_TAUMOD_SUM, whose
+    velocity z-score is weighed at each line's range at time 0 (the state DAIDALUS hands the detector); pairs
+    whose relative errors are all zero keep WCV_TAUMOD (conflictDetectionWithTrafficState)."""
     if isinstance(det, Cylinder):
         return cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, lookahead)
     tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, lookahead)
+    if sum_data is not None:
+        z, errors = sum_data
+        rel = relative_errors(np.broadcast_to(errors, s.shape[:-1] + (4,)), np.hypot(s[..., 0], s[..., 1]), z)
+        uncertain = (rel != 0.0).any(axis=-1)
+        if uncertain.any():
+            e = np.maximum(rel, MIN_ERROR)
+            # DAIDALUS's sign convention (ownship - intruder): the worst case is even, kept as the alerter has it
+            uin, uout = wcv_uncertain_intervals(0.0, lookahead, -s[..., :2], -v[..., :2], -s[..., 2], -v[..., 2],
+                                                e[..., 0], e[..., 1], e[..., 2], e[..., 3], det)
+            tin, tout = np.where(uncertain, uin, tin), np.where(uncertain, uout, tout)
     ok = conflict(tin, tout)
     return np.where(ok, tin, np.inf), np.where(ok, tout, -np.inf)
 
 
-def _violation_at(det, s_t, v_t, t):
+def _violation_at(det, s_t, v_t, t, sum_data=None):
     """Detection3D.violationAtWithTrafficState(own, traffic, t) of DAIDALUS v2.0.4 for the lines through the
     samples (s_t, v_t) at times t: not the instantaneous test but conflictWithTrafficState(t, t), i.e. a loss
     over [t, t + 1] (LossData.conflict, Util.almost_less) that begins at t (Util.almost_equals(time_in, t)). A
     sample exactly on a threshold and leaving it is no loss: a vertical separation equal to ZTHR to 1e-12 m,
     diverging, is clear (the loss lasts ~1e-14 s, almost equal to none)."""
-    tin, tout = _lines(det, s_t, v_t, 1.0)  # time from the sample
+    tin, tout = _lines(det, s_t, v_t, 1.0, sum_data)  # time from the sample
     return conflict(tin, tout) & almost_equals_13(t + tin, t)
 
 
@@ -484,7 +515,7 @@ class _Kinematic(_Candidates):
             L = self.lookahead
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
             s, v = self.s[:, sel], self.v[:, sel]
-            tin, tout = _lines(det, s, v, L)
+            tin, tout = _lines(det, s, v, L, self._sum_of(sel))
             # LOS_at_coast(k) (DaidalusIntegerBands.kinematic_first_los_step): a conflict on the line through the
             # sample within [tsk, tsk + tstep] (conflictWithTrafficState: Util.almost_less of the clipped
             # interval), none at or past the lookahead
@@ -573,9 +604,9 @@ class _Altitude(_Candidates):
             sel = slice(None) if len(idx) == self.n and (idx == np.arange(self.n)).all() else idx
             s, v = self.s[:, q:, sel], self.v[:, q:, sel]
             s_t, v_t = self.s_t[:, :q, sel], self.v[:, :q, sel]
-            tin, tout = _lines(det, s, v, L)
+            tin, tout = _lines(det, s, v, L, self._sum_of(sel))
             # DaidalusAltBands.conflict_free_traj_step's LOS_at: violationAtWithTrafficState at each sample time
-            los = _violation_at(det, s_t, v_t, self.los_t[..., None])
+            los = _violation_at(det, s_t, v_t, self.los_t[..., None], self._sum_of(sel))
             los &= (self.los_mask & (self.los_t < L))[..., None]
             self._cache[key] = (tin, tout, los)
         return self._cache[key]
@@ -621,8 +652,10 @@ class BandsEngine:
     """DAIDALUS bands for one ownship, with the state DAIDALUS's bands keep between calls (BandsHysteresis per
     kind, and when each intruder was first seen, for the early alerting time)."""
 
-    def __init__(self, params: BandsParams = BandsParams(), levels: Sequence[BandsLevel] = DO365B_LEVELS):
+    def __init__(self, params: BandsParams = BandsParams(), levels: Sequence[BandsLevel] = DO365B_LEVELS,
+                 sum_z: SumZScores | None = None):
         self.params = params
+        self.sum_z = sum_z  # the alerter's [alerter.sum]: its detectors are WCV_TAUMOD_SUM, so are the bands' tests
         # BandsLevel objects or plain (level, region, thresholds, alerting_time_s, early_alerting_time_s) tuples
         self.levels = tuple(lv if isinstance(lv, BandsLevel) else BandsLevel(*lv) for lv in levels)
         p = params
@@ -650,7 +683,7 @@ class BandsEngine:
 
     # -- conflict aircraft ----------------------------------------------------------------------------------------
 
-    def _conflict_aircraft(self, time_s, so, vo, si, vi, ids, alert_levels):
+    def _conflict_aircraft(self, time_s, so, vo, si, vi, ids, alert_levels, sum_data=None):
         """DaidalusCore.conflict_aircraft: per region index, the intruders in conflict within the (early)
         alerting time, and the detection interval of each level."""
         p = self.params
@@ -666,7 +699,7 @@ class BandsEngine:
                 out.append(np.zeros(0, int))
                 det_data.append(None)
                 continue
-            tin, tout = wcv_interval(s[:, :2], v[:, :2], s[:, 2], v[:, 2], lv.thresholds, 0.0, p.lookahead_s)
+            tin, tout = _lines(lv.thresholds, s, v, p.lookahead_s, sum_data)
             is_conf = conflict(tin, tout)
             at = np.where(early_ok & (np.asarray(alert_levels) == lv.level), lv.early_alerting_time_s,
                           lv.alerting_time_s)
@@ -680,7 +713,12 @@ class BandsEngine:
 
     # -- one kind ---------------------------------------------------------------------------------------------------
 
-    def _candidates(self, kind: _Kind, val, so, vo, si, vi):
+    def _candidates(self, kind: _Kind, val, so, vo, si, vi, sum_data=None):
+        cand = self._candidates_of(kind, val, so, vo, si, vi)
+        cand.sum_data = sum_data
+        return cand
+
+    def _candidates_of(self, kind: _Kind, val, so, vo, si, vi):
         p = self.params
         L = p.lookahead_s
         if kind.name == "altitude_m":
@@ -757,7 +795,7 @@ class BandsEngine:
             cyl = Cylinder(max(p.horizontal_nmac_m, cyl.d_m * factor), max(p.vertical_nmac_m, cyl.h_m * factor))
         return none, False
 
-    def _kind_bands(self, kind: _Kind, time_s, so, vo, si, vi, conf_idx, conf_at):
+    def _kind_bands(self, kind: _Kind, time_s, so, vo, si, vi, conf_idx, conf_at, sum_data=None):
         p = self.params
         L = p.lookahead_s
         if kind.name == "track_deg":
@@ -770,7 +808,7 @@ class BandsEngine:
             val = float(so[2])
         if kind.mod == 0 and not (kind.min_val <= val <= kind.max_val and kind.min_val != kind.max_val):
             return (), False  # DaidalusRealBands.set_input: no bands
-        cand = self._candidates(kind, val, so, vo, si, vi)
+        cand = self._candidates(kind, val, so, vo, si, vi, sum_data)
         self.recovery_information[kind.name] = None
         # aircraft per region: conflict (horizon lookahead) + peripheral (horizon alerting time)
         acs: list[tuple[np.ndarray, np.ndarray] | None] = []
@@ -866,10 +904,12 @@ class BandsEngine:
     # -- public ---------------------------------------------------------------------------------------------------
 
     def compute(self, time_s: float, own_pos, own_vel, intr_pos, intr_vel, intruder_ids: Sequence,
-                alert_levels) -> Bands:
+                alert_levels, errors=None) -> Bands:
         """Bands at time_s. Positions (3,) / (N, 3) and velocities in local ENU (m, m/s); intruder_ids name the
         intruders across calls; alert_levels (N,) are their current DAIDALUS alert levels (0..3), used for the
-        early alerting time of the level painting each region (DaidalusCore.conflict_aircraft)."""
+        early alerting time of the level painting each region (DaidalusCore.conflict_aircraft). errors: (N, 4)
+        ownship's + each intruder's errors before z-scores (the alerter's Encounter.uncertainty), used with the
+        engine's sum_z (None, or no sum_z: the plain WCV_TAUMOD)."""
         so, vo = np.asarray(own_pos, float).reshape(3), np.asarray(own_vel, float).reshape(3)
         si = np.asarray(intr_pos, float).reshape(-1, 3)
         vi = np.asarray(intr_vel, float).reshape(-1, 3)
@@ -877,10 +917,16 @@ class BandsEngine:
         levels = np.asarray(alert_levels, int).reshape(-1)
         if not (len(ids) == si.shape[0] == vi.shape[0] == levels.shape[0]):
             raise ValueError("intr_pos, intr_vel, intruder_ids and alert_levels must have the same length")
-        conf_idx, conf_at = self._conflict_aircraft(float(time_s), so, vo, si, vi, ids, levels)
+        sum_data = None
+        if errors is not None and self.sum_z is not None:
+            errors = np.asarray(errors, float).reshape(-1, 4)
+            if errors.shape[0] != si.shape[0]:
+                raise ValueError("errors must have one row per intruder")
+            sum_data = (self.sum_z, errors)
+        conf_idx, conf_at = self._conflict_aircraft(float(time_s), so, vo, si, vi, ids, levels, sum_data)
         out, rec = {}, {}
         for kind in self._kinds:
             out[kind.name], rec[kind.name] = self._kind_bands(kind, float(time_s), so, vo, si, vi, conf_idx,
-                                                              conf_at)
+                                                              conf_at, sum_data)
         return Bands(time_s=float(time_s), recovery=rec, ownship_pos=tuple(map(float, so)),
                      ownship_vel=tuple(map(float, vo)), intruders=tuple(zip(map(str, ids), map(int, levels))), **out)

@@ -27,8 +27,9 @@ rotated onto the pair of tangent directions that bring them closest, optimal_wcv
 (|v|^2 - v_err^2) t^2 + 2 (s.v - v_err (DTHR + s_err)) t + |s|^2 - (DTHR + s_err)^2, Theta_D_uncertain). A
 conflict is time_in almost-less than time_out (LossData.conflict).
 
-The pairs with uncertainty are evaluated one at a time (the worst-case geometry branches per pair); the pairs
-without go through the vectorised WCV_TAUMOD.
+The scalar functions below follow the Java line by line and are the reference; `wcv_uncertain_intervals`
+evaluates every branch over arrays (the alerter's pairs, the guidance bands' candidate manoeuvres) and is
+checked against them. The pairs without uncertainty go through WCV_TAUMOD.
 """
 
 from __future__ import annotations
@@ -296,13 +297,15 @@ def wcv_uncertain_interval(b, t, s, v, sz, vz, s_err, sz_err, v_err, vz_err, thr
 
 
 def relative_errors(errors: np.ndarray, range_m: np.ndarray, z: SumZScores) -> np.ndarray:
-    """(N, 4) relative (s_err, sz_err, v_err, vz_err) of the pairs from the (N, 4) sums of both aircraft's
-    errors (SumData.errors) and their horizontal ranges (WCV_TAUMOD_SUM.relativeHorizontalPositionError ...
+    """(..., 4) relative (s_err, sz_err, v_err, vz_err) of the pairs from the (..., 4) sums of both aircraft's
+    errors (SumData.errors) and their (...) horizontal ranges (WCV_TAUMOD_SUM.relativeHorizontalPositionError ...
     relativeVerticalSpeedError)."""
-    errors = np.asarray(errors, float).reshape(-1, 4)
-    s_err = z.h_pos * errors[:, 0]
-    v_z = np.array([z.weighted_h_vel(max(r - e, 0.0)) for r, e in zip(np.asarray(range_m, float), s_err)])
-    return np.stack([s_err, z.v_pos * errors[:, 1], v_z * errors[:, 2], z.v_vel * errors[:, 3]], axis=1)
+    errors = np.asarray(errors, float)
+    s_err = z.h_pos * errors[..., 0]
+    r = np.maximum(np.asarray(range_m, float) - s_err, 0.0)
+    perc = r / z.h_vel_distance_m  # weighted_z_score, over arrays
+    v_z = np.where(r >= z.h_vel_distance_m, z.h_vel_min, (1.0 - perc) * z.h_vel_max + perc * z.h_vel_min)
+    return np.stack([s_err, z.v_pos * errors[..., 1], v_z * errors[..., 2], z.v_vel * errors[..., 3]], axis=-1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -331,10 +334,162 @@ class WCV_TAUMOD_SUM(WCV_TAUMOD):  # noqa: N801  (DAIDALUS's class name)
             return plain
         out = plain.copy()
         horizon = max(self.lookahead_s, float(time_s))
-        for row in uncertain:
-            s_err, sz_err, v_err, vz_err = np.maximum(rel[row], MIN_ERROR)
-            t_in, t_out = wcv_uncertain_interval(0.0, horizon, tuple(s_xy[row]), tuple(v_xy[row]), float(sz[row]),
-                                                 float(vz[row]), s_err, sz_err, v_err, vz_err, thresholds)
-            # ConflictData.conflictBefore(alerting time) of the detection over [0, lookahead]
-            out[row] = bool((t_in == 0.0 or almost_less(t_in, time_s)) and almost_less(t_in, t_out))
+        e = np.maximum(rel[uncertain], MIN_ERROR)
+        t_in, t_out = wcv_uncertain_intervals(0.0, horizon, s_xy[uncertain], v_xy[uncertain], sz[uncertain],
+                                              vz[uncertain], e[:, 0], e[:, 1], e[:, 2], e[:, 3], thresholds)
+        # ConflictData.conflictBefore(alerting time) of the detection over [0, lookahead]
+        out[uncertain] = ((t_in == 0.0) | almost_less(t_in, time_s)) & almost_less(t_in, t_out)
         return out
+
+
+# --- the same, vectorised over any leading shape ----------------------------------------------------------------
+# The functions above are the reference, line by line with DAIDALUS's; these evaluate every branch over arrays and
+# pick with np.where / np.select in the same order (tests/test_do365_sum.py checks them against each other), so
+# that the alerter's pairs and the guidance bands' candidate manoeuvres are one numpy evaluation each.
+
+def _v2(x, y):
+    return np.stack([x, y], axis=-1)
+
+
+def _dot_v(a, b):
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+
+
+def _det_v(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _norm_v(a):
+    return np.sqrt(_dot_v(a, a))
+
+
+def _hat_v(a):
+    n = _norm_v(a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where((n == 0.0)[..., None], 0.0, a / np.where(n == 0.0, 1.0, n)[..., None])
+
+
+def _tangent_line_v(s, d, eps: int):
+    sq_s, sq_d = _dot_v(s, s), d * d
+    on = almost_equals(sq_s, sq_d)
+    delta = sq_s - sq_d
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a denormal |s|: a branch not taken
+        safe = np.where(sq_s == 0.0, 1.0, sq_s)
+        alpha, beta = sq_d / safe, d * np.sqrt(np.maximum(delta, 0.0)) / safe
+        q = _v2(alpha * s[..., 0] + eps * beta * s[..., 1], alpha * s[..., 1] - eps * beta * s[..., 0])
+    q_zero = ((q[..., 0] == 0.0) & (q[..., 1] == 0.0))[..., None]
+    tangent = np.where(q_zero, q, q - s)
+    out = np.where((delta >= 0.0)[..., None], tangent, 0.0)
+    return np.where(np.asarray(on)[..., None], _v2(eps * s[..., 1], -eps * s[..., 0]), out)
+
+
+def _sumof_v(v1, v2, w):
+    d = _det_v(v2, v1)
+    return (_det_v(w, v1) * d >= 0.0) & (_det_v(w, v2) * d <= 0.0)
+
+
+def _optimal_pair_v(v1, v2, w1, w2):
+    def avg(a, b):
+        return _hat_v(a + b)
+
+    conds = [_sumof_v(v1, v2, w1) & _sumof_v(v1, v2, w2), _sumof_v(w1, w2, v1) & _sumof_v(w1, w2, v2)]
+    firsts, seconds = [avg(w1, w2), avg(v1, v2)], [avg(w1, w2), avg(v1, v2)]
+    for a, b in ((v1, w1), (v1, w2), (v2, w1), (v2, w2)):
+        conds.append(_sumof_v(w1, w2, a) & _sumof_v(v1, v2, b))
+        firsts.append(avg(a, b))
+        seconds.append(avg(a, b))
+    d11, d12, d21, d22 = _dot_v(v1, w1), _dot_v(v1, w2), _dot_v(v2, w1), _dot_v(v2, w2)
+    conds += [(d11 >= d12) & (d11 >= d21) & (d11 >= d22), (d12 >= d11) & (d12 >= d21) & (d12 >= d22),
+              (d21 >= d11) & (d21 >= d12) & (d21 >= d22)]
+    firsts += [v1, v1, v2]
+    seconds += [w1, w2, w1]
+    conds = [np.broadcast_to(c[..., None], v1.shape) for c in conds]
+    return np.select(conds, firsts, v2), np.select(conds, seconds, w2)
+
+
+def _optimal_wcv_pair_v(s, v, s_err, v_err):
+    v1, v2 = _hat_v(_tangent_line_v(s, s_err, -1)), _hat_v(_tangent_line_v(s, s_err, 1))
+    w1, w2 = _hat_v(_tangent_line_v(-v, v_err, -1)), _hat_v(_tangent_line_v(-v, v_err, 1))
+    first, second = _optimal_pair_v(v1, v2, w1, w2)
+    return (_norm_v(s) - s_err)[..., None] * -first, (_norm_v(v) + v_err)[..., None] * second
+
+
+def _radial_v(s, v, s_err, v_err):
+    s_hat = _hat_v(s)
+    return (_norm_v(s) - s_err)[..., None] * s_hat, -(_norm_v(v) + v_err)[..., None] * s_hat
+
+
+def _h_uncertain_interval_v(s, v, s_err, v_err, t, thr):
+    """horizontal_wcv_taumod_uncertain_interval with its _entry and _exit, every branch evaluated."""
+    inside_disk = _dot_v(s, s) <= (thr.dthr_m + s_err) ** 2
+    slow = _dot_v(v, v) <= v_err * v_err
+    rs, rv = _radial_v(s, v, s_err, v_err)
+    r_in, r_out = _horizontal_interval(rs, rv, thr, t)
+    first, second = _optimal_wcv_pair_v(s, v, s_err, v_err)
+    n_in, _ = _horizontal_interval(s, v, thr, t)
+    o_in, _ = _horizontal_interval(first, second, thr, t)
+    entry = np.where(_horizontal_wcv(s, v, thr) | inside_disk, 0.0,
+                     np.where(slow, np.where(r_out < r_in, t + 1.0, r_in),
+                              np.where(_dot_v(first, second) < 0.0, np.minimum(n_in, o_in), t + 1.0)))
+    # Theta_D_uncertain(eps = +1)
+    d = thr.dthr_m + s_err
+    a = _dot_v(v, v) - v_err * v_err
+    b = 2.0 * (_dot_v(s, v) - v_err * d)
+    c = _dot_v(s, s) - d * d
+    sqb, ac = b * b, 4.0 * a * c
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        root = (-b + np.sqrt(np.maximum(sqb - ac, 0.0))) / (2.0 * np.where(a == 0.0, 1.0, a))
+        linear = -c / np.where(b == 0.0, 1.0, b)
+    real = almost_equals(sqb, ac) | (sqb > ac)
+    theta = np.where((a == 0.0) & (b == 0.0), -1.0,
+                     np.where(a == 0.0, linear, np.where(real & np.isfinite(root), root, -1.0)))
+    exit_ = np.where(slow, np.where(inside_disk | ~(r_out < r_in), t, -1.0), theta)
+    empty = (entry > t) | (exit_ < 0.0) | (entry > exit_)
+    return np.where(empty, np.inf, np.maximum(0.0, entry)), np.where(empty, -np.inf, np.minimum(t, exit_))
+
+
+def _v_int_v(sz, vz, thr, t):
+    return _vertical_interval(sz, vz, thr, 0.0, t)
+
+
+def _union_v(only_a, only_b, a, b):
+    a_empty, b_empty = a[0] > a[1], b[0] > b[1]
+    take_a = only_a | b_empty
+    take_b = ~take_a & (only_b | a_empty)
+    low = np.where(take_a, a[0], np.where(take_b, b[0], np.minimum(a[0], b[0])))
+    up = np.where(take_a, a[1], np.where(take_b, b[1], np.maximum(a[1], b[1])))
+    return low, up
+
+
+def _v_full_szpos_v(t, minsz, maxsz, minvz, maxvz, thr):
+    only_pos = minvz >= 0.0
+    only_neg = ~only_pos & (maxvz <= 0.0)
+    pos_l, pos_u = _v_int_v(minsz, np.maximum(minvz, 0.0), thr, t)
+    pos = (np.where(only_neg, np.inf, pos_l), np.where(only_neg, -np.inf, pos_u))
+    en_l, en_u = _v_int_v(minsz, minvz, thr, t)  # vertical_WCV_uncertain_full_interval_szpos_vzneg
+    ex_l, ex_u = _v_int_v(maxsz, np.minimum(maxvz, 0.0), thr, t)
+    neg_l = np.where(en_l > en_u, np.inf, en_l)
+    neg_u = np.where(en_l > en_u, -np.inf, np.where(ex_l > ex_u, t, ex_u))
+    neg = (np.where(only_pos, np.inf, neg_l), np.where(only_pos, -np.inf, neg_u))
+    return _union_v(only_pos, only_neg, pos, neg)
+
+
+def wcv_uncertain_intervals(b, t, s, v, sz, vz, s_err, sz_err, v_err, vz_err, thr) -> tuple[np.ndarray, np.ndarray]:
+    """wcv_uncertain_interval over arrays: s, v (..., 2), the others (...) or scalars (t and b scalars); (time_in,
+    time_out), and (inf, -inf) wherever the reference's time_in > time_out (no loss, in whichever form)."""
+    s, v = np.asarray(s, float), np.asarray(v, float)
+    sz, vz = np.asarray(sz, float), np.asarray(vz, float)
+    s_err, sz_err, v_err, vz_err = (np.asarray(e, float) for e in (s_err, sz_err, v_err, vz_err))
+    minsz, maxsz, minvz, maxvz = sz - sz_err, sz + sz_err, vz - vz_err, vz + vz_err
+    only_pos = minsz >= 0.0
+    only_neg = ~only_pos & (maxsz <= 0.0)
+    pl, pu = _v_full_szpos_v(t, np.maximum(minsz, 0.0), maxsz, minvz, maxvz, thr)
+    nl, nu = _v_full_szpos_v(t, -np.minimum(maxsz, 0.0), -minsz, -maxvz, -minvz, thr)
+    pos = (np.where(only_neg, np.inf, pl), np.where(only_neg, -np.inf, pu))
+    neg = (np.where(only_pos, np.inf, nl), np.where(only_pos, -np.inf, nu))
+    low, up = _union_v(only_pos, only_neg, pos, neg)
+    v_empty = (low > up) | (up < b)
+    h_in, h_out = _h_uncertain_interval_v(s, v, s_err, v_err, t, thr)
+    t_in, t_out = np.maximum(np.maximum(b, low), h_in), np.minimum(np.minimum(t, up), h_out)
+    empty = v_empty | (h_in > h_out) | (h_out < b) | (t_in > t_out)
+    return np.where(empty, np.inf, t_in), np.where(empty, -np.inf, t_out)

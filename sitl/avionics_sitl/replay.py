@@ -200,7 +200,7 @@ class _ScheduleSource:
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
            progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=(),
-           firmware: str | None = None) -> ReplayResult:
+           firmware: str | None = None, core=None) -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
@@ -209,9 +209,10 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     (ArduCopter), "px4" or "arduplane" (sitl/avionics_sitl/guided_plane.py; None: the vehicle profile's default,
     ArduPlane for the fixed-wing); pilot: (time, custom mode)
     mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.
-    progress: a bar of the simulated time on stderr (None: when stderr is a terminal)."""
-    counters: Counter = Counter()
-    daa = Daa(config, counters)
+    progress: a bar of the simulated time on stderr (None: when stderr is a terminal). core: the DaaCore to drive
+    (built from config when None): a lab instrument that reads the core's state between steps passes its own."""
+    counters: Counter = core.counters if core is not None else Counter()
+    daa = Daa(config, counters, core)
     result = ReplayResult([], {a.icao_address: a.name for a in scenario.intruders}, counters=counters)
     responder = RaResponder(daa.response_model) if respond and not fly_guidance else None
     if fly_guidance and copter is None:
