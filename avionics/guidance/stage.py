@@ -215,7 +215,8 @@ class GuidanceStage:
             if self.turning is not None:
                 manoeuvre = self._horizontal(now_s, usable)
             vertical = [a for a in usable if a.level is AdvisoryLevel.RA]
-            if manoeuvre is None and vertical:  # no track resolution: the RA's vertical manoeuvre
+            if manoeuvre is None and vertical and (self.turning is None or self.no_manoeuvre != "no_bands"):
+                # no track resolution (not merely no bands yet: they come within a second): the RA's vertical
                 manoeuvre = vertical_manoeuvre(
                     vertical, own.up_mps, own.height_above_home_m, self.vehicle.climb_rate_mps,
                     self.vehicle.descent_rate_mps, self.vehicle.vertical_accel_mps2, self.config.floor_m,
