@@ -38,7 +38,7 @@ from typing import Iterable, Mapping
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.horizontal import horizontal_manoeuvre, turn_to
+from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution, turn_to
 from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.vertical import vertical_manoeuvre
@@ -215,8 +215,10 @@ class GuidanceStage:
             if self.turning is not None:
                 manoeuvre = self._horizontal(now_s, usable)
             vertical = [a for a in usable if a.level is AdvisoryLevel.RA]
-            if manoeuvre is None and vertical and (self.turning is None or self.no_manoeuvre != "no_bands"):
-                # no track resolution (not merely no bands yet: they come within a second): the RA's vertical
+            if manoeuvre is None and vertical and (self.turning is None or
+                                                   self.no_manoeuvre == "no_track_resolution"):
+                # no track resolution on either side (not merely no bands yet, or bands from before the conflict:
+                # new ones come within a second): the RA's vertical manoeuvre
                 manoeuvre = vertical_manoeuvre(
                     vertical, own.up_mps, own.height_above_home_m, self.vehicle.climb_rate_mps,
                     self.vehicle.descent_rate_mps, self.vehicle.vertical_accel_mps2, self.config.floor_m,
@@ -374,6 +376,9 @@ class GuidanceStage:
             return held
         ve, vn = bands.ownship_vel[0], bands.ownship_vel[1]
         track = math.degrees(math.atan2(ve, vn)) % 360.0
+        if track_resolution(bands.track_deg, track, self.turning.corrective_region) is None:
+            self.no_manoeuvre = "track_conflict_free"  # these bands see no conflict on the present track (yet)
+            return held
         worst = max(usable, key=lambda a: a.alert_level or 0)
         found = horizontal_manoeuvre(bands.track_deg, track, worst.alert_name or "corrective",
                                      self.config.track_margin_deg, held.right if held is not None else None,
