@@ -128,6 +128,7 @@ EXPLICIT: dict[str, list[str]] = {
     "conflict.seed": ["7"],
     "guidance.ceiling_m": ["120.0"],
     "guidance.retries": ["5"],
+    "guidance.track_margin_deg": ["10.0"],
 }
 
 # Overrides a key needs to have any effect (applied before the key's own override).
@@ -154,6 +155,7 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     "guidance.mode": ("vehicle.profile=multirotor",),
     **{f"guidance.{k}": ("vehicle.profile=multirotor", "guidance.mode=execute") for k in (
         "floor_m", "ceiling_m", "quiet_time_s", "setpoint_period_s", "ack_timeout_s", "retries", "require_signing")},
+    "guidance.track_margin_deg": ("vehicle.profile=multirotor", "guidance.mode=execute", "advisory.profile=do365"),
 }
 
 # Keys that cannot run in a replay, with the reason: validated only (test_validation_only_keys).
