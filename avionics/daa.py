@@ -158,7 +158,9 @@ class Daa:
 
             profile = self._core.profile
             self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(profile.response),
-                                           config.mavlink.source_system, horizontal=HorizontalLimits.of(profile))
+                                           config.mavlink.source_system,
+                                           horizontal=HorizontalLimits.of(profile) if config.advisory.guidance_bands
+                                           else None)  # no bands: a DO-365 warning's vertical RA is flown
             self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
         self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
 

@@ -126,3 +126,10 @@ def test_a_recovery_resolution_can_leave_a_smaller_miss():
     (miss,) = result.misses
     assert result.guidance[0].reason == "recovery"
     assert miss.hmd_flown_m >= miss.hmd_m - 10.0 or miss.hmd_flown_m >= NMAC_H_M
+
+
+def test_without_guidance_bands_a_do365_warning_is_flown_vertically():
+    """advisory.guidance_bands = false: no track resolution to pick, so the warning's RA is flown as before."""
+    config = load_config(overrides=[*DO365, "advisory.guidance_bands=false"])
+    result = replay(load_encounter("head-on"), config, PRESETS["none"], fly_guidance=True)
+    assert result.guidance[0].manoeuvre in ("climb", "descend") and result.guidance[0].target_track_deg is None
