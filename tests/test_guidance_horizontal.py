@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 from avionics.advisory.bands import BandInterval
 from avionics.config import load_config
@@ -86,15 +86,16 @@ def test_the_multirotor_turns_off_the_head_on_under_do365_and_resumes_its_missio
         assert abs((b - a + 180) % 360 - 180) <= 14.324 * (t1 - t0) + 0.02  # time_boot_ms: a millisecond's rounding
 
 
-def _encounter(seed: int):
+def _encounter(seed: int, min_closure_mps: float = 12.0, max_hmd_m: float = 400.0):
     """A random co-altitude-ish encounter for a 10 m/s multirotor (tests/ra_sim.py's geometry)."""
     import numpy as np
     from ra_sim import Encounter, Intruder, to_scenario
 
     rng = np.random.default_rng(seed)
     agl = rng.uniform(150.0, 600.0)
-    t_cpa, closure, bearing = rng.uniform(25.0, 35.0), rng.uniform(20.0, 80.0), rng.uniform(0, 2 * math.pi)
-    hmd, vmd = rng.uniform(0.0, 200.0), rng.uniform(-40.0, 40.0)
+    t_cpa, closure, bearing = rng.uniform(25.0, 35.0), rng.uniform(min_closure_mps, 80.0), \
+        rng.uniform(0, 2 * math.pi)
+    hmd, vmd = rng.uniform(0.0, max_hmd_m), rng.uniform(-40.0, 40.0)
     vx, vy = -closure * math.cos(bearing), -closure * math.sin(bearing)
     cx, cy = hmd * math.sin(bearing), -hmd * math.cos(bearing)
     intruder = Intruder(cx - vx * t_cpa, cy - vy * t_cpa, vx, vy, vmd, 0.0)
@@ -103,26 +104,34 @@ def _encounter(seed: int):
 
 @settings(max_examples=12, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-@given(seed=st.integers(0, 2**32 - 1))
-def test_the_executed_horizontal_manoeuvre_never_leaves_a_smaller_miss(seed):
+@given(seed=st.integers(0, 2**32 - 1), profile=st.sampled_from(["do365", "f3442"]))
+@example(seed=6, profile="f3442")  # a corrective (unsaturated) resolution: the drawn ones are mostly recovery
+def test_the_executed_horizontal_manoeuvre_never_leaves_a_smaller_miss(seed, profile):
     """Closed loop with the vehicle's dynamics (level: the vertical is unchanged, so the horizontal miss is the
-    miss): the horizontal miss flown is never smaller than flying the mission on, within 10 m (the sampling and
-    the re-join's pull back toward the path), or it is outside NMAC."""
+    miss to compare): a corrective or warning resolution never leaves a horizontal miss smaller than flying the
+    mission on (within 10 m: the sampling and the re-join's pull back toward the path), or it is outside NMAC. A
+    recovery resolution (saturated bands: most of these, a 10 m/s multirotor against DO-365's 4000 ft well clear)
+    is DAIDALUS's: it keeps the NMAC cylinder, possibly by the vertical separation already there, so for it the
+    3-D miss flown is outside NMAC or the horizontal one not smaller (see the strict xfail below). Most drawn
+    encounters saturate the bands; the explicit example is a corrective one (f3442, 395 m -> 627 m)."""
     scenario = _encounter(seed)
-    result = replay(scenario, load_config(overrides=DO365), PRESETS["none"], fly_guidance=True)
+    config = load_config(overrides=[*DO365, f"advisory.profile={profile}"])
+    result = replay(scenario, config, PRESETS["none"], fly_guidance=True)
     (miss,) = result.misses
     if not any(d.target_track_deg is not None for d in result.guidance):
         return  # no horizontal manoeuvre flown
+    not_smaller = miss.hmd_flown_m >= miss.hmd_m - 10.0 or miss.hmd_flown_m >= NMAC_H_M
     if any(d.reason == "recovery" for d in result.guidance):
-        return  # saturated bands: see test_a_recovery_resolution_can_leave_a_smaller_miss (a known limit)
-    assert miss.hmd_flown_m >= miss.hmd_m - 10.0 or miss.hmd_flown_m >= NMAC_H_M, (seed, miss, result.guidance)
+        assert not_smaller or miss.vmd_with_m >= NMAC_V_M, (seed, profile, miss)
+    else:
+        assert not_smaller, (seed, profile, miss, result.guidance)
 
 
 @pytest.mark.xfail(strict=True, reason="known limit: DAIDALUS's recovery resolution (saturated bands) keeps the NMAC "
                    "cylinder, here by the 108 ft vertical separation the mission already has, so it may turn toward "
                    "the intruder: a 35 m horizontal miss where the mission flown on passes 163 m away")
 def test_a_recovery_resolution_can_leave_a_smaller_miss():
-    result = replay(_encounter(0), load_config(overrides=DO365), PRESETS["none"], fly_guidance=True)
+    result = replay(_encounter(0, 20.0, 200.0), load_config(overrides=DO365), PRESETS["none"], fly_guidance=True)
     (miss,) = result.misses
     assert result.guidance[0].reason == "recovery"
     assert miss.vmd_with_m > NMAC_V_M  # outside NMAC all the same: the recovery's cylinder, kept vertically
