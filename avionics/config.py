@@ -87,9 +87,6 @@ def validate(config: Config) -> Config:
     if z.ros2 and not z.ros2_namespace and not ROS_NAMESPACE.fullmatch(config.vehicle.id):
         raise ConfigError(f"zenoh.ros2: the ROS 2 namespace defaults to vehicle.id {config.vehicle.id!r}, which is not a "
                           "ROS 2 name (letters, digits and '_', not starting with a digit): set zenoh.ros2_namespace")
-    if config.guidance.mode == "execute" and config.vehicle.profile == "fixed-wing":
-        raise ConfigError("guidance.mode \"execute\" flies ArduCopter GUIDED only: a fixed-wing (ArduPlane GUIDED) "
-                          "is a later slice of issue 27; use \"advise\"")
     return config
 
 

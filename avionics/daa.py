@@ -161,6 +161,10 @@ class Daa:
                                            config.mavlink.source_system,
                                            horizontal=HorizontalLimits.of(profile) if config.advisory.guidance_bands
                                            else None)  # no bands: a DO-365 warning's vertical RA is flown
+            if config.guidance.ladder:  # a mode per alert level instead of the manoeuvre (guidance/ladder.py)
+                from avionics.guidance.ladder import ModeLadder
+
+                self._guidance = ModeLadder(config.guidance, config.mavlink.source_system)
             self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
         self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
 

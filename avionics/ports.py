@@ -378,7 +378,7 @@ def csv_row(a: Advisory, name: str = "") -> dict:
 # With guidance (guidance.mode advise or execute) the CSV has these columns too: every row carries the guidance's
 # decision of its step, and a change of the guidance's state is a row of its own (advisory `GUIDANCE`).
 GUIDANCE_CSV_COLUMNS = ("guidance_state", "guidance_manoeuvre", "guidance_target_vertical_rate_mps",
-                        "guidance_reason", "autopilot_mode", "guidance_target_track_deg")
+                        "guidance_target_track_deg", "guidance_reason", "autopilot_mode")
 
 
 def guidance_cells(decision) -> dict:

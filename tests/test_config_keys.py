@@ -129,6 +129,7 @@ EXPLICIT: dict[str, list[str]] = {
     "guidance.ceiling_m": ["120.0"],
     "guidance.retries": ["5"],
     "guidance.track_margin_deg": ["10.0"],
+    "guidance.ladder": ['["warn", "hold", "land"]', '["none", "return"]'],
 }
 
 # Overrides a key needs to have any effect (applied before the key's own override).
@@ -154,7 +155,8 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     # guidance: any mode but passive flies within a vehicle profile; its keys act in execute
     "guidance.mode": ("vehicle.profile=multirotor",),
     **{f"guidance.{k}": ("vehicle.profile=multirotor", "guidance.mode=execute") for k in (
-        "floor_m", "ceiling_m", "quiet_time_s", "setpoint_period_s", "ack_timeout_s", "retries", "require_signing")},
+        "floor_m", "ceiling_m", "quiet_time_s", "setpoint_period_s", "ack_timeout_s", "retries", "require_signing",
+        "ladder")},
     "guidance.track_margin_deg": ("vehicle.profile=multirotor", "guidance.mode=execute", "advisory.profile=do365"),
 }
 

@@ -34,7 +34,7 @@ GUIDANCE = ["advisory.profile=small-uas", "vehicle.profile=multirotor", "guidanc
 class _Onboard:
     """`avionics run` with the guidance on, and a zenoh subscriber to its `guidance` topic."""
 
-    def __init__(self, udp_port: int, tcp_port: int, duration_s: float, settings: list[str] = GUIDANCE):
+    def __init__(self, udp_port: int, tcp_port: int, duration_s: float, settings=GUIDANCE):
         self.endpoint = f"tcp/127.0.0.1:{tcp_port}"
         sets = [a for s in [*settings, f'zenoh.listen=["{self.endpoint}"]', "vehicle.id=guideduav"]
                 for a in ("--set", s)]

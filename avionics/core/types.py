@@ -108,6 +108,7 @@ class AutopilotHeartbeat:
     custom_mode: int
     base_mode: int
     autopilot: int = 3  # MAV_AUTOPILOT: 3 ArduPilot, 12 PX4
+    mav_type: int = 0  # MAV_TYPE: 1 fixed wing (ArduPlane's contract), 2 quadrotor, ...; 0 generic
 
 
 @dataclass(frozen=True, slots=True)

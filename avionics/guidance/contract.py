@@ -1,6 +1,6 @@
 """What an autopilot's MAVLink contract gives the guidance stage (ardupilot.py ARDUCOPTER, px4.py PX4): the mode
-we fly in and how to ask for a mode, the velocity setpoint and how often it must come, the modes we may take the
-vehicle from. The stage picks one by the autopilot's HEARTBEAT (`autopilot` field)."""
+we fly in and how to ask for a mode, the velocity setpoint and how often it must come (or, for ArduPlane, its GUIDED
+commands), the modes we may take the vehicle from. The stage picks one by the autopilot's HEARTBEAT (`autopilot` field)."""
 
 from __future__ import annotations
 
@@ -22,3 +22,7 @@ class Contract:
     set_mode: Callable  # (custom_mode, target_system, target_component, confirmation=0) -> COMMAND_LONG
     velocity_setpoint: Callable  # (north, east, up m/s, target_system, target_component, time_boot_ms) -> message
     is_velocity_setpoint: Callable  # (message) -> bool: a setpoint this autopilot flies as a velocity
+    # an autopilot that flies no velocity setpoint (ArduPlane): the class of its acknowledged GUIDED commands,
+    # (guidance config, system, component) -> arduplane.py PlaneCommands, used instead of the setpoint stream
+    guided_commands: Callable | None = None
+

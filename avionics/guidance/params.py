@@ -7,6 +7,9 @@ from dataclasses import dataclass
 from avionics.core.params import ConfigError, require_positive
 
 GUIDANCE_MODES = ("passive", "advise", "execute")
+# The mode ladder's actions, in PX4's DAA order of severity (docs/en/advanced_features/detect_and_avoid.md:
+# Disabled < Warn only < Hold < Return < Land; Terminate is not offered)
+LADDER_ACTIONS = ("none", "warn", "hold", "return", "land")
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,10 @@ class GuidanceConfig:
     # Command only over a link whose frames are authenticated: MAVLink 2 signing on with mavlink.signing_required
     # and signed frames accepted (docs/mavlink.md, "Signing"). false: also on an unsigned link.
     require_signing: bool = False
+    # The mode ladder for simple vehicles (avionics/guidance/ladder.py), instead of the RA's manoeuvre: the action at
+    # each alert level, from the first (TA; DO-365 PREVENTIVE) up (RA; CORRECTIVE, WARNING), each one of
+    # LADDER_ACTIONS, issued once per escalation as PX4's DAA module does (its DAA_LVL_*_ACT). () = off.
+    ladder: tuple[str, ...] = ()
 
     def validate(self) -> None:
         if self.mode not in GUIDANCE_MODES:
@@ -56,5 +63,8 @@ class GuidanceConfig:
                               f"got {self.ceiling_m}")
         if not 0 <= self.track_margin_deg <= 45.0:
             raise ConfigError(f"guidance.track_margin_deg: must be in 0..45, got {self.track_margin_deg}")
+        if len(self.ladder) > 3 or any(a not in LADDER_ACTIONS for a in self.ladder):
+            raise ConfigError(f"guidance.ladder: at most 3 actions (alert levels 1 to 3), each one of "
+                              f"{', '.join(LADDER_ACTIONS)}; got {list(self.ladder)}")
         if not 0 <= self.retries <= 10:
             raise ConfigError(f"guidance.retries: must be in 0..10, got {self.retries}")

@@ -27,7 +27,10 @@ failsafe or a pilot; PX4 OFFBOARD to someone else's offboard control). An interl
 gives the vehicle back at once (returning).
 
 The autopilot's contract (contract.py) is ArduCopter's (GUIDED, ardupilot.py) or, when its HEARTBEAT says
-MAV_AUTOPILOT_PX4, PX4's (OFFBOARD after a setpoint stream of more than a second, px4.py)."""
+MAV_AUTOPILOT_PX4, PX4's (OFFBOARD after a setpoint stream of more than a second, px4.py), or, when it says
+MAV_AUTOPILOT_ARDUPILOTMEGA and MAV_TYPE_FIXED_WING, ArduPlane's (GUIDED, flown by acknowledged GUIDED_CHANGE_HEADING
+and GUIDED_CHANGE_ALTITUDE commands instead of a setpoint stream, arduplane.py; a refused or unanswered one is a
+failure that also asks for the mode the plane was in, so it does not stay circling in GUIDED)."""
 
 from __future__ import annotations
 
@@ -39,6 +42,7 @@ from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, Com
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
 from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution, turn_to
+from avionics.guidance.arduplane import ARDUPLANE
 from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.vertical import vertical_manoeuvre
@@ -47,6 +51,15 @@ STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden"
 MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
 BANDS_MAX_AGE_S = 2.0  # bands come once a second (DAIDALUS's 1 Hz); older than two periods they are not used
+MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
+
+
+def contract_for(heartbeat):
+    """The contract (contract.py) of the autopilot whose HEARTBEAT this is: PX4's for MAV_AUTOPILOT_PX4, ArduPlane's
+    for an ArduPilot MAV_TYPE_FIXED_WING, else ArduCopter's."""
+    if heartbeat.autopilot == MAV_AUTOPILOT_PX4:
+        return PX4
+    return ARDUPLANE if heartbeat.mav_type == MAV_TYPE_FIXED_WING else ARDUCOPTER
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +190,8 @@ class GuidanceStage:
         self.conflict = False  # an RA was active at the last step
         self.contract = ARDUCOPTER  # PX4 once a HEARTBEAT says MAV_AUTOPILOT_PX4 (contract.py)
         self.prestream_until: float | None = None  # PX4: OFFBOARD is asked for once the stream has run until then
+        self.plane = None  # ArduPlane: its GUIDED commands in flight (arduplane.py PlaneCommands)
+        self.own: Ownship | None = None  # ownship at this step (ArduPlane's commands need its course and height)
 
     # -- the step ----------------------------------------------------------------------------------------------
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
@@ -184,12 +199,13 @@ class GuidanceStage:
                link_authenticated: bool = False, bands=None) -> GuidanceOutput:
         before = self.state
         commands: list = []
+        self.own = own
         for item in autopilot_inputs:
             self._absorb(item, now_s)
         if bands is not None:
             self.bands = bands
         c = self.contract
-        levels = self.turning.levels if self.turning is not None else frozenset()
+        levels = self.turning.levels if self.turning is not None and self.contract is not ARDUPLANE else frozenset()
         ras = [a for a in active.values() if a.level is AdvisoryLevel.RA or a.alert_level in levels]
         usable = [a for a in ras if a.integrity == "ok" and a.intruder not in spoofed]
         self.conflict = bool(ras)
@@ -212,11 +228,13 @@ class GuidanceStage:
 
         manoeuvre = None
         if usable and interlock is None and self.state not in ("overridden", "failed"):
-            if self.turning is not None:
+            # the track resolution is flown as a velocity setpoint: multicopters (ArduPlane holds its course by
+            # GUIDED_CHANGE_HEADING, arduplane.py: a plane flies a DO-365 warning's vertical RA, not the track yet)
+            turning = self.turning is not None and self.contract is not ARDUPLANE
+            if turning:
                 manoeuvre = self._horizontal(now_s, usable)
             vertical = [a for a in usable if a.level is AdvisoryLevel.RA]
-            if manoeuvre is None and vertical and (self.turning is None or
-                                                   self.no_manoeuvre == "no_track_resolution"):
+            if manoeuvre is None and vertical and (not turning or self.no_manoeuvre == "no_track_resolution"):
                 # no track resolution on either side (not merely no bands yet, or bands from before the conflict:
                 # new ones come within a second): the RA's vertical manoeuvre
                 manoeuvre = vertical_manoeuvre(
@@ -246,7 +264,7 @@ class GuidanceStage:
         elif self.state == "commanding" and interlock is None:  # the RAs ended: clear of conflict
             self._enter("holding", now_s, "clear_of_conflict")
             self.manoeuvre, self.target, self.clear_s = "level", 0.0, now_s
-        if self.state == "holding" and self.turning is not None and self._mission_track_in_conflict(now_s):
+        if self.state == "holding" and self.held is not None and self._mission_track_in_conflict(now_s):
             self.clear_s, self.reason = now_s, "mission_track_in_conflict"  # the quiet time counts from its end
         if self.state == "holding" and interlock is None and now_s - self.clear_s >= self.config.quiet_time_s:
             self._return(now_s, "quiet_time_over", commands)
@@ -270,7 +288,7 @@ class GuidanceStage:
     def _absorb(self, item, now_s: float) -> None:
         if isinstance(item, AutopilotHeartbeat):
             if self.state == "idle":  # never in the middle of a manoeuvre
-                self.contract = PX4 if item.autopilot == MAV_AUTOPILOT_PX4 else ARDUCOPTER
+                self.contract = contract_for(item)
             self.mode, self.component = item.custom_mode, item.component
             if self.request is not None and item.custom_mode == self.request.mode:
                 if self.request.mode == self.contract.command_mode:
@@ -283,6 +301,8 @@ class GuidanceStage:
                 wanted = self.contract.mode_name(self.request.mode)
                 self.request = None
                 self._enter("failed", now_s, f"{wanted} refused: result {item.result}")
+        elif isinstance(item, CommandAck) and self.plane is not None and self.state in ("commanding", "holding"):
+            self.plane.acknowledge(item.command, item.result)  # a refusal is the failure _handshake reports
 
     def _interlock(self, unavailable_reason, own, ras, usable, link_authenticated) -> str | None:
         if unavailable_reason is not None or own is None:
@@ -316,6 +336,10 @@ class GuidanceStage:
             self.track_cmd = self.mission_track = math.degrees(math.atan2(own.east_mps, own.north_mps)) % 360.0
             self.turned_s = now_s
             self.guided_confirmed = self.mode == c.command_mode
+            if c.guided_commands is not None:
+                self.plane = c.guided_commands(self.config, self.system, self.component)
+        if self.plane is not None:
+            self.plane.start()
         self.last_setpoint = None
         self._enter("commanding", now_s, reason)
         if self.mode != self.contract.command_mode:
@@ -337,6 +361,11 @@ class GuidanceStage:
         commands.append(self.contract.set_mode(mode, self.system, self.component))
 
     def _handshake(self, now_s: float, commands: list) -> None:
+        if self.plane is not None and self.state in ("commanding", "holding"):
+            again, failure = self.plane.resend(now_s)
+            commands.extend(again)
+            if failure is not None:
+                self._plane_failed(now_s, failure, commands)
         request = self.request
         if request is None or now_s - request.sent_s < self.config.ack_timeout_s:
             return
@@ -354,6 +383,11 @@ class GuidanceStage:
         the start for PX4 (OFFBOARD needs the stream before it is engaged)."""
         if not (self.guided_confirmed or (self.request is not None and self.request.acked)
                 or self.contract.prestream_s > 0):
+            return
+        if self.plane is not None:  # ArduPlane: GUIDED commands, not a velocity stream (arduplane.py)
+            own = self.own
+            commands.extend(self.plane.step(now_s, self.target, own.north_mps, own.east_mps, own.height_above_home_m,
+                                            self.vehicle.climb_rate_mps, SETPOINT_CHANGE_MPS))
             return
         period = min(self.config.setpoint_period_s, self.contract.max_setpoint_period_s or math.inf)
         last = self.last_setpoint
@@ -414,6 +448,11 @@ class GuidanceStage:
         self.track_cmd = (self.track_cmd + min(max(d, -step), step)) % 360.0
         rad = math.radians(self.track_cmd)
         self.horizontal = (self.speed * math.cos(rad), self.speed * math.sin(rad))
+    def _plane_failed(self, now_s: float, failure: str, commands: list) -> None:
+        """An ArduPlane GUIDED command refused or never acknowledged: failed, and the mode it was in asked for
+        again (a plane left in GUIDED circles around where it entered it)."""
+        self._enter("failed", now_s, failure)
+        self._request(self.prior_mode if self.prior_mode is not None else self.contract.return_mode, now_s, commands)
 
     @property
     def failed(self) -> bool:

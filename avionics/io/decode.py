@@ -248,7 +248,7 @@ class MessageDecoder:
         if not self._from_autopilot(msg) or msg.autopilot == 8:  # MAV_AUTOPILOT_INVALID: not an autopilot
             return None
         return AutopilotHeartbeat(now_s, msg.get_srcComponent(), int(msg.custom_mode), int(msg.base_mode),
-                                  int(msg.autopilot))
+                                  int(msg.autopilot), int(msg.type))
 
     def _command_ack(self, msg, now_s: float) -> CommandAck | None:
         """Our autopilot's answer to us: an ACK for another component (target_component set and not ours; MAVLink 2

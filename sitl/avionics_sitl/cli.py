@@ -78,9 +78,9 @@ def tcp_listen_address(text: str) -> tuple[str, int]:
 
 
 def autopilot_mode_name(mode: int, autopilot: str) -> str:
-    from avionics.guidance import ardupilot, px4
+    from avionics_sitl.guided_plane import mode_name
 
-    return (px4 if autopilot == "px4" else ardupilot).mode_name(mode)
+    return mode_name(mode, autopilot)
 
 
 def cmd_live(args) -> int:
@@ -105,13 +105,15 @@ def cmd_live(args) -> int:
         from avionics.advisory.vehicle import load_vehicle
         from avionics.advisory.tables import ProfileError
         from avionics.core.params import ConfigError
-        from avionics_sitl.guided import SimCopter
+        from avionics_sitl.guided_plane import default_firmware, simulated_autopilot
         from avionics_sitl.live import fly_guided
 
         try:
-            copter = SimCopter(load_vehicle(args.vehicle), firmware=args.autopilot)
+            vehicle = load_vehicle(args.vehicle)
         except ProfileError as exc:
             raise ConfigError(f"--vehicle: {exc}") from exc
+        args.autopilot = args.autopilot or default_firmware(vehicle.name)
+        copter = simulated_autopilot(vehicle, args.autopilot, scenario.ground_elevation_m)
         recording = fly_guided(scenario, args.connection, PRESETS[args.noise], copter, seed=args.seed,
                                start_s=args.start, duration_s=args.duration, on_receive=show)
         print(json.dumps({"sent": recording.sent, "received": len(recording.received),
@@ -143,9 +145,10 @@ def _vehicle_args(p) -> None:
     """--vehicle and --autopilot of the closed loop through the guidance (replay and live --fly-guidance)."""
     p.add_argument("--vehicle", default="multirotor", metavar="NAME",
                    help="with --fly-guidance: the vehicle profile flown (vehicle.profile; default multirotor)")
-    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED) or PX4 "
-                        "(OFFBOARD)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4", "arduplane"), default=None,
+                   help="with --fly-guidance: the simulated autopilot's firmware: ArduCopter (GUIDED), PX4 "
+                        "(OFFBOARD) or ArduPlane (GUIDED change-altitude/heading); default: ArduPlane for the "
+                        "fixed-wing vehicle, ArduCopter for any other")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -146,13 +146,7 @@ class SimCopter:
         new = list(self.velocity)
         dz = v.vertical_accel_mps2 * dt
         new[2] += min(max(wanted[2] - new[2], -dz), dz)
-        dh = (wanted[0] - new[0], wanted[1] - new[1])
-        norm = math.hypot(*dh)
-        step = v.horizontal_accel_mps2 * dt
-        if norm > step:
-            dh = (dh[0] * step / norm, dh[1] * step / norm)
-        new[0] += dh[0]
-        new[1] += dh[1]
+        new[0], new[1] = self._horizontal(new[0], new[1], wanted[0], wanted[1], dt)
         for i in range(3):
             self.offset[i] += (0.5 * (self.velocity[i] + new[i]) - path[i]) * dt
         self.velocity = new
@@ -177,6 +171,15 @@ class SimCopter:
             return east, north
         a = math.atan2(n0, e0) + math.copysign(limit, d)
         return wanted_speed * math.cos(a), wanted_speed * math.sin(a)
+
+    def _horizontal(self, east: float, north: float, want_east: float, want_north: float, dt: float):
+        """The horizontal velocity after dt toward the wanted one, within the profile's acceleration."""
+        de, dn = want_east - east, want_north - north
+        norm = math.hypot(de, dn)
+        step = self.vehicle.horizontal_accel_mps2 * dt
+        if norm > step:
+            de, dn = de * step / norm, dn * step / norm
+        return east + de, north + dn
 
     def _wanted(self, path, t: float) -> list[float]:
         v = self.vehicle

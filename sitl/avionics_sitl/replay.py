@@ -110,7 +110,7 @@ class _Autopilot:
                 self.result.collisions.append((now_s, back))
             elif kind == "DAA_ADVISORY" and self.responder is not None:
                 self.responder.receive(back, now_s)
-            elif self.copter is not None and kind in ("COMMAND_LONG", "SET_POSITION_TARGET_GLOBAL_INT",
+            elif self.copter is not None and kind in ("COMMAND_LONG", "COMMAND_INT", "SET_POSITION_TARGET_GLOBAL_INT",
                                                     "SET_POSITION_TARGET_LOCAL_NED"):
                 self.result.sent.append((now_s, back))
                 self.replies.extend(self.copter.receive(back, now_s))
@@ -200,13 +200,14 @@ class _ScheduleSource:
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
            progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=(),
-           firmware: str = "ardupilot") -> ReplayResult:
+           firmware: str | None = None) -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
     simulated ArduCopter (sitl/avionics_sitl/guided.py; `copter`, or one of vehicle.profile, multirotor by default)
-    flies the scenario's ownship path as its mission and obeys the MAVLink commands; firmware: "ardupilot" or
-    "px4" (the default copter's); pilot: (time, custom mode)
+    flies the scenario's ownship path as its mission and obeys the MAVLink commands; firmware: "ardupilot"
+    (ArduCopter), "px4" or "arduplane" (sitl/avionics_sitl/guided_plane.py; None: the vehicle profile's default,
+    ArduPlane for the fixed-wing); pilot: (time, custom mode)
     mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.
     progress: a bar of the simulated time on stderr (None: when stderr is a terminal)."""
     counters: Counter = Counter()
@@ -215,10 +216,11 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     responder = RaResponder(daa.response_model) if respond and not fly_guidance else None
     if fly_guidance and copter is None:
         from avionics.advisory.vehicle import load_vehicle
-        from avionics_sitl.guided import SimCopter
+        from avionics_sitl.guided_plane import simulated_autopilot
 
-        copter = SimCopter(load_vehicle(config.vehicle.profile or "multirotor"), autopilot.system_id,
-                           autopilot.component_id, counters=counters, firmware=firmware)
+        copter = simulated_autopilot(load_vehicle(config.vehicle.profile or "multirotor"), firmware,
+                                     scenario.ground_elevation_m, system_id=autopilot.system_id,
+                                     component_id=autopilot.component_id, counters=counters)
     copter = copter if fly_guidance else None
     result.copter = copter
     source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,
