@@ -154,10 +154,13 @@ class Daa:
         self._ra_inhibited: tuple = ()  # () or (the Diagnostic,) while the watch says so
         self._guidance = None  # avionics/guidance/stage.py GuidanceStage (guidance.mode advise or execute)
         if config.guidance.mode != "passive":
-            from avionics.guidance.stage import GuidanceStage, Ownship, VerticalLimits
+            from avionics.guidance.stage import GuidanceStage, HorizontalLimits, Ownship, VerticalLimits
 
-            self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(self._core.profile.response),
-                                           config.mavlink.source_system)
+            profile = self._core.profile
+            self._guidance = GuidanceStage(config.guidance, VerticalLimits.of(profile.response),
+                                           config.mavlink.source_system,
+                                           horizontal=HorizontalLimits.of(profile) if config.advisory.guidance_bands
+                                           else None)  # no bands: a DO-365 warning's vertical RA is flown
             if config.guidance.ladder:  # a mode per alert level instead of the manoeuvre (guidance/ladder.py)
                 from avionics.guidance.ladder import ModeLadder
 
@@ -215,7 +218,7 @@ class Daa:
         record = self._core.tracker.tracks.get
         active = self._core.active_view()
         unavailable = self._unavailable if self._unavailable != STARTUP else "no_ownship"
-        guidance = self._guide(now_s, active, unavailable, sources) if self._guidance is not None else None
+        guidance = self._guide(now_s, active, unavailable, sources, bands) if self._guidance is not None else None
         return DaaResult(
             time_s=now_s, changes=changes, assessed=assessed, active=active,
             callsigns=_Callsigns({a.intruder for a in changes}, active, record),
@@ -230,7 +233,7 @@ class Daa:
             guidance_changed=guidance is not None and guidance.changed,
             guidance_commands=guidance.commands if guidance is not None else ())
 
-    def _guide(self, now_s: float, active, unavailable: str | None, sources: SourceStatus):
+    def _guide(self, now_s: float, active, unavailable: str | None, sources: SourceStatus, bands=None):
         """The guidance stage's step (avionics/guidance/stage.py), with ownship's velocity and height above home;
         its fault is contained: the advisories go on, nothing is commanded (the stage is not stepped)."""
         try:
@@ -241,7 +244,7 @@ class Daa:
                 ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
-                                         sources.link_authenticated)
+                                         sources.link_authenticated, bands)
         except Exception as exc:  # noqa: BLE001
             self._fault("guidance", exc)
             return None

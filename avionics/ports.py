@@ -378,14 +378,16 @@ def csv_row(a: Advisory, name: str = "") -> dict:
 # With guidance (guidance.mode advise or execute) the CSV has these columns too: every row carries the guidance's
 # decision of its step, and a change of the guidance's state is a row of its own (advisory `GUIDANCE`).
 GUIDANCE_CSV_COLUMNS = ("guidance_state", "guidance_manoeuvre", "guidance_target_vertical_rate_mps",
-                        "guidance_reason", "autopilot_mode")
+                        "guidance_target_track_deg", "guidance_reason", "autopilot_mode")
 
 
 def guidance_cells(decision) -> dict:
     rate = decision.target_vertical_rate_mps
     return {"guidance_state": decision.state, "guidance_manoeuvre": decision.manoeuvre,
             "guidance_target_vertical_rate_mps": "" if rate is None else f"{rate:.3f}",
-            "guidance_reason": decision.reason, "autopilot_mode": decision.autopilot_mode}
+            "guidance_reason": decision.reason, "autopilot_mode": decision.autopilot_mode,
+            "guidance_target_track_deg": "" if decision.target_track_deg is None else
+            f"{decision.target_track_deg:.1f}"}
 
 
 class CsvOut:

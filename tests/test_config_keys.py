@@ -128,6 +128,7 @@ EXPLICIT: dict[str, list[str]] = {
     "conflict.seed": ["7"],
     "guidance.ceiling_m": ["120.0"],
     "guidance.retries": ["5"],
+    "guidance.track_margin_deg": ["10.0"],
     "guidance.ladder": ['["warn", "hold", "land"]', '["none", "return"]'],
 }
 
@@ -156,6 +157,7 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     **{f"guidance.{k}": ("vehicle.profile=multirotor", "guidance.mode=execute") for k in (
         "floor_m", "ceiling_m", "quiet_time_s", "setpoint_period_s", "ack_timeout_s", "retries", "require_signing",
         "ladder")},
+    "guidance.track_margin_deg": ("vehicle.profile=multirotor", "guidance.mode=execute", "advisory.profile=do365"),
 }
 
 # Keys that cannot run in a replay, with the reason: validated only (test_validation_only_keys).

@@ -164,3 +164,56 @@ def test_ownship_going_stale_mid_manoeuvre_gives_the_mission_back_and_commands_n
     setpoints = [r.time_s for r in recording.of_type("SET_POSITION_TARGET_GLOBAL_INT")]
     assert setpoints and max(setpoints) < back_s
     assert [m for _, m in copter.modes] == [ardupilot.AUTO, ardupilot.GUIDED, ardupilot.AUTO]
+
+
+class _OffsetsCopter(SimCopter):
+    """The simulated copter, keeping its offset from the path at each step (scenario time) for the flown miss."""
+
+    def __init__(self, vehicle):
+        super().__init__(vehicle)
+        self.offsets: list = []
+
+    def fly(self, mission):
+        state = super().fly(mission)
+        self.offsets.append((mission.t_s, tuple(self.offset)))
+        return state
+
+
+def test_the_multirotor_turns_off_the_head_on_under_do365_live(udp_port, tcp_port):
+    """DO-365 (do365 profile: corrective and warning call for a manoeuvre): the bands' track resolution flown level
+    through GUIDED, the mission given back once clear (tests/test_guidance_horizontal.py has it in fast time)."""
+    from avionics_sitl.replay import _vertical_miss
+
+    start_s, end_s = 66.0, 106.0  # CPA 86.4 s: flying on from 66 s is an NMAC (0 m, 0 ft)
+    scenario = load_encounter("head-on")
+    onboard = _Onboard(udp_port, tcp_port, end_s - start_s,
+                       ["advisory.profile=do365", "vehicle.profile=multirotor", "guidance.mode=execute"])
+    copter = _OffsetsCopter(load_vehicle("multirotor"))
+    stop = threading.Event()
+
+    def record(_received):  # the loop ends once the mission is given back and confirmed
+        if onboard.states()[-2:] == ["returning", "idle"]:
+            stop.set()
+
+    try:
+        recording = fly_guided(scenario, f"udpout:127.0.0.1:{udp_port}", PRESETS["none"], copter,
+                               start_s=start_s, duration_s=end_s - start_s, on_receive=record, stop=stop)
+    finally:
+        err = onboard.close()
+    states = onboard.states()
+    assert states[:5] == ["idle", "commanding", "holding", "returning", "idle"], err[-2000:]
+    commanding = next(d for d in onboard.decisions if d["state"] == "commanding")
+    assert commanding["manoeuvre"] in ("turn_right", "turn_left") and commanding["target_track_deg"] is not None
+    assert commanding["target_vertical_rate_mps"] == 0.0  # level: the vertical is unchanged
+    texts = [t.split()[2] for t in _statustexts(recording)]
+    assert texts[:4] == ["COMMANDING", "HOLDING", "RETURNING", "IDLE"]
+    trajectories = scenario.trajectories()
+    miss = _vertical_miss(scenario, trajectories[0], trajectories[1][0], "intruder", copter.offsets)
+    assert miss.hmd_m < 500 * FT and miss.vmd_without_m < NMAC_V_M  # an NMAC flying on
+    assert miss.hmd_flown_m > 500 * FT, miss  # outside NMAC, level
+    print(f"do365 head-on live: HMD without {miss.hmd_m:.0f} m, flown {miss.hmd_flown_m:.0f} m")
+    returning_s = next(r.time_s for r in recording.of_type("STATUSTEXT") if "GUIDANCE RETURNING" in r.msg.text)
+    modes = [(t, m) for t, m in copter.modes if t > 0]
+    assert [m for _, m in modes][:2] == [ardupilot.GUIDED, ardupilot.AUTO]
+    assert modes[1][0] - returning_s <= 0.5  # AUTO asked for at the end of the quiet time, taken at once
+    assert copter.counters["sim.guided_timeout"] == 0 and copter.counters["sim.setpoint_ignored"] == 0

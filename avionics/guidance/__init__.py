@@ -7,9 +7,11 @@
     arduplane.py  ArduPlane's: GUIDED flown by acknowledged GUIDED_CHANGE_HEADING / _ALTITUDE commands (a plane has no
                   velocity setpoint)
     vertical.py   the vertical manoeuvre of the active RAs within the vehicle profile's rates, the floor and ceiling
+    horizontal.py a DO-365 alerter's horizontal manoeuvre: DAIDALUS's track resolution from the guidance bands
     stage.py      the state machine (idle, commanding, holding, returning, overridden, failed) and its interlocks
     ladder.py     the mode ladder for simple vehicles (guidance.ladder): a mode per alert level, once per escalation
 
 This slice flies TCAS-like (vertical) RAs of multicopters through ArduCopter GUIDED or PX4 OFFBOARD, and of a
-fixed-wing through ArduPlane GUIDED, or switches a simple vehicle's mode per alert level (PX4's DAA module's
-ladder). The DO-365 horizontal resolutions are a later slice (docs/integration.md, "Closing the loop")."""
+fixed-wing through ArduPlane GUIDED, a DO-365 alerter's corrective and warning alerts as the bands' track
+resolution (multicopters), or switches a simple vehicle's mode per alert level (PX4's DAA module's ladder)
+(docs/integration.md, "Closing the loop")."""

@@ -37,6 +37,10 @@ class GuidanceConfig:
     # the next confirmation number (MAVLink command protocol, mavlink.io/en/services/command.html) ...
     ack_timeout_s: float = 1.0  # ours: one 1 Hz HEARTBEAT period
     retries: int = 3  # ... at most this many times; then the guidance has failed (STATUSTEXT "DAA GUIDANCE FAILED")
+    # A DO-365 horizontal manoeuvre flies this far past the bands' track resolution, on the side of the turn (capped
+    # at half the resolution band): the band edge is where the loss of well clear begins. 5 deg: NASA ICAROUS flies
+    # DAIDALUS's preferred track resolution 5 deg past its edge (TrafficMonitor::MonitorTraffic, nasa/icarous).
+    track_margin_deg: float = 5.0
     # Command only over a link whose frames are authenticated: MAVLink 2 signing on with mavlink.signing_required
     # and signed frames accepted (docs/mavlink.md, "Signing"). false: also on an unsigned link.
     require_signing: bool = False
@@ -57,6 +61,8 @@ class GuidanceConfig:
         if self.ceiling_m < 0 or 0 < self.ceiling_m <= self.floor_m:
             raise ConfigError(f"guidance.ceiling_m: must be 0 (none) or above floor_m ({self.floor_m}), "
                               f"got {self.ceiling_m}")
+        if not 0 <= self.track_margin_deg <= 45.0:
+            raise ConfigError(f"guidance.track_margin_deg: must be in 0..45, got {self.track_margin_deg}")
         if len(self.ladder) > 3 or any(a not in LADDER_ACTIONS for a in self.ladder):
             raise ConfigError(f"guidance.ladder: at most 3 actions (alert levels 1 to 3), each one of "
                               f"{', '.join(LADDER_ACTIONS)}; got {list(self.ladder)}")

@@ -6,8 +6,12 @@ States (GuidanceDecision.state):
 - advising (guidance.mode = "advise"): the manoeuvre is decided and published, nothing is sent;
 - commanding: GUIDED (PX4: OFFBOARD) asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm
   it) and the RA's vertical rate sent as a velocity setpoint with the horizontal velocity of the RA's start, every
-  setpoint_period_s (PX4: 0.2 s, from before the mode change) and at each change;
-- holding: the RAs ended (clear of conflict): level flight at that horizontal velocity for quiet_time_s;
+  setpoint_period_s (PX4: 0.2 s, from before the mode change) and at each change; with a DO-365 alerter
+  (HorizontalLimits), the track resolution of the guidance bands instead (horizontal.py), while an alert of a level
+  that paints the corrective region or a more severe one (DO-365 corrective, warning) is active: level, at the
+  ground speed of the manoeuvre's start, the setpoint's track stepped toward the resolution at the turn rate;
+- holding: the RAs (the corrective alerts) ended, clear of conflict: level flight at that horizontal velocity (on
+  the resolution track) for quiet_time_s;
 - returning: the mode the vehicle was in before is asked for again (ArduCopter AUTO resumes the mission's current
   item), until HEARTBEAT shows it: then idle;
 - overridden: the mode changed under us while we commanded (a pilot or a failsafe): nothing is sent until the
@@ -37,6 +41,7 @@ from typing import Iterable, Mapping
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
+from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution, turn_to
 from avionics.guidance.arduplane import ARDUPLANE
 from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
@@ -45,6 +50,7 @@ from avionics.guidance.vertical import vertical_manoeuvre
 STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden", "failed")
 MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
+BANDS_MAX_AGE_S = 2.0  # bands come once a second (DAIDALUS's 1 Hz); older than two periods they are not used
 MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
 
 
@@ -63,18 +69,22 @@ class GuidanceDecision:
 
     time_s: float
     state: str  # one of STATES
-    manoeuvre: str  # none | climb | descend | level | return
+    manoeuvre: str  # none | climb | descend | level | turn_right | turn_left | return
     target_vertical_rate_mps: float | None  # the commanded (or advised) vertical rate, up positive
-    reason: str  # why: ra, preventive, composite, floor, ceiling, clear_of_conflict, mission_resumed, an interlock
+    reason: str  # why: ra, preventive, composite, floor, ceiling, corrective, warning, recovery, clear_of_conflict,
+    #              mission_resumed, an interlock
     autopilot_mode: str  # the mode the autopilot's HEARTBEAT says (ArduCopter's names), UNKNOWN before one
     since_s: float  # when this state began
+    target_track_deg: float | None = None  # a horizontal manoeuvre's resolution track (degrees true), else None
 
     def text(self) -> str:
         """The STATUSTEXT of a change: "DAA GUIDANCE COMMANDING CLIMB +2.5 M/S ra"."""
         words = ["DAA GUIDANCE", self.state.upper()]
         if self.state in ("commanding", "holding", "advising"):
-            words.append(self.manoeuvre.upper())
-            if self.target_vertical_rate_mps is not None and self.manoeuvre != "level":
+            words.append(self.manoeuvre.upper().removeprefix("TURN_"))
+            if self.target_track_deg is not None:
+                words.append(f"TRK{self.target_track_deg:03.0f}")
+            elif self.target_vertical_rate_mps is not None and self.manoeuvre != "level":
                 words.append(f"{self.target_vertical_rate_mps:+.1f} M/S")
         words.append(self.reason)
         return " ".join(words)[:50]  # STATUSTEXT's text
@@ -82,7 +92,8 @@ class GuidanceDecision:
     def as_dict(self) -> dict:
         return {"time_s": self.time_s, "state": self.state, "manoeuvre": self.manoeuvre,
                 "target_vertical_rate_mps": self.target_vertical_rate_mps, "reason": self.reason,
-                "autopilot_mode": self.autopilot_mode, "since_s": self.since_s}
+                "autopilot_mode": self.autopilot_mode, "since_s": self.since_s,
+                "target_track_deg": self.target_track_deg}
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +129,29 @@ class VerticalLimits:
         return cls(response.rate_mps, descent, response.accel_mps2)
 
 
+@dataclass(frozen=True, slots=True)
+class HorizontalLimits:
+    """A DO-365 alerter's horizontal manoeuvre (horizontal.py): the alert levels that call for one (those whose
+    conflicts paint the corrective region or a more severe one: DO-365's corrective and warning, "a manoeuvre is
+    needed"; not preventive), the bands' corrective region, and the turn rate of the bands' kinematics (the
+    vehicle profile's when vehicle.profile is set), which the setpoint's track is stepped at."""
+
+    levels: frozenset
+    corrective_region: str
+    turn_rate_deg_s: float
+
+    @classmethod
+    def of(cls, profile) -> "HorizontalLimits | None":
+        """From an advisory/tables.py AlertProfile: None without a DO-365 alerter and its bands."""
+        if profile.alerter is None or profile.bands is None:
+            return None
+        order = {"NONE": 0, "FAR": 1, "MID": 2, "NEAR": 3}
+        corrective = profile.bands.corrective_region
+        levels = frozenset(i for i, lv in enumerate(profile.alerter.levels, start=1)
+                           if order.get(lv.region, 0) >= order[corrective])
+        return cls(levels, corrective, profile.bands.turn_rate_deg_s)
+
+
 class _ModeRequest:
     """A DO_SET_MODE in flight: resent every ack_timeout_s until HEARTBEAT shows the mode, at most retries times."""
 
@@ -126,10 +160,22 @@ class _ModeRequest:
 
 
 class GuidanceStage:
-    """update(now, ...) -> GuidanceOutput. vehicle: VerticalLimits (or a VehicleProfile: the same names)."""
+    """update(now, ...) -> GuidanceOutput. vehicle: VerticalLimits (or a VehicleProfile: the same names).
+    horizontal: HorizontalLimits with a DO-365 alerter (its corrective and warning alerts are flown as the bands'
+    track resolution), None for TCAS-like profiles (their RAs are flown vertically)."""
 
-    def __init__(self, config: GuidanceConfig, vehicle, system: int, component: int = 1):
+    def __init__(self, config: GuidanceConfig, vehicle, system: int, component: int = 1,
+                 horizontal: HorizontalLimits | None = None):
         self.config, self.vehicle = config, vehicle
+        self.turning = horizontal
+        self.bands = None  # the last guidance bands (advisory/bands.py Bands), once a second
+        self.held = None  # the horizontal manoeuvre in progress (horizontal.py HorizontalManoeuvre)
+        self.target_track: float | None = None  # its resolution track, degrees true
+        self.track_cmd: float | None = None  # the setpoint's track, stepped toward target_track at the turn rate
+        self.speed = 0.0  # the ground speed of the manoeuvre's start, kept on the new track
+        self.turned_s: float | None = None  # when track_cmd was last stepped
+        self.no_manoeuvre = "no_bands"  # why a horizontal manoeuvre could not be picked
+        self.mission_track: float | None = None  # the track the vehicle flew when we took it (its mission's)
         self.execute = config.mode == "execute"
         self.system, self.component = system, component  # the autopilot's ids (component from its HEARTBEAT)
         self.state, self.since_s, self.reason = "idle", 0.0, "no_conflict"
@@ -150,14 +196,17 @@ class GuidanceStage:
     # -- the step ----------------------------------------------------------------------------------------------
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
                autopilot_inputs: Iterable = (), spoofed: frozenset = frozenset(),
-               link_authenticated: bool = False) -> GuidanceOutput:
+               link_authenticated: bool = False, bands=None) -> GuidanceOutput:
         before = self.state
         commands: list = []
         self.own = own
         for item in autopilot_inputs:
             self._absorb(item, now_s)
+        if bands is not None:
+            self.bands = bands
         c = self.contract
-        ras = [a for a in active.values() if a.level is AdvisoryLevel.RA]
+        levels = self.turning.levels if self.turning is not None and self.contract is not ARDUPLANE else frozenset()
+        ras = [a for a in active.values() if a.level is AdvisoryLevel.RA or a.alert_level in levels]
         usable = [a for a in ras if a.integrity == "ok" and a.intruder not in spoofed]
         self.conflict = bool(ras)
         interlock = self._interlock(unavailable_reason, own, ras, usable, link_authenticated)
@@ -179,12 +228,23 @@ class GuidanceStage:
 
         manoeuvre = None
         if usable and interlock is None and self.state not in ("overridden", "failed"):
-            manoeuvre = vertical_manoeuvre(
-                usable, own.up_mps, own.height_above_home_m, self.vehicle.climb_rate_mps,
-                self.vehicle.descent_rate_mps, self.vehicle.vertical_accel_mps2, self.config.floor_m,
-                self.config.ceiling_m)
+            # the track resolution is flown as a velocity setpoint: multicopters (ArduPlane holds its course by
+            # GUIDED_CHANGE_HEADING, arduplane.py: a plane flies a DO-365 warning's vertical RA, not the track yet)
+            turning = self.turning is not None and self.contract is not ARDUPLANE
+            if turning:
+                manoeuvre = self._horizontal(now_s, usable)
+            vertical = [a for a in usable if a.level is AdvisoryLevel.RA]
+            if manoeuvre is None and vertical and (not turning or self.no_manoeuvre == "no_track_resolution"):
+                # no track resolution on either side (not merely no bands yet, or bands from before the conflict:
+                # new ones come within a second): the RA's vertical manoeuvre
+                manoeuvre = vertical_manoeuvre(
+                    vertical, own.up_mps, own.height_above_home_m, self.vehicle.climb_rate_mps,
+                    self.vehicle.descent_rate_mps, self.vehicle.vertical_accel_mps2, self.config.floor_m,
+                    self.config.ceiling_m)
         if manoeuvre is not None and not (manoeuvre.complies and self.state in ("idle", "advising")):
             self.manoeuvre, self.target = manoeuvre.name, manoeuvre.target_mps
+            self.held = manoeuvre if hasattr(manoeuvre, "target_track_deg") else None
+            self.target_track = manoeuvre.target_track_deg if self.held is not None else None
             if not self.execute:
                 self._enter("advising", now_s, manoeuvre.reason)
             elif self.state in ("idle", "returning"):
@@ -195,7 +255,8 @@ class GuidanceStage:
                 self.reason = manoeuvre.reason
         elif self.state in ("idle", "advising"):
             self.manoeuvre, self.target = "none", None
-            why = manoeuvre.reason + "_complies" if manoeuvre is not None else interlock if ras else "no_conflict"
+            why = manoeuvre.reason + "_complies" if manoeuvre is not None else \
+                (interlock or self.no_manoeuvre) if ras else "no_conflict"
             if self.state == "advising":
                 self._enter("idle", now_s, why)
             elif self.since_s != now_s or self.reason == "no_conflict":  # keep the reason idle was entered with
@@ -203,20 +264,24 @@ class GuidanceStage:
         elif self.state == "commanding" and interlock is None:  # the RAs ended: clear of conflict
             self._enter("holding", now_s, "clear_of_conflict")
             self.manoeuvre, self.target, self.clear_s = "level", 0.0, now_s
+        if self.state == "holding" and self.held is not None and self._mission_track_in_conflict(now_s):
+            self.clear_s, self.reason = now_s, "mission_track_in_conflict"  # the quiet time counts from its end
         if self.state == "holding" and interlock is None and now_s - self.clear_s >= self.config.quiet_time_s:
             self._return(now_s, "quiet_time_over", commands)
 
         if self.execute:
             if self.state in ("commanding", "holding"):
+                self._turn(now_s)
                 self._setpoint(now_s, commands)  # a PX4 stream before its mode change
             if self.prestream_until is not None and now_s >= self.prestream_until:
                 self.prestream_until = None
                 if self.state in ("commanding", "holding") and self.mode != c.command_mode:
                     self._request(c.command_mode, now_s, commands)
             self._handshake(now_s, commands)
+        flying = self.state in ("commanding", "holding", "advising")
         decision = GuidanceDecision(now_s, self.state, self.manoeuvre if self.state != "idle" else "none",
-                                    self.target if self.state in ("commanding", "holding", "advising") else None,
-                                    self.reason, c.mode_name(self.mode), self.since_s)
+                                    self.target if flying else None, self.reason, c.mode_name(self.mode),
+                                    self.since_s, self.target_track if flying else None)
         return GuidanceOutput(decision, self.state != before, tuple(commands))
 
     # -- the parts ---------------------------------------------------------------------------------------------
@@ -267,6 +332,9 @@ class GuidanceStage:
             c = self.contract
             self.prior_mode = self.mode if self.mode != c.command_mode else c.return_mode
             self.horizontal = (own.north_mps, own.east_mps)
+            self.speed = math.hypot(own.north_mps, own.east_mps)
+            self.track_cmd = self.mission_track = math.degrees(math.atan2(own.east_mps, own.north_mps)) % 360.0
+            self.turned_s = now_s
             self.guided_confirmed = self.mode == c.command_mode
             if c.guided_commands is not None:
                 self.plane = c.guided_commands(self.config, self.system, self.component)
@@ -283,6 +351,7 @@ class GuidanceStage:
 
     def _return(self, now_s: float, reason: str, commands: list) -> None:
         self.manoeuvre, self.target = "return", None
+        self.held = self.target_track = None
         self._enter("returning", now_s, reason)
         self.prestream_until = None
         self._request(self.prior_mode if self.prior_mode is not None else self.contract.return_mode, now_s, commands)
@@ -322,14 +391,63 @@ class GuidanceStage:
             return
         period = min(self.config.setpoint_period_s, self.contract.max_setpoint_period_s or math.inf)
         last = self.last_setpoint
-        if last is not None and now_s - last[0] < period - 1e-9 and \
-                abs(last[1] - self.target) < SETPOINT_CHANGE_MPS:
-            return
-        self.last_setpoint = (now_s, self.target)
         north, east = self.horizontal
+        if last is not None and now_s - last[0] < period - 1e-9 and \
+                max(abs(last[1] - self.target), abs(last[2] - north), abs(last[3] - east)) < SETPOINT_CHANGE_MPS:
+            return
+        self.last_setpoint = (now_s, self.target, north, east)
         commands.append(self.contract.velocity_setpoint(north, east, self.target, self.system, self.component,
                                                         int(now_s * 1000)))
 
+    def _horizontal(self, now_s: float, usable: list):
+        """The track resolution of the last bands for the most severe alert (horizontal.py), the side of the
+        manoeuvre in progress kept; the manoeuvre in progress while the present track needs none (DAIDALUS: NaN,
+        the vehicle is on a conflict-free track) or the bands are too old; None when there is none to fly."""
+        held = self.held if self.state in ("commanding", "holding", "advising") else None
+        bands = self.bands
+        if bands is None or now_s - bands.time_s > BANDS_MAX_AGE_S or not bands.track_deg:
+            self.no_manoeuvre = "no_bands"
+            return held
+        ve, vn = bands.ownship_vel[0], bands.ownship_vel[1]
+        track = math.degrees(math.atan2(ve, vn)) % 360.0
+        if track_resolution(bands.track_deg, track, self.turning.corrective_region) is None:
+            self.no_manoeuvre = "track_conflict_free"  # these bands see no conflict on the present track (yet)
+            return held
+        worst = max(usable, key=lambda a: a.alert_level or 0)
+        found = horizontal_manoeuvre(bands.track_deg, track, worst.alert_name or "corrective",
+                                     self.config.track_margin_deg, held.right if held is not None else None,
+                                     self.turning.corrective_region)
+        if found is None:
+            self.no_manoeuvre = "no_track_resolution"
+        return found if found is not None else held
+
+    def _mission_track_in_conflict(self, now_s: float) -> bool:
+        """The mission's track lies in a band at least as severe as the corrective region of fresh bands: the
+        mission given back now would turn the vehicle into the conflict again (ICAROUS returns to the mission only
+        when the turn back is conflict free: TrafficMonitor::CheckSafeToTurn)."""
+        bands = self.bands
+        if self.mission_track is None or bands is None or now_s - bands.time_s > BANDS_MAX_AGE_S:
+            return False
+        order = {"FAR": 1, "MID": 2, "NEAR": 3}
+        region = bands.region_at("track_deg", self.mission_track)
+        return order.get(region, 0) >= order[self.turning.corrective_region]
+
+    def _turn(self, now_s: float) -> None:
+        """The setpoint's track stepped toward the resolution at the turn rate, on the manoeuvre's side (the long
+        way round only when the resolution lies more than a quarter turn behind it)."""
+        if self.target_track is None or self.track_cmd is None:
+            return
+        dt = now_s - self.turned_s if self.turned_s is not None else 0.0
+        self.turned_s = now_s
+        d = turn_to(self.track_cmd, self.target_track)
+        if self.held is not None and self.held.right and d < -90.0:
+            d += 360.0
+        elif self.held is not None and not self.held.right and d > 90.0:
+            d -= 360.0
+        step = self.turning.turn_rate_deg_s * max(dt, 0.0)
+        self.track_cmd = (self.track_cmd + min(max(d, -step), step)) % 360.0
+        rad = math.radians(self.track_cmd)
+        self.horizontal = (self.speed * math.cos(rad), self.speed * math.sin(rad))
     def _plane_failed(self, now_s: float, failure: str, commands: list) -> None:
         """An ArduPlane GUIDED command refused or never acknowledged: failed, and the mode it was in asked for
         again (a plane left in GUIDED circles around where it entered it)."""

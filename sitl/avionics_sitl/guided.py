@@ -8,7 +8,9 @@ It flies the scenario's ownship path as its mission in AUTO and answers as ArduC
   with no setpoint for GUID_TIMEOUT (3 s), or in GUIDED before the first one, the vehicle stops (ArduCopter
   mode_guided.cpp: velocity control "stops" at the timeout); LOITER and the other modes stop too.
 - Dynamics: the vehicle profile's (advisory/vehicle.py) vertical rates and acceleration and its horizontal
-  acceleration, per axis toward the wanted velocity.
+  acceleration, per axis toward the wanted velocity; outside the mission the wanted horizontal velocity's track
+  also turns from the present one no faster than the profile's turn rate (a setpoint that jumps to a new track is
+  flown as a turn, not through a stop).
 - Back in AUTO it re-joins the mission where the scenario's ownship is now (the mission's current item at the
   current time): the offset from the path is flown out at a gain of RECOVERY_GAIN_PER_S, within the vehicle's climb
   and descent rates, so the altitude gained returns at the profile's rate, as AUTO flying back to the current
@@ -34,6 +36,7 @@ from avionics.io.dialect import daa as mavlink2
 from avionics_sitl.trajectory import KinematicState
 
 EARTH_RADIUS_M = 6371008.8
+TURN_MIN_SPEED_MPS = 0.5  # below this ground speed a multirotor has no track to turn (ours)
 RECOVERY_GAIN_PER_S = 0.5  # AUTO's pull back onto the path (ours; AC_PosControl's position P is 1.0 per second)
 
 
@@ -136,6 +139,8 @@ class SimCopter:
         self._last_t = t
         v = self.vehicle
         wanted = self._wanted(path, t)
+        if self.mode != self.mission_mode:
+            wanted[0], wanted[1] = self._turn_limited(wanted[0], wanted[1], dt)
         wanted[2] = min(max(wanted[2], -v.descent_rate_mps), v.climb_rate_mps) if self.mode != self.mission_mode \
             else wanted[2]
         new = list(self.velocity)
@@ -153,6 +158,20 @@ class SimCopter:
         return replace(mission, lat_deg=lat, lon_deg=lon, alt_msl_m=mission.alt_msl_m + du, vel_east_mps=new[0],
                        vel_north_mps=new[1], vel_up_mps=new[2])
 
+    def _turn_limited(self, east: float, north: float, dt: float) -> tuple[float, float]:
+        """The wanted horizontal velocity, its track at most turn_rate_deg_s * dt from the present one (both
+        moving: from or to a hover there is no track to turn)."""
+        e0, n0 = self.velocity[0], self.velocity[1]
+        speed, wanted_speed = math.hypot(e0, n0), math.hypot(east, north)
+        if speed < TURN_MIN_SPEED_MPS or wanted_speed < TURN_MIN_SPEED_MPS:
+            return east, north
+        d = math.atan2(e0 * north - n0 * east, e0 * east + n0 * north)  # the turn, left (counter-clockwise) positive
+        limit = math.radians(self.vehicle.turn_rate_deg_s) * dt
+        if abs(d) <= limit:
+            return east, north
+        a = math.atan2(n0, e0) + math.copysign(limit, d)
+        return wanted_speed * math.cos(a), wanted_speed * math.sin(a)
+
     def _horizontal(self, east: float, north: float, want_east: float, want_north: float, dt: float):
         """The horizontal velocity after dt toward the wanted one, within the profile's acceleration."""
         de, dn = want_east - east, want_north - north
@@ -166,8 +185,13 @@ class SimCopter:
         v = self.vehicle
         if self.mode == self.mission_mode:  # the mission, re-joined where it is now
             up = -RECOVERY_GAIN_PER_S * self.offset[2]
-            return [path[0] - RECOVERY_GAIN_PER_S * self.offset[0], path[1] - RECOVERY_GAIN_PER_S * self.offset[1],
-                    path[2] + min(max(up, -v.descent_rate_mps), v.climb_rate_mps)]
+            east, north = path[0] - RECOVERY_GAIN_PER_S * self.offset[0], path[1] - RECOVERY_GAIN_PER_S * self.offset[1]
+            # no faster than the vehicle flies (WPNAV_SPEED), or than the path itself where that is faster
+            cap = max(v.max_ground_speed_mps, math.hypot(path[0], path[1]))
+            speed = math.hypot(east, north)
+            if speed > cap:
+                east, north = east * cap / speed, north * cap / speed
+            return [east, north, path[2] + min(max(up, -v.descent_rate_mps), v.climb_rate_mps)]
         if self.px4 and self.mode == px4.OFFBOARD and (self.setpoint is None or
                                                       t - self.setpoint[3] > px4.OFFBOARD_LOSS_S):
             self.counters["sim.offboard_lost"] += 1  # COM_OF_LOSS_T: the offboard-loss failsafe, Hold (ours)

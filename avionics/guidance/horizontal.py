@@ -1,0 +1,140 @@
+"""The horizontal manoeuvre of a DO-365 alerter's conflicts: a track picked from the guidance bands (advisory/bands.py).
+
+The resolution is DAIDALUS's (v2, gov.nasa.larcfm.ACCoRD; Daidalus.horizontalDirectionResolution(dir) ->
+DaidalusRealBands.resolution -> BandsHysteresis.bandsHysteresis, the raw resolutions): when the ownship's present
+track lies in a band at least as severe as the corrective region (is_up_from_corrective_region: MID or NEAR
+with corrective_region MID), walk the bands left and right across the contiguous bands that are so severe; the
+left resolution is the upper end of the first band below the corrective region met on the left (NONE, FAR or
+RECOVERY), the right one the lower end of the first met on the right; -inf / +inf when the walk goes all the way
+round (no resolution on that side), None (DAIDALUS: NaN) when the present track needs none. The preferred side is
+the nearer one, right on a tie (BandsHysteresis.preferredDirectionHysteresis: actual_dir = mod_up <= mod_down).
+In RECOVERY (the bands saturated: advisory/bands.py step 3) the same walk finds the recovery band.
+
+Two departures from DAIDALUS, both ours:
+- the target is the resolution plus guidance.track_margin_deg further in the turn's direction, as NASA ICAROUS flies
+  DAIDALUS's preferred track resolution 5 deg past its edge (TrafficMonitor::MonitorTraffic, nasa/icarous): the
+  band edge itself is where the loss of well clear begins; the margin is capped at half the resolution band, so
+  the target stays inside it;
+- the side chosen persists through the manoeuvre (a vehicle half-way through a right turn does not reverse because
+  the left edge came nearer), unless it has no resolution any more: DAIDALUS keeps its preferred direction for
+  persistence_time the same way (preferredDirectionHysteresis), we keep it until the conflict is over.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+# BandsRegion.orderOfConflictRegion: NONE and RECOVERY both 0 (resolutions), FAR 1, MID 2, NEAR 3
+_CONFLICT_ORDER = {"NONE": 0, "RECOVERY": 0, "FAR": 1, "MID": 2, "NEAR": 3}
+ALMOST_DEG = 1e-6
+
+
+@dataclass(frozen=True, slots=True)
+class TrackResolution:
+    """The two raw resolutions of DAIDALUS (degrees true, 0..360; -inf / +inf: none on that side) and the
+    bands they lie in (the band's other end, for the margin; its region: NONE, FAR or RECOVERY)."""
+
+    left_deg: float
+    right_deg: float
+    left_band: tuple[float, float, str] | None  # (lower, upper, region) of the left resolution's band
+    right_band: tuple[float, float, str] | None
+    track_deg: float  # the present track they are for
+
+    @property
+    def preferred_right(self) -> bool:
+        """BandsHysteresis.preferredDirectionHysteresis without hysteresis: the nearer side (mod_up <= mod_down),
+        right on a tie; the side that has one when only one has."""
+        if math.isinf(self.left_deg) or math.isinf(self.right_deg):
+            return not math.isinf(self.right_deg)
+        return (self.right_deg - self.track_deg) % 360.0 <= (self.track_deg - self.left_deg) % 360.0 + ALMOST_DEG
+
+
+def _severe(region: str, corrective: str) -> bool:
+    """is_up_from_corrective_region: a conflict band at least as severe as the corrective region."""
+    return region in ("FAR", "MID", "NEAR") and _CONFLICT_ORDER[region] >= _CONFLICT_ORDER[corrective]
+
+
+def _index_of(intervals, track_deg: float) -> int:
+    """The band of the present track (advisory/bands.py Bands.region_at's rule: at a shared end the resolution
+    side wins, else the more severe), -1 when none holds it."""
+    hits = [i for i, iv in enumerate(intervals) if iv.lower - ALMOST_DEG <= track_deg <= iv.upper + ALMOST_DEG]
+    if not hits:
+        return -1
+    for i in hits:
+        if intervals[i].region in ("NONE", "RECOVERY"):
+            return i
+    return max(hits, key=lambda i: _CONFLICT_ORDER.get(intervals[i].region, -1))
+
+
+def track_resolution(intervals, track_deg: float, corrective: str = "MID") -> TrackResolution | None:
+    """DAIDALUS's raw track resolutions (BandsHysteresis.bandsHysteresis) for the present track over the track
+    bands (advisory/bands.py Bands.track_deg: increasing intervals covering 0..360); None when the present track
+    is not in a band at least as severe as the corrective region (no resolution needed)."""
+    track_deg %= 360.0
+    idx = _index_of(intervals, track_deg)
+    if idx < 0 or not _severe(intervals[idx].region, corrective):
+        return None
+    n = len(intervals)
+
+    def walk(step: int):
+        """The first band below the corrective region met turning that way; None when a severe band reaches
+        more than half a turn that way (to_the_left fails: DAIDALUS leaves that side at infinity) or the walk
+        goes all the way round."""
+        i = idx
+        for _ in range(n):
+            iv = intervals[i]
+            far = (track_deg - iv.lower) % 360.0 if step < 0 else (iv.upper - track_deg) % 360.0
+            if 180.0 - ALMOST_DEG <= far < 360.0 - ALMOST_DEG:
+                return None
+            i = (i + step) % n
+            if i == idx:
+                return None
+            if not _severe(intervals[i].region, corrective):
+                return intervals[i]
+        return None
+
+    left, right = walk(-1), walk(+1)
+    # the bands wrap at 0/360: a left band that ends at 360 ends where 0 is (DAIDALUS: raw_low = 0)
+    left_deg = -math.inf if left is None else left.upper % 360.0
+    right_deg = math.inf if right is None else right.lower % 360.0
+    return TrackResolution(left_deg, right_deg, None if left is None else (left.lower, left.upper, left.region),
+                           None if right is None else (right.lower, right.upper, right.region), track_deg)
+
+
+def turn_to(from_deg: float, to_deg: float) -> float:
+    """The signed turn from one track to another, right positive, in (-180, 180]."""
+    d = (to_deg - from_deg) % 360.0
+    return d - 360.0 if d > 180.0 else d
+
+
+@dataclass(frozen=True, slots=True)
+class HorizontalManoeuvre:
+    target_track_deg: float  # degrees true: where the vehicle is turned to (the resolution plus the margin)
+    right: bool  # the side of the turn
+    reason: str  # "corrective" | "warning" | "recovery" (the resolution lies in a RECOVERY band)
+    complies = False  # (as vertical.py's) a resolution is only found where the present track needs one
+    target_mps = 0.0  # vertical: hold altitude
+
+    @property
+    def name(self) -> str:
+        return "turn_right" if self.right else "turn_left"
+
+
+def horizontal_manoeuvre(intervals, track_deg: float, alert_name: str, margin_deg: float,
+                         side: bool | None = None, corrective: str = "MID") -> HorizontalManoeuvre | None:
+    """The track to fly for the present track bands, the side kept when given (True: right) unless it has no
+    resolution; None when the present track needs no resolution, or neither side has one."""
+    res = track_resolution(intervals, track_deg, corrective)
+    if res is None:
+        return None
+    has_left, has_right = not math.isinf(res.left_deg), not math.isinf(res.right_deg)
+    if not (has_left or has_right):
+        return None
+    if side is None or not (has_right if side else has_left):
+        side = res.preferred_right
+    value, band = (res.right_deg, res.right_band) if side else (res.left_deg, res.left_band)
+    lower, upper, region = band
+    margin = min(margin_deg, 0.5 * (upper - lower))
+    target = (value + margin if side else value - margin) % 360.0
+    return HorizontalManoeuvre(target, side, "recovery" if region == "RECOVERY" else alert_name.lower())
