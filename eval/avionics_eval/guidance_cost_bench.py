@@ -67,10 +67,10 @@ def guidance_cost(encounters: int, profile: str, seed: int, model: str, ownship:
         evaluate(e, profile, (seed, e.index), conditions=guided)
     profiler.disable()
     stats = pstats.Stats(profiler).stats
-    total = sum(tt for (_, _, _, tt, _) in stats.values())  # every function's own time: the profiled total
+    total = sum(tt for (_, _, tt, _, _) in stats.values())  # every function's own time: the profiled total
     parts, steps = {}, None
     for label, suffix, name in PARTS:
-        found = [(cc, ct) for (path, _, func), (cc, _, _, _, ct) in stats.items()
+        found = [(cc, ct) for (path, _, func), (cc, _, _, ct, _) in stats.items()
                  if func == name and path.replace(os.sep, "/").endswith(suffix)]
         if found:
             parts[label] = round(sum(ct for _, ct in found) / total, 3)
