@@ -59,7 +59,7 @@ def test_a_guided_record_has_the_misses_sitl_replay_fly_guidance_gives(tmp_path)
     assert record["vmd_flown_ft"] > record["vmd_unequipped_ft"] + 100.0  # the climb flown opened the miss
     assert 0.0 < record["mission_away_s"] <= record["mission_return_s"] + 1e-9
     daa = tmp_path / "encounter.daa"
-    daa.write_text(format_daa(scenario(encounter), grid()))
+    daa.write_text(format_daa(scenario(encounter, ev.PLANE), grid()))
     misses, advisories = tmp_path / "misses.csv", tmp_path / "advisories.csv"
     sets = [item for o in (*ev.EVALUATION_OVERRIDES, f'advisory.profile="{PROFILE}"') for item in ("--set", o)]
     assert sitl_cli.main(["replay", str(daa), "--fly-guidance", "--vehicle", "multirotor", "--noise", "do365-adsb",

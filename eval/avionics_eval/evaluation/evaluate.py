@@ -220,9 +220,7 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
     period, a multiple of DT_S (docs/evaluation.md compares 1 s with 0.1 s). conditions: the surveillance and
     pilot models (Conditions)."""
     if conditions.guided:
-        from avionics_eval.evaluation.guided import evaluate_guided
-
-        return evaluate_guided(encounter, profile, seed, tuple(overrides), conditions)
+        return _evaluate_guided(encounter, profile, seed, tuple(overrides), conditions)
     config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
@@ -263,6 +261,19 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
         _fly(responder, own, t, offsets, rates, flown_to + 1, len(t) - 1)
     return _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels,
                    conditions=conditions, responds=responds)
+
+
+def _evaluate_guided(encounter, profile, seed, overrides, conditions) -> dict:
+    """The record of an encounter flown through the guidance port (guided.py) instead of a pilot model."""
+    from avionics_eval.evaluation.guided import fly
+
+    config, levels = _setup(profile, (*overrides, *conditions.overrides()))
+    flown = fly(encounter, PLANE, config, conditions.impairments(), seed, conditions.vehicle)
+    t, own, intruder = encounter.truth()
+    record = _record(encounter, profile, t, own, intruder, flown.offsets, flown.changes, flown.delay_s,
+                     flown.response, levels, conditions=conditions, responds=True)
+    record.update(flown.fields)
+    return record
 
 
 @cache

@@ -20,6 +20,8 @@ avionics_sitl.daa_file.format_daa (tests/test_evaluation_guidance.py checks it).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pyarrow as pa
 
@@ -57,23 +59,22 @@ def overrides(vehicle: str) -> tuple[str, ...]:
     return (*GUIDANCE_OVERRIDES, f"vehicle.profile={vehicle}")
 
 
-def scenario(encounter) -> Scenario:
+def scenario(encounter, plane) -> Scenario:
     """The encounter (generator.Encounter or lincoln.LincolnEncounter) as a sitl scenario: its truth samples as
-    sampled trajectories on the evaluation's plane, the ground at 0 ft MSL, as long as the encounter."""
-    from avionics_eval.evaluation.evaluate import PLANE
-
+    sampled trajectories on `plane` (the evaluation's, evaluate.PLANE), the ground at 0 ft MSL, as long as the
+    encounter."""
     t, own, intruder = encounter.truth()
     specs, trajectories = [], []
     for i, (name, x) in enumerate((("ownship", own), ("intruder", intruder))):
-        lat, lon = PLANE.to_geodetic(x[:, 0], x[:, 1])
-        trajectory = SampledTrajectory(t, lat, lon, x[:, 2], x[:, 3], x[:, 4], x[:, 5], plane=PLANE)
+        lat, lon = plane.to_geodetic(x[:, 0], x[:, 1])
+        trajectory = SampledTrajectory(t, lat, lon, x[:, 2], x[:, 3], x[:, 4], x[:, 5], plane=plane)
         s = trajectory.state_at(0.0)
         specs.append(AircraftSpec(name, DEFAULT_ADDRESS_BASE + i, s.lat_deg, s.lon_deg, s.alt_msl_m,
                                   s.track_deg % 360.0, s.ground_speed_mps, s.vel_up_mps, callsign=name.upper()[:8]))
         trajectories.append(trajectory)
     return Scenario(f"evaluation {encounter.seed}/{encounter.index}", "an avionics evaluate encounter", specs[0],
                     (specs[1],), float(t[-1]), 0.0, (trajectories[0], (trajectories[1],)),
-                    origin=(PLANE.lat0_deg, PLANE.lon0_deg))
+                    origin=(plane.lat0_deg, plane.lon0_deg))
 
 
 class _FlownCopter(SimCopter):
@@ -89,37 +90,43 @@ class _FlownCopter(SimCopter):
         return state
 
 
-def evaluate_guided(encounter, profile: str, seed, extra: tuple[str, ...], conditions) -> dict:
-    """The record of one encounter flown through the guidance port (evaluate.evaluate with conditions.pilot
-    "guidance"); seed draws the replay's surveillance seed."""
-    from avionics_eval.evaluation.evaluate import _record, _setup
+@dataclass(frozen=True)
+class Flown:
+    """What the vehicle flew, for evaluate._record: its offsets from the mission path on the truth grid (east,
+    north, up columns), the advisory changes, the time from the first RA to the first setpoint (None: none), the
+    RA response model the logic assumed (the vehicle's), and the record's GUIDANCE_FIELDS."""
 
-    config, levels = _setup(profile, (*extra, *overrides(conditions.vehicle)))
+    offsets: np.ndarray
+    changes: list
+    delay_s: float | None
+    response: object
+    fields: dict
+
+
+def fly(encounter, plane, config, impairments, seed, vehicle_name: str) -> Flown:
+    """Fly one encounter through the guidance port: config with guidance.mode execute and vehicle.profile
+    vehicle_name (overrides()), impairments the set's surveillance; seed draws the replay's surveillance seed."""
     replay_seed = int(np.random.default_rng(seed).integers(2**31))
     autopilot = AutopilotConfig()
-    vehicle = load_vehicle(conditions.vehicle)
+    vehicle = load_vehicle(vehicle_name)
     copter = _FlownCopter(vehicle, autopilot.system_id, autopilot.component_id)
-    result = replay(scenario(encounter), config, conditions.impairments(), seed=replay_seed, autopilot=autopilot,
+    result = replay(scenario(encounter, plane), config, impairments, seed=replay_seed, autopilot=autopilot,
                     fly_guidance=True, copter=copter)
-    t, own, intruder = encounter.truth()
-    offsets = _on_grid(copter.flown, len(t))
     ras = [c for c in result.changes if c.level is AdvisoryLevel.RA]
     setpoints = [when for when, msg in result.sent if msg.get_type() != "COMMAND_LONG"]
-    delay = setpoints[0] - ras[0].time_s if ras and setpoints else None  # first RA to the first setpoint sent
-    record = _record(encounter, profile, t, own, intruder, offsets, result.changes, delay, vehicle.response_model(),
-                     levels, conditions=conditions, responds=True)
     (miss,) = result.misses
     first_command = result.sent[0][0] if result.sent else None
     away, resumed, back = _away(copter.modes, copter.mission_mode)
-    record.update({
+    fields = {
         "replay_seed": replay_seed, "guidance_commanded": first_command is not None, "first_command_s": first_command,
         "guidance_states": "|".join(f"{d.state}:{d.reason}" for d in result.guidance),
         "mission_away_s": away, "mission_resumed": resumed,
         "mission_return_s": back - first_command if first_command is not None and back is not None else None,
         "t_cpa_flown_s": miss.t_cpa_flown_s, "hmd_flown_ft": miss.hmd_flown_m / FT,
         "vmd_flown_ft": miss.vmd_with_m / FT, "min_agl_flown_ft": result.min_agl_m / FT,
-    })
-    return record
+    }
+    return Flown(_on_grid(copter.flown, len(encounter.truth()[0])), result.changes,
+                 setpoints[0] - ras[0].time_s if ras and setpoints else None, vehicle.response_model(), fields)
 
 
 def _on_grid(flown, n: int) -> np.ndarray:
@@ -151,4 +158,4 @@ def _away(modes, mission_mode) -> tuple[float, bool, float | None]:
     return away, resumed, back if resumed else None
 
 
-__all__ = ["GUIDANCE_FIELDS", "evaluate_guided", "overrides", "scenario"]
+__all__ = ["GUIDANCE_FIELDS", "Flown", "fly", "overrides", "scenario"]
