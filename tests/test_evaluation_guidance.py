@@ -113,10 +113,23 @@ def test_the_command_runs_and_reports_a_guided_set(tmp_path, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["--vehicle", "multirotor"], "only with --pilot guidance"),
     (["--pilot", "guidance", "--vehicle", "blimp"], "unknown vehicle 'blimp'"),
-    (["--pilot", "guidance", "--vehicle", "fixed-wing"], "fixed-wing"),
+    (["--pilot", "guidance", "--vehicle", "fixed-wing"], "flies the simulated ArduCopter"),
 ])
 def test_bad_guidance_options_are_refused_before_anything_is_written(tmp_path, capsys, argv, message):
     out = tmp_path / "never"
     assert cli.main(["evaluate", "--encounters", "1", "--scheduler", "synchronous", "--profiles", PROFILE, *argv,
                      "--out", str(out)]) == 2
     assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_the_cost_benchmark_prints_both_paths_and_where_the_guidance_time_goes(capsys):
+    from avionics_eval import guidance_cost_bench
+
+    assert guidance_cost_bench.main(["--encounters", "1"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    costs = result["cpu_s_per_encounter"]
+    assert costs["pilot_standard"] > 0 and costs["guidance"] > 0 and result["guidance_over_pilot"] > 0
+    assert result["guidance_loop_steps_per_encounter"] > result["pilot_core_steps_per_encounter"]
+    shares = result["guidance_profile_share"]
+    assert len(shares) >= 10 and all(0.0 <= share <= 1.0 for share in shares.values())
+    assert shares["loop step (Daa.step, all of it)"] > shares["  core pipeline (tracking, assessment, alerting, RAs)"]

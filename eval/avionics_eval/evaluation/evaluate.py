@@ -84,9 +84,9 @@ class Conditions:
             raise ValueError("a vehicle profile goes with the guidance path and the guidance path needs one "
                              f"(pilot {self.pilot!r}, vehicle {self.vehicle!r})")
         if self.vehicle is not None:
-            from avionics.advisory.vehicle import load_vehicle
+            from avionics_eval.evaluation.guided import check_vehicle
 
-            load_vehicle(self.vehicle)  # ProfileError (a ValueError) names the built-in ones
+            check_vehicle(self.vehicle)
         q = self.altitude_quantum_ft
         if q is not None and not (isinstance(q, (int, float)) and math.isfinite(q) and q > 0):
             raise ValueError(f"altitude quantum must be a number of feet > 0, got {q!r}")

@@ -54,6 +54,19 @@ GUIDANCE_OVERRIDES = ("guidance.mode=execute",)  # as `sitl replay --fly-guidanc
 OWNSHIP_ADDRESS, INTRUDER_ADDRESS = DEFAULT_ADDRESS_BASE, DEFAULT_ADDRESS_BASE + 1  # as a .daa file's aircraft
 
 
+# Vehicle profiles the simulated ArduCopter cannot stand for: sitl replay flies them with another simulated
+# autopilot (or not at all), which this path does not use.
+NOT_A_COPTER = ("fixed-wing",)
+
+
+def check_vehicle(name: str) -> None:
+    """ValueError unless `name` is a vehicle profile (a built-in name or a .toml) this path can fly."""
+    if name in NOT_A_COPTER:
+        raise ValueError(f"vehicle {name!r}: the evaluation's guidance path flies the simulated ArduCopter "
+                         "(avionics_sitl.guided.SimCopter) only")
+    load_vehicle(name)  # ProfileError (a ValueError) names the built-in ones
+
+
 def overrides(vehicle: str) -> tuple[str, ...]:
     """The configuration the guidance path adds to the evaluation's (sitl replay --fly-guidance --vehicle)."""
     return (*GUIDANCE_OVERRIDES, f"vehicle.profile={vehicle}")
@@ -158,4 +171,4 @@ def _away(modes, mission_mode) -> tuple[float, bool, float | None]:
     return away, resumed, back if resumed else None
 
 
-__all__ = ["GUIDANCE_FIELDS", "Flown", "fly", "overrides", "scenario"]
+__all__ = ["GUIDANCE_FIELDS", "Flown", "check_vehicle", "fly", "overrides", "scenario"]
