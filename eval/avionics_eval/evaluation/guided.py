@@ -11,9 +11,10 @@ AUTO flies the encounter's ownship path as the mission, GUIDED the setpoints, wi
 accelerations and rates), its HEARTBEAT and COMMAND_ACK framed back. The RA logic's response model is the vehicle
 profile's (vehicle.profile), so the logic asks for what the vehicle flies.
 
-The record is evaluate.py's (RECORD_SCHEMA, the same definitions: truth on the 0.1 s grid, NMAC, loss of well
-clear), the flown ownship being the mission path plus the vehicle's offset from it in all three axes, with
-GUIDANCE_FIELDS added. Its misses are those `sitl replay ENCOUNTER.daa --fly-guidance --vehicle NAME --noise
+fly() returns what the vehicle flew (Flown); evaluate.py makes the record of it (RECORD_SCHEMA, the same
+definitions: truth on the 0.1 s grid, NMAC, loss of well clear), the flown ownship being the mission path plus the
+vehicle's offset from it in all three axes, with GUIDANCE_FIELDS added (this module does not import evaluate.py:
+tests/test_layers.py keeps the import graph free of cycles). Its misses are those `sitl replay ENCOUNTER.daa --fly-guidance --vehicle NAME --noise
 SURVEILLANCE --seed REPLAY_SEED --misses FILE` writes for the encounter written out with
 avionics_sitl.daa_file.format_daa (tests/test_evaluation_guidance.py checks it).
 """
