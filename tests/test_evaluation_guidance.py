@@ -108,6 +108,12 @@ def test_the_command_runs_and_reports_a_guided_set(tmp_path, capsys):
     report = capsys.readouterr().out
     assert "| vehicle taken off its mission by the guidance | " in report
     assert "| time away from the mission (s): mean / median / longest | " in report
+    pilot = tmp_path / "pilot"  # the same encounter with a pilot: not reported together (other columns)
+    assert cli.main(["evaluate", "--profiles", PROFILE, "--seed", "1", "--encounters", "1", "--scheduler",
+                     "synchronous", "--out", str(pilot)]) == 0
+    capsys.readouterr()
+    assert cli.main(["evaluate", "--report", str(out), str(pilot)]) == 2
+    assert "mix the guidance path" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("argv, message", [

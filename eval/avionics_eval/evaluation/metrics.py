@@ -60,6 +60,11 @@ def load(paths, common: bool = False) -> pa.Table:
     from avionics_eval.evaluation.runner import read
 
     tables = [read(Path(p)) for p in paths]
+    if any(t.schema != tables[0].schema for t in tables):
+        from avionics_eval.evaluation.runner import EvaluationError
+
+        raise EvaluationError("the results mix the guidance path (--pilot guidance) and a pilot model: report each "
+                              "alone")
     table = pa.concat_tables(tables) if len(tables) > 1 else tables[0]
     encounters = list(zip(table["seed"].to_pylist(), table["index"].to_pylist()))
     profiles = table["profile"].to_pylist()
