@@ -26,9 +26,14 @@ def add_arguments(p) -> None:
                         "Appendix Q as MIT LL DEGAS: 75.6 m / 1.22 m/s Gauss-Markov errors, 300 s)")
     p.add_argument("--altitude-quantum-ft", type=float, metavar="FT",
                    help="reported altitude step: 25 (ADS-B, the models' own) or 100 (Mode C)")
-    p.add_argument("--pilot", choices=("spread", "standard", "trams"), default="spread",
+    p.add_argument("--pilot", choices=("spread", "standard", "trams", "guidance"), default="spread",
                    help="spread (the profile's response, delay x U[0.6, 1.4]; the default), standard (TCAS "
-                        "standard pilot: 5 s, 0.25 g; 2.5 s, 0.35 g) or trams (responds with p = 0.62)")
+                        "standard pilot: 5 s, 0.25 g; 2.5 s, 0.35 g), trams (responds with p = 0.62) or guidance "
+                        "(no pilot: the vehicle's autopilot flies the RAs through the guidance port, as sitl replay "
+                        "--fly-guidance)")
+    p.add_argument("--vehicle", metavar="NAME",
+                   help="with --pilot guidance: the vehicle profile (vehicle.profile) the RA logic assumes and the "
+                        "simulated ArduCopter flies (default multirotor)")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
     p.add_argument("--out", help="results: a directory of Parquet partitions (created in an existing directory; "
@@ -83,14 +88,20 @@ def encounter_source(args):
 
 
 def conditions(args):
-    """evaluate.Conditions of --surveillance, --altitude-quantum-ft and --pilot."""
+    """evaluate.Conditions of --surveillance, --altitude-quantum-ft, --pilot and --vehicle."""
     from avionics_eval.evaluation.evaluate import Conditions
     from avionics_eval.evaluation.runner import EvaluationError
 
+    vehicle = getattr(args, "vehicle", None)
+    if vehicle is not None and args.pilot != "guidance":
+        raise EvaluationError("--vehicle is the vehicle the guidance flies: only with --pilot guidance")
+    if args.pilot == "guidance" and vehicle is None:
+        vehicle = "multirotor"
     try:
-        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot)
+        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot, vehicle)
     except ValueError as exc:
-        raise EvaluationError(f"--altitude-quantum-ft: {exc}") from None
+        option = "--vehicle" if vehicle is not None and "vehicle" in str(exc) else "--altitude-quantum-ft"
+        raise EvaluationError(f"{option}: {exc}") from None
 
 
 def evaluate_command(args) -> int:

@@ -53,7 +53,8 @@ STEP_S = 1.0  # the core's logic cycle
 REPORT_PERIOD_S = 1.0  # ADS-B position reports
 DELAY_SPREAD = 0.4  # pilot delay uniform in standard x [1 - this, 1 + this] (docs/evaluation.md)
 SURVEILLANCE = {"sitl": DEFAULT, "do365-adsb": DO365_ADSB}  # avionics_sitl.impairments presets
-PILOTS = ("spread", "standard", "trams")
+# guidance: no pilot; the vehicle's autopilot flies the RAs through the guidance port (guided.py)
+PILOTS = ("spread", "standard", "trams", "guidance")
 # The share of RAs pilots follow in the TRAMS data (issue 28, citing it; the primary report is not verified here)
 TRAMS_RESPONSE_PROBABILITY = 0.62
 
@@ -65,17 +66,27 @@ class Conditions:
     altitude_quantum_ft, None for the preset's (25 ft, ADS-B) or e.g. 100 (Mode C); pilot, spread (the profile's
     response, its delay uniform in standard x [0.6, 1.4]), standard (the TCAS standard pilot of DO-185B, the
     tcas2 profile's: 5 s, 0.25 g; strengthening and reversal 2.5 s, 0.35 g; the profile's rates) or trams
-    (responds with TRAMS_RESPONSE_PROBABILITY, delay as spread)."""
+    (responds with TRAMS_RESPONSE_PROBABILITY, delay as spread) or guidance (no pilot: the autopilot of the
+    vehicle profile `vehicle` flies the RAs through the guidance port, guided.py; the RA logic's response model is
+    the vehicle's)."""
 
     surveillance: str = "sitl"
     altitude_quantum_ft: float | None = None
     pilot: str = "spread"
+    vehicle: str | None = None  # vehicle.profile of the guidance path (pilot "guidance" only)
 
     def __post_init__(self) -> None:
         if self.surveillance not in SURVEILLANCE:
             raise ValueError(f"surveillance {self.surveillance!r}: one of {', '.join(SURVEILLANCE)}")
         if self.pilot not in PILOTS:
             raise ValueError(f"pilot {self.pilot!r}: one of {', '.join(PILOTS)}")
+        if (self.vehicle is not None) != (self.pilot == "guidance"):
+            raise ValueError("a vehicle profile goes with the guidance path and the guidance path needs one "
+                             f"(pilot {self.pilot!r}, vehicle {self.vehicle!r})")
+        if self.vehicle is not None:
+            from avionics_eval.evaluation.guided import check_vehicle
+
+            check_vehicle(self.vehicle)
         q = self.altitude_quantum_ft
         if q is not None and not (isinstance(q, (int, float)) and math.isfinite(q) and q > 0):
             raise ValueError(f"altitude quantum must be a number of feet > 0, got {q!r}")
@@ -83,7 +94,20 @@ class Conditions:
     @property
     def name(self) -> str:
         quantum = "" if self.altitude_quantum_ft is None else f",altitude_quantum_ft={self.altitude_quantum_ft:g}"
-        return f"surveillance={self.surveillance}{quantum},pilot={self.pilot}"
+        vehicle = "" if self.vehicle is None else f",vehicle={self.vehicle}"
+        return f"surveillance={self.surveillance}{quantum},pilot={self.pilot}{vehicle}"
+
+    @property
+    def guided(self) -> bool:
+        return self.pilot == "guidance"
+
+    def overrides(self) -> tuple[str, ...]:
+        """The configuration these conditions add to a profile's (the guidance path's)."""
+        if not self.guided:
+            return ()
+        from avionics_eval.evaluation.guided import overrides
+
+        return overrides(self.vehicle)
 
     def impairments(self):
         preset = SURVEILLANCE[self.surveillance]
@@ -132,6 +156,15 @@ RECORD_SCHEMA = pa.schema([
 ])
 
 
+def record_schema(conditions: "Conditions | None" = None) -> pa.Schema:
+    """The records' schema: RECORD_SCHEMA, and guided.GUIDANCE_FIELDS after it on the guidance path."""
+    if conditions is None or not conditions.guided:
+        return RECORD_SCHEMA
+    from avionics_eval.evaluation.guided import GUIDANCE_FIELDS
+
+    return pa.schema([*RECORD_SCHEMA, *(pa.field(name, kind) for name, kind in GUIDANCE_FIELDS)])
+
+
 @cache
 def _setup(profile: str, overrides: tuple[str, ...] = ()):
     """The parsed configuration and profile (read-only) and the first level row of each sensitivity level."""
@@ -142,9 +175,10 @@ def _setup(profile: str, overrides: tuple[str, ...] = ()):
     return config, levels
 
 
-def check_profile(profile: str) -> None:
-    """Raise the configuration's ConfigError when the profile does not load (an unknown name, a bad file)."""
-    _setup(profile)
+def check_profile(profile: str, conditions: "Conditions | None" = None) -> None:
+    """Raise the configuration's ConfigError when the profile does not load (an unknown name, a bad file) or, on
+    the guidance path, when the configuration refuses the vehicle (e.g. a fixed-wing with guidance.mode execute)."""
+    _setup(profile, conditions.overrides() if conditions is not None else ())
 
 
 def _reports(t, intruder, rng, step_s: float, impairments=DEFAULT) -> dict[int, list[IntruderReport]]:
@@ -185,6 +219,8 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
     (e.g. advisory.criterion), for studies of a profile's variants. step_s: the core's step (and ownship's fix)
     period, a multiple of DT_S (docs/evaluation.md compares 1 s with 0.1 s). conditions: the surveillance and
     pilot models (Conditions)."""
+    if conditions.guided:
+        return _evaluate_guided(encounter, profile, seed, tuple(overrides), conditions)
     config, levels = _setup(profile, tuple(overrides))
     rng = np.random.default_rng(seed)
     t, own, intruder = encounter.truth()
@@ -227,6 +263,19 @@ def evaluate(encounter: Encounter, profile: str, seed, overrides: tuple[str, ...
                    conditions=conditions, responds=responds)
 
 
+def _evaluate_guided(encounter, profile, seed, overrides, conditions) -> dict:
+    """The record of an encounter flown through the guidance port (guided.py) instead of a pilot model."""
+    from avionics_eval.evaluation.guided import fly
+
+    config, levels = _setup(profile, (*overrides, *conditions.overrides()))
+    flown = fly(encounter, PLANE, config, conditions.impairments(), seed, conditions.vehicle)
+    t, own, intruder = encounter.truth()
+    record = _record(encounter, profile, t, own, intruder, flown.offsets, flown.changes, flown.delay_s,
+                     flown.response, levels, conditions=conditions, responds=True)
+    record.update(flown.fields)
+    return record
+
+
 @cache
 def _tcas_standard_pilot(profile_response):
     """The profile's response model with the TCAS standard pilot's delays and accelerations (DO-185B, as the
@@ -238,13 +287,22 @@ def _tcas_standard_pilot(profile_response):
 
 def _record(encounter, profile, t, own, intruder, offsets, changes, delay, standard, levels, *,
             conditions: Conditions = DEFAULT_CONDITIONS, responds: bool = True) -> dict:
+    """offsets: ownship's flown offset from its path on the truth grid, up (a pilot model: vertical only) or
+    (east, north, up) columns (the guidance path)."""
     dh = np.hypot(intruder[:, 0] - own[:, 0], intruder[:, 1] - own[:, 1])
     dz = intruder[:, 2] - own[:, 2]
-    dz_flown = dz - offsets
+    if offsets.ndim == 1:
+        dz_flown, near_flown = dz - offsets, None
+    else:
+        dz_flown = dz - offsets[:, 2]
+        near_flown = np.hypot(intruder[:, 0] - own[:, 0] - offsets[:, 0],
+                              intruder[:, 1] - own[:, 1] - offsets[:, 1]) < NMAC_HORIZONTAL_M
     k = int(np.argmin(dh))
     near = dh < NMAC_HORIZONTAL_M
+    if near_flown is None:
+        near_flown = near
     nmac_u = bool(np.any(near & (np.abs(dz) < NMAC_VERTICAL_M)))
-    nmac_e = bool(np.any(near & (np.abs(dz_flown) < NMAC_VERTICAL_M)))
+    nmac_e = bool(np.any(near_flown & (np.abs(dz_flown) < NMAC_VERTICAL_M)))
     t_cpa = float(t[k])
     alert_on, ra_on = _durations(changes)
     alerts = [c for c in changes if c.level is not AdvisoryLevel.NONE]
@@ -264,7 +322,8 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
         **encounter.geometry(),
         "t_cpa_s": t_cpa, "hmd_ft": float(dh[k]) / FT, "vmd_unequipped_ft": abs(float(dz[k])) / FT,
         "vmd_equipped_ft": abs(float(dz_flown[k])) / FT,
-        "min_vsep_within_nmac_hmd_equipped_ft": float(np.abs(dz_flown[near]).min()) / FT if near.any() else None,
+        "min_vsep_within_nmac_hmd_equipped_ft": float(np.abs(dz_flown[near_flown]).min()) / FT
+        if near_flown.any() else None,
         "nmac_unequipped": nmac_u, "nmac_equipped": nmac_e, "induced_nmac": nmac_e and not nmac_u,
         "lowc_unequipped": lowc_u, "lowc_equipped": lowc_e,
         "alerted": bool(alerts), "first_alert_s": first_alert, "alert_lead_s": _lead(t_cpa, first_alert),
@@ -273,7 +332,7 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
         "ra_sl": ras[0].sensitivity_level if ras else None,
         "ra_words": "|".join(c.ra_words or "" for c in ras), "ra_episodes": episodes,
         "ra_reversals": reversals, "ra_strengthenings": strengthenings,
-        "response_delay_s": float(delay), "pilot_responds": responds,
+        "response_delay_s": float(delay) if delay is not None else None, "pilot_responds": responds,
         "late_ra": nmac_u and (first_ra is None or t_cpa - first_ra < needed),
         "outside_protection": bool(outside), "nuisance_ra": bool(ras) and bool(outside),
     }
@@ -285,13 +344,18 @@ def _lead(t_cpa: float, first: float | None) -> float | None:
 
 def _loss_of_well_clear(t, own, intruder, offsets) -> tuple[bool, bool]:
     """Whether the DO-365 well-clear volume (Phase I: DTHR 4000 ft, ZTHR 450 ft, modified tau 35 s;
-    avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown vertical offset."""
+    avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown offset (vertical,
+    or east, north and up: see _record)."""
     s_xy = intruder[:, 0:2] - own[:, 0:2]
     v_xy = intruder[:, 3:5] - own[:, 3:5]
     sz, vz = intruder[:, 2] - own[:, 2], intruder[:, 5] - own[:, 5]
-    offset_rate = np.gradient(offsets, t)
+    offset_rate = np.gradient(offsets, t, axis=0)
     unequipped = wcv_violation(s_xy, v_xy, sz, vz, DO365_PHASE_I)
-    equipped = wcv_violation(s_xy, v_xy, sz - offsets, vz - offset_rate, DO365_PHASE_I)
+    if offsets.ndim == 1:
+        equipped = wcv_violation(s_xy, v_xy, sz - offsets, vz - offset_rate, DO365_PHASE_I)
+    else:
+        equipped = wcv_violation(s_xy - offsets[:, 0:2], v_xy - offset_rate[:, 0:2], sz - offsets[:, 2],
+                                 vz - offset_rate[:, 2], DO365_PHASE_I)
     return bool(unequipped.any()), bool(equipped.any())
 
 
@@ -327,4 +391,5 @@ def _ra_sequence(changes) -> tuple[int, int, int]:
     return reversals, strengthenings, episodes
 
 
-__all__ = ["NMAC_HORIZONTAL_M", "NMAC_VERTICAL_M", "RECORD_SCHEMA", "T_CPA_S", "check_profile", "evaluate"]
+__all__ = ["NMAC_HORIZONTAL_M", "NMAC_VERTICAL_M", "RECORD_SCHEMA", "T_CPA_S", "check_profile", "evaluate",
+           "record_schema"]

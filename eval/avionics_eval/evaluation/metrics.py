@@ -60,6 +60,11 @@ def load(paths, common: bool = False) -> pa.Table:
     from avionics_eval.evaluation.runner import read
 
     tables = [read(Path(p)) for p in paths]
+    if any(t.schema != tables[0].schema for t in tables):
+        from avionics_eval.evaluation.runner import EvaluationError
+
+        raise EvaluationError("the results mix the guidance path (--pilot guidance) and a pilot model: report each "
+                              "alone")
     table = pa.concat_tables(tables) if len(tables) > 1 else tables[0]
     encounters = list(zip(table["seed"].to_pylist(), table["index"].to_pylist()))
     profiles = table["profile"].to_pylist()
@@ -109,7 +114,30 @@ def profile_metrics(table: pa.Table) -> dict:
         "ra_lead_s_median": float(np.median(lead)) if len(lead) else math.nan,
         "alert_duration_s_mean": float(_column(table, "alert_duration_s")[alerted].mean()) if alerted.any()
         else math.nan,
+        **_mission(table, np.ones(n)),
     }
+
+
+def _mission(table: pa.Table, w: np.ndarray) -> dict:
+    """Records of the guidance path (guided.py): how often the guidance took the vehicle off its mission and for
+    how long (the weighted mean, median and longest time not in the mission's mode, over the encounters it did;
+    the encounters not back in it at the end, whose time away is cut at the encounter's end). {} otherwise."""
+    if "guidance_commanded" not in table.column_names:
+        return {}
+    commanded = _column(table, "guidance_commanded").astype(bool)
+    away = _column(table, "mission_away_s").astype(float)[commanded]
+    back = _column(table, "mission_return_s")[commanded]
+    back = np.array([x for x in back if x is not None and not (isinstance(x, float) and math.isnan(x))], float)
+    wc = w[commanded]
+    return {"mission": {
+        "commanded": int(commanded.sum()),
+        "commanded_rate": float(w[commanded].sum() / w.sum()) if len(w) else math.nan,
+        "away_s_mean": float((wc * away).sum() / wc.sum()) if commanded.any() else math.nan,
+        "away_s_median": float(np.median(away)) if commanded.any() else math.nan,
+        "away_s_max": float(away.max()) if commanded.any() else math.nan,
+        "return_s_median": float(np.median(back)) if len(back) else math.nan,
+        "not_resumed": int((commanded & ~_column(table, "mission_resumed").astype(bool)).sum()),
+    }}
 
 
 BOOTSTRAP_RESAMPLES = 2000
@@ -159,6 +187,7 @@ def weighted_profile_metrics(table: pa.Table) -> dict:
     result["nmac_counts"] = {"both": int(unresolved.sum()), "induced": int(induced.sum()),
                              "resolved": int((nmac_u & ~nmac_e).sum())}
     result["events"] = events
+    result.update(_mission(table, w))
     return result
 
 
@@ -260,7 +289,25 @@ def weighted_markdown(result: dict) -> str:
     for label, key in WEIGHTED_ROWS:
         lines.append(f"| {label} | " + " | ".join(_cell(result[p][key], result[p]["events"][key])
                                                   for p in profiles) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + _mission_rows(result, profiles))
+
+
+def _mission_rows(result: dict, profiles: list) -> list[str]:
+    """The guidance path's rows (_mission), when the records have them."""
+    if not all("mission" in result[p] for p in profiles):
+        return []
+    m = {p: result[p]["mission"] for p in profiles}
+    return [
+        "| vehicle taken off its mission by the guidance | " + " | ".join(
+            f"{m[p]['commanded_rate']:.4g} ({m[p]['commanded']})" for p in profiles) + " |",
+        "| time away from the mission (s): mean / median / longest | " + " | ".join(
+            f"{m[p]['away_s_mean']:.1f} / {m[p]['away_s_median']:.1f} / {m[p]['away_s_max']:.1f}" for p in profiles)
+        + " |",
+        "| first command to back on the mission (s), median | " + " | ".join(
+            f"{m[p]['return_s_median']:.1f}" for p in profiles) + " |",
+        "| not back on the mission at the encounter's end | " + " | ".join(
+            str(m[p]["not_resumed"]) for p in profiles) + " |",
+    ]
 
 
 def markdown(result: dict) -> str:
@@ -278,7 +325,7 @@ def markdown(result: dict) -> str:
         f"{result[p]['ra_lead_s_median']:.1f}" for p in profiles) + " |")
     lines.append("| mean alert duration (s) | " + " | ".join(
         f"{result[p]['alert_duration_s_mean']:.1f}" for p in profiles) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + _mission_rows(result, profiles))
 
 
 def plot(table: pa.Table, result: dict, out_dir) -> list[Path]:

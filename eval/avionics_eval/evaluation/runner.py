@@ -25,7 +25,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from avionics_eval.evaluation.evaluate import DEFAULT_CONDITIONS, RECORD_SCHEMA, Conditions, check_profile, evaluate
+from avionics_eval.evaluation.evaluate import DEFAULT_CONDITIONS, Conditions, check_profile, evaluate, record_schema
 from avionics_eval.evaluation.generator import SOURCE, generate
 
 # Bump when the generator or the record changes: a resumed run must not mix versions. 2: the source, weight,
@@ -71,7 +71,7 @@ def run_partition(seed: int, part: Partition, profiles: tuple[str, ...], source=
     for index in range(part.start, part.stop):
         encounter = generate(seed, index) if source is None else source.encounter(seed, index)
         records.extend(evaluate(encounter, profile, (seed, index), conditions=conditions) for profile in profiles)
-    return pa.Table.from_pylist(records, schema=RECORD_SCHEMA), time.process_time() - cpu0
+    return pa.Table.from_pylist(records, schema=record_schema(conditions)), time.process_time() - cpu0
 
 
 def write_partition(out: Path, part: Partition, table: pa.Table) -> None:
@@ -166,7 +166,7 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
 
     kind, arg = _scheduler(scheduler)
     for profile in profiles:  # a bad name fails here, before a worker starts or a manifest is written
-        check_profile(profile)
+        check_profile(profile, conditions)
     out = Path(out)
     _prepare(out, seed, partition_size, profiles, source, conditions)
     todo = [p for p in partitions(n, partition_size) if not (out / p.name).exists()]
@@ -218,5 +218,10 @@ def run(n: int, seed: int, profiles: tuple[str, ...], out: str | Path, scheduler
 
 def read(out: str | Path) -> pa.Table:
     """Every record of a results directory, sorted by (index, profile)."""
-    table = pq.read_table(out, schema=RECORD_SCHEMA)
+    from avionics_eval.evaluation.evaluate import RECORD_SCHEMA
+
+    manifest = Path(out) / MANIFEST
+    guided = manifest.exists() and ",pilot=guidance" in json.loads(manifest.read_text()).get("conditions", "")
+    schema = record_schema(Conditions(pilot="guidance", vehicle="multirotor")) if guided else RECORD_SCHEMA
+    table = pq.read_table(out, schema=schema)
     return table.sort_by([("index", "ascending"), ("profile", "ascending")])
