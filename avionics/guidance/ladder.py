@@ -10,8 +10,8 @@ Return: Return; Land and the manual modes: Land, so a manually flown vehicle is 
 unknown modes: never); de-escalation is conservative: the mission is not resumed after the conflict clears.
 
 Here the alert levels are the advisories' (Advisory.alert(): TA 1, RA 2 for the TCAS-like profiles; PREVENTIVE 1,
-CORRECTIVE 2, WARNING 3 for DO-365), the most severe over the intruders whose ADS-B integrity is not degraded and
-that are not suspected spoofs. Terminate is not offered. The modes, per autopilot contract (contract.py):
+CORRECTIVE 2, WARNING 3 for DO-365), the most severe over the intruders that are not suspected spoofs (a degraded
+ADS-B integrity is still an aircraft: stage.py). Terminate is not offered. The modes, per autopilot contract (contract.py):
 ArduCopter Hold = LOITER (5; position hold, ArduCopter/mode.h), Return = RTL (6), Land = LAND (9); PX4 Hold =
 AUTO.LOITER, Return = AUTO.RTL, Land = AUTO.LAND (px4_custom_mode.h); ArduPlane Hold = LOITER (12), Return = RTL
 (11) and no Land (a plane has no plain landing mode: Land is flown as Return, and the reason says so).
@@ -69,7 +69,7 @@ class ModeLadder:
         for item in autopilot_inputs:
             self._absorb(item, now_s)
         alerts = [a for a in active.values() if a.level > AdvisoryLevel.NONE]
-        usable = [a for a in alerts if a.integrity == "ok" and a.intruder not in spoofed]
+        usable = [a for a in alerts if a.intruder not in spoofed]  # degraded ADS-B is still an aircraft (stage.py)
         if not alerts:  # the conflict is over; the vehicle stays where it was put (no automatic resume)
             self.issued, self.ours, self.request, self.action = 0, None, None, "none"
             self._enter("idle", now_s, "no_conflict")
@@ -93,7 +93,7 @@ class ModeLadder:
         if unavailable_reason is not None:
             return f"daa_unavailable {unavailable_reason}"
         if not usable:
-            return "integrity_degraded"
+            return "spoof_suspected"
         if self.execute and self.config.require_signing and not link_authenticated:
             return "link_not_authenticated"
         if self.execute and self.mode is None:

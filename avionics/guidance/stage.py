@@ -20,8 +20,10 @@ States (GuidanceDecision.state):
   until the conflict ends; STATUSTEXT "DAA GUIDANCE FAILED ...".
 
 Interlocks (never a command): DAA unavailable (no or stale ownship, a failed stage, a spoof suspected: daa.py),
-the link not authenticated while guidance.require_signing, an RA only against intruders whose ADS-B integrity is
-degraded (tracking/integrity.py), no HEARTBEAT from the autopilot yet, and a vehicle in a mode other than AUTO,
+the link not authenticated while guidance.require_signing, an RA only against intruders suspected of spoofing
+(issue 27: "against an intruder whose track is flagged ... as spoofed"; a track whose ADS-B integrity is merely
+degraded, tracking/integrity.py, is a real aircraft with a poorer position: the RA against it is flown, as TCAS
+flies RAs whatever its surveillance quality), no HEARTBEAT from the autopilot yet, and a vehicle in a mode other than AUTO,
 GUIDED or LOITER for ArduCopter, AUTO.MISSION or AUTO.LOITER for PX4 (RTL, LAND and the manual modes belong to a
 failsafe or a pilot; PX4 OFFBOARD to someone else's offboard control). An interlock that arises while commanding
 gives the vehicle back at once (returning).
@@ -207,7 +209,7 @@ class GuidanceStage:
         c = self.contract
         levels = self.turning.levels if self.turning is not None and self.contract is not ARDUPLANE else frozenset()
         ras = [a for a in active.values() if a.level is AdvisoryLevel.RA or a.alert_level in levels]
-        usable = [a for a in ras if a.integrity == "ok" and a.intruder not in spoofed]
+        usable = [a for a in ras if a.intruder not in spoofed]
         self.conflict = bool(ras)
         interlock = self._interlock(unavailable_reason, own, ras, usable, link_authenticated)
 
@@ -312,7 +314,7 @@ class GuidanceStage:
         if self.config.require_signing and not link_authenticated:
             return "link_not_authenticated"
         if ras and not usable:
-            return "integrity_degraded"
+            return "spoof_suspected"
         if self.mode is None:
             return "no_autopilot_heartbeat"
         c = self.contract
