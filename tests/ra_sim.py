@@ -288,3 +288,21 @@ def level_off_dz(t: float, v0: float, delay: float, accel: float) -> float:
     stop = abs(v0) / accel
     u = min(t - delay, stop)
     return v0 * delay + v0 * u - math.copysign(0.5 * accel * u * u, v0)
+
+
+def uav_encounter(seed: int, own_speed_mps: float, vz_own_range: tuple[float, float],
+                  closure_range: tuple[float, float], name: str):
+    """A UAV's random encounter for the guidance properties (tests/test_guidance*.py): ownship at own_speed_mps and
+    150-900 m AGL, level or at a rate in vz_own_range; one intruder reaching its drawn HMD (0-150 m) and VMD
+    (+-60 m) at t_cpa (25-35 s), level or at +-5 m/s. (scenario, ownship height, its vertical rate, t_cpa)."""
+    rng = np.random.default_rng(seed)
+    agl = rng.uniform(150.0, 900.0)
+    vz_own = 0.0 if rng.random() < 0.4 else rng.uniform(*vz_own_range)
+    t_cpa, closure, bearing = rng.uniform(25.0, 35.0), rng.uniform(*closure_range), rng.uniform(0, 2 * math.pi)
+    hmd, vmd, vz = rng.uniform(0.0, 150.0), rng.uniform(-60.0, 60.0), 0.0 if rng.random() < 0.5 else \
+        rng.uniform(-5.0, 5.0)
+    vx, vy = -closure * math.cos(bearing), -closure * math.sin(bearing)
+    cx, cy = hmd * math.sin(bearing), -hmd * math.cos(bearing)
+    intruder = Intruder(cx - vx * t_cpa, cy - vy * t_cpa, vx, vy, vmd - (vz - vz_own) * t_cpa, vz)
+    scenario = to_scenario(Encounter(agl, vz_own, (intruder,), t_cpa + 12.0), name, own_speed_mps=own_speed_mps)
+    return scenario, agl, vz_own, t_cpa

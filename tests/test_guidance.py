@@ -208,21 +208,10 @@ def test_the_response_model_gives_the_limits_without_a_vehicle_profile():
 
 
 def _multirotor_encounter(seed: int):
-    """A multirotor's encounter (ownship at 10 m/s within its own vertical rates, one intruder reaching its drawn
-    HMD and VMD at t_cpa, tests/ra_sim.py's geometry): (scenario, ownship height, its vertical rate, t_cpa)."""
-    from ra_sim import Encounter, Intruder, to_scenario
+    """A multirotor's encounter at 10 m/s within its own vertical rates (ra_sim.uav_encounter)."""
+    from ra_sim import uav_encounter
 
-    rng = np.random.default_rng(seed)
-    agl = rng.uniform(150.0, 900.0)
-    vz_own = 0.0 if rng.random() < 0.4 else rng.uniform(-1.5, 2.5)
-    t_cpa, closure, bearing = rng.uniform(25.0, 35.0), rng.uniform(30.0, 120.0), rng.uniform(0, 2 * math.pi)
-    hmd, vmd, vz = rng.uniform(0.0, 150.0), rng.uniform(-60.0, 60.0), 0.0 if rng.random() < 0.5 else \
-        rng.uniform(-5.0, 5.0)
-    vx, vy = -closure * math.cos(bearing), -closure * math.sin(bearing)
-    cx, cy = hmd * math.sin(bearing), -hmd * math.cos(bearing)
-    intruder = Intruder(cx - vx * t_cpa, cy - vy * t_cpa, vx, vy, vmd - (vz - vz_own) * t_cpa, vz)
-    scenario = to_scenario(Encounter(agl, vz_own, (intruder,), t_cpa + 12.0), f"generated-{seed}", own_speed_mps=10.0)
-    return scenario, agl, vz_own, t_cpa
+    return uav_encounter(seed, 10.0, (-1.5, 2.5), (30.0, 120.0), f"generated-{seed}")
 
 
 # -- the property: closed loop with the vehicle's dynamics ---------------------------------------------------------

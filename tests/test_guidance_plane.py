@@ -230,21 +230,11 @@ def test_guided_loiters_around_its_entry_point_unless_a_course_is_held_and_never
 
 # -- the property: closed loop with the fixed-wing's dynamics -----------------------------------------------------
 def _plane_encounter(seed: int):
-    """A small fixed-wing's encounter (ownship at 15 m/s within its climb and sink rates; one intruder reaching its
-    drawn HMD and VMD at t_cpa, tests/ra_sim.py's geometry): (scenario, ownship height, its vertical rate)."""
-    from ra_sim import Encounter, Intruder, to_scenario
+    """A small fixed-wing's encounter at 15 m/s within its climb and sink rates (ra_sim.uav_encounter):
+    (scenario, ownship height, its vertical rate)."""
+    from ra_sim import uav_encounter
 
-    rng = np.random.default_rng(seed)
-    agl = rng.uniform(150.0, 900.0)
-    vz_own = 0.0 if rng.random() < 0.4 else rng.uniform(-3.0, 3.0)
-    t_cpa, closure, bearing = rng.uniform(25.0, 35.0), rng.uniform(30.0, 90.0), rng.uniform(0, 2 * math.pi)
-    hmd, vmd, vz = rng.uniform(0.0, 150.0), rng.uniform(-60.0, 60.0), 0.0 if rng.random() < 0.5 else \
-        rng.uniform(-5.0, 5.0)
-    vx, vy = -closure * math.cos(bearing), -closure * math.sin(bearing)
-    cx, cy = hmd * math.sin(bearing), -hmd * math.cos(bearing)
-    intruder = Intruder(cx - vx * t_cpa, cy - vy * t_cpa, vx, vy, vmd - (vz - vz_own) * t_cpa, vz)
-    scenario = to_scenario(Encounter(agl, vz_own, (intruder,), t_cpa + 12.0), f"plane-{seed}", own_speed_mps=15.0)
-    return scenario, agl, vz_own
+    return uav_encounter(seed, 15.0, (-3.0, 3.0), (30.0, 90.0), f"plane-{seed}")[:3]
 
 
 @settings(max_examples=10, deadline=None, derandomize=True,

@@ -66,10 +66,11 @@ class SimCopter:
         self.min_guided_alt_msl_m = math.inf  # the lowest true altitude flown in GUIDED (the floor's check)
 
     # -- the link ----------------------------------------------------------------------------------------------
+    MAV_TYPE = mavlink2.MAV_TYPE_QUADROTOR  # what HEARTBEAT says this vehicle is (SimPlane: a fixed wing)
+
     def heartbeat(self):
         return mavlink2.MAVLink_heartbeat_message(
-            mavlink2.MAV_TYPE_QUADROTOR,
-            mavlink2.MAV_AUTOPILOT_PX4 if self.px4 else mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            self.MAV_TYPE, mavlink2.MAV_AUTOPILOT_PX4 if self.px4 else mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
             mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink2.MAV_MODE_FLAG_SAFETY_ARMED, self.mode,
             mavlink2.MAV_STATE_ACTIVE, 3)
 

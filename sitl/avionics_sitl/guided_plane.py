@@ -43,6 +43,8 @@ Z_IGNORE = 0b100  # POSITION_TARGET_TYPEMASK_Z_IGNORE
 
 
 class SimPlane(SimCopter):
+    MAV_TYPE = mavlink2.MAV_TYPE_FIXED_WING  # the stage picks ArduPlane's contract from it
+
     def __init__(self, vehicle, system_id: int = 1, component_id: int = 1, refuse: frozenset = frozenset(),
                  counters: Counter | None = None, position_lost_s: float | None = None, home_alt_msl_m: float = 0.0,
                  refuse_commands: frozenset = frozenset()):
@@ -62,12 +64,6 @@ class SimPlane(SimCopter):
         self.airspeed_mps: float | None = None  # a speed command's (no wind: the ground speed)
 
     # -- the link ----------------------------------------------------------------------------------------------
-    def heartbeat(self):
-        return mavlink2.MAVLink_heartbeat_message(
-            mavlink2.MAV_TYPE_FIXED_WING, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
-            mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink2.MAV_MODE_FLAG_SAFETY_ARMED, self.mode,
-            mavlink2.MAV_STATE_ACTIVE, 3)
-
     def receive(self, msg, now_s: float) -> list:
         kind = msg.get_type()
         if kind == "COMMAND_LONG" and self._for_us(msg):
