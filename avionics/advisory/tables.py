@@ -18,7 +18,7 @@ from pathlib import Path
 
 from avionics.advisory.wcv import WcvThresholds
 from avionics.advisory.wcv_sum import SumZScores
-from avionics.core.params import ConfigError, _show, check_float
+from avionics.core.params import ConfigError, _show, check_float, is_file
 from avionics.core.units import FT, FPM, G0, NM
 
 PROFILE_DIR = "profiles"
@@ -355,10 +355,10 @@ def _apply_override(data: dict, text: str) -> None:
 def profile_text(name_or_path: str) -> tuple[str, str]:
     """(source description, TOML text) of a built-in profile name or a profile file path."""
     builtin = resources.files("avionics.advisory").joinpath(PROFILE_DIR, f"{name_or_path}.toml")
-    if builtin.is_file():
+    if is_file(builtin):
         return f"built-in profile {name_or_path!r}", builtin.read_text()
     path = Path(name_or_path)
-    if path.suffix == ".toml" and path.is_file():
+    if path.suffix == ".toml" and is_file(path):
         try:
             return str(path), path.read_bytes().decode("utf-8")
         except OSError as exc:

@@ -19,7 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from avionics.advisory.tables import ProfileError, ResponseModel
-from avionics.core.params import ConfigError, check_float
+from avionics.core.params import ConfigError, check_float, is_file
 
 VEHICLE_DIR = "vehicles"
 
@@ -64,9 +64,9 @@ def builtin_vehicles() -> list[str]:
 def load_vehicle(name_or_path: str) -> VehicleProfile:
     """A built-in vehicle profile by name, or a .toml file with the same keys."""
     builtin = resources.files("avionics.advisory").joinpath(VEHICLE_DIR, f"{name_or_path}.toml")
-    if builtin.is_file():
+    if is_file(builtin):
         where, source = f"built-in vehicle {name_or_path!r}", builtin
-    elif Path(name_or_path).suffix == ".toml" and Path(name_or_path).is_file():
+    elif Path(name_or_path).suffix == ".toml" and is_file(Path(name_or_path)):
         where, source = name_or_path, Path(name_or_path)
     else:
         raise ProfileError(f"unknown vehicle {name_or_path!r}: expected one of {builtin_vehicles()} or a .toml file")

@@ -59,6 +59,8 @@ class ConflictConfig:
             raise ConfigError("conflict.within_max_pairs_per_s must be > 0")
         if not isinstance(c.within_burst_pairs, int) or c.within_burst_pairs < 1:
             raise ConfigError("conflict.within_burst_pairs must be a whole number >= 1")
+        if c.seed < 0:  # numpy's SeedSequence takes non-negative integers only
+            raise ConfigError(f"conflict.seed: {c.seed} must be a whole number >= 0")
         if c.prefilter_alpha < 1.0:
             raise ConfigError("conflict.prefilter_alpha: must be >= 1 (Hwang's alpha)")
         if c.schedule_fast_period_s > c.schedule_period_s:

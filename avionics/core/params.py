@@ -41,6 +41,15 @@ def check_float(value, where: str) -> float:
     return x
 
 
+def is_file(path) -> bool:
+    """path (a Path or an importlib.resources Traversable) names a file; False, not OSError, for a name the OS
+    refuses (ENAMETOOLONG: a 4400-character override is a string the configuration must refuse, not crash on)."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
 def _show(value) -> str:
     """repr of a value, shortened: an error line stays one readable line whatever was given."""
     huge = isinstance(value, int) and value.bit_length() > 100  # str() of an int has a limit (4300 digits)

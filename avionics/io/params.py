@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from avionics.core.params import ConfigError, require_positive
+from avionics.core.params import ConfigError, _show, is_file, require_positive
 
 if TYPE_CHECKING:
     from avionics.tracking.params import InputConfig, TrackingConfig
@@ -192,8 +192,8 @@ class ZenohConfig:
                  "config_file")
         for name in files:
             path = getattr(z, name)
-            if path and not Path(path).is_file():
-                raise ConfigError(f"zenoh.{name}: no such file {path!r}")
+            if path and not is_file(Path(path)):
+                raise ConfigError(f"zenoh.{name}: no such file {_show(path)}")
         if bool(z.tls_listen_certificate) != bool(z.tls_listen_private_key):
             raise ConfigError("zenoh.tls_listen_certificate and tls_listen_private_key go together")
         if bool(z.tls_connect_certificate) != bool(z.tls_connect_private_key):
