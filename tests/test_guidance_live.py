@@ -217,3 +217,36 @@ def test_the_multirotor_turns_off_the_head_on_under_do365_live(udp_port, tcp_por
     assert [m for _, m in modes][:2] == [ardupilot.GUIDED, ardupilot.AUTO]
     assert modes[1][0] - returning_s <= 0.5  # AUTO asked for at the end of the quiet time, taken at once
     assert copter.counters["sim.guided_timeout"] == 0 and copter.counters["sim.setpoint_ignored"] == 0
+
+
+def test_the_px4_mode_ladder_escalates_hold_then_return_each_once_live(udp_port, tcp_port):
+    """guidance.ladder (avionics/guidance/ladder.py, after PX4's DAA module: one action per escalation) over real
+    sockets: Hold at the TA, Return at the RA, each DO_SET_MODE sent once and confirmed by the HEARTBEAT, the
+    states on zenoh and STATUSTEXT; the mission is not resumed after (PX4: conservative de-escalation)."""
+    from avionics.guidance import px4
+
+    end_s = 90.0  # held from the TA (~55 s), the ownship stopped: the RA comes at ~81 s (fast time: test_guidance_ladder)
+    onboard = _Onboard(udp_port, tcp_port, end_s - START_S,
+                       [*GUIDANCE, 'guidance.ladder=["hold", "return"]'])
+    copter = SimCopter(load_vehicle("multirotor"), firmware="px4")
+    stop = threading.Event()
+
+    def record(_received):  # the loop ends once Return is in force
+        if copter.modes[-1][1] == px4.RTL:
+            stop.set()
+
+    try:
+        recording = fly_guided(load_encounter("head-on"), f"udpout:127.0.0.1:{udp_port}", PRESETS["none"], copter,
+                               start_s=START_S, duration_s=end_s - START_S, on_receive=record, stop=stop)
+        wait_for(lambda: [d["manoeuvre"] for d in onboard.decisions if d["state"] == "commanding"][-1:] == ["return"])
+    finally:
+        err = onboard.close()
+    actions = [d["manoeuvre"] for d in onboard.decisions if d["state"] == "commanding"]
+    assert [a for i, a in enumerate(actions) if i == 0 or a != actions[i - 1]] == ["hold", "return"], err[-2000:]
+    asked = [px4.mode_of(r.msg) for r in recording.received if r.msg.get_type() == "COMMAND_LONG"]
+    assert asked == [px4.HOLD, px4.RTL]  # once per escalation: no retry once the HEARTBEAT showed the mode
+    assert [m for _, m in copter.modes] == [px4.MISSION, px4.HOLD, px4.RTL]
+    texts = _statustexts(recording)
+    assert any(t.startswith("DAA GUIDANCE COMMANDING HOLD level 1") for t in texts)
+    assert any(t.startswith("DAA GUIDANCE COMMANDING RETURN level 2") for t in texts)
+    assert copter.counters["sim.mode_denied"] == 0
