@@ -153,6 +153,7 @@ class Bands:
     ownship_pos: tuple = ()  # the ownship state the bands are for: ENU position (m) ...
     ownship_vel: tuple = ()  # ... and velocity (m/s)
     intruders: tuple = ()  # (intruder id, alert level[, its name]) of every intruder the bands took in
+    traffic: tuple = ()  # ... and each one's (ENU position (m), velocity (m/s)), in the same order
 
     def intervals(self, kind: str) -> tuple[BandInterval, ...]:
         if kind not in KINDS:
@@ -929,4 +930,5 @@ class BandsEngine:
             out[kind.name], rec[kind.name] = self._kind_bands(kind, float(time_s), so, vo, si, vi, conf_idx,
                                                               conf_at, sum_data)
         return Bands(time_s=float(time_s), recovery=rec, ownship_pos=tuple(map(float, so)),
-                     ownship_vel=tuple(map(float, vo)), intruders=tuple(zip(map(str, ids), map(int, levels))), **out)
+                     ownship_vel=tuple(map(float, vo)), intruders=tuple(zip(map(str, ids), map(int, levels))),
+                     traffic=tuple((tuple(map(float, p)), tuple(map(float, v))) for p, v in zip(si, vi)), **out)

@@ -10,14 +10,19 @@ round (no resolution on that side), None (DAIDALUS: NaN) when the present track 
 the nearer one, right on a tie (BandsHysteresis.preferredDirectionHysteresis: actual_dir = mod_up <= mod_down).
 In RECOVERY (the bands saturated: advisory/bands.py step 3) the same walk finds the recovery band.
 
-Two departures from DAIDALUS, both ours:
+Three departures from DAIDALUS, all ours:
 - the target is the resolution plus guidance.track_margin_deg further in the turn's direction, as NASA ICAROUS flies
   DAIDALUS's preferred track resolution 5 deg past its edge (TrafficMonitor::MonitorTraffic, nasa/icarous): the
   band edge itself is where the loss of well clear begins; the margin is capped at half the resolution band, so
   the target stays inside it;
 - the side chosen persists through the manoeuvre (a vehicle half-way through a right turn does not reverse because
   the left edge came nearer), unless it has no resolution any more: DAIDALUS keeps its preferred direction for
-  persistence_time the same way (preferredDirectionHysteresis), we keep it until the conflict is over.
+  persistence_time the same way (preferredDirectionHysteresis), we keep it until the conflict is over;
+- a resolution is flown only where, every aircraft flying straight, it leaves no intruder a smaller horizontal miss
+  than the track flown now (the other side is tried, else none: `closest_horizontal_m`). DAIDALUS's recovery
+  resolution (saturated bands) only keeps the collision-avoidance cylinder, which the vertical separation may
+  already keep, so it can turn toward the intruder (issue 27's property: the manoeuvre never leaves a smaller miss
+  than flying the mission on).
 """
 
 from __future__ import annotations
@@ -138,3 +143,17 @@ def horizontal_manoeuvre(intervals, track_deg: float, alert_name: str, margin_de
     margin = min(margin_deg, 0.5 * (upper - lower))
     target = (value + margin if side else value - margin) % 360.0
     return HorizontalManoeuvre(target, side, "recovery" if region == "RECOVERY" else alert_name.lower())
+
+
+def closest_horizontal_m(own_en, velocity_en, traffic, lookahead_s: float) -> float:
+    """The least horizontal distance (m) to any intruder within [0, lookahead_s], ownship at velocity_en (east,
+    north; m/s) from own_en, every intruder on its (ENU position, velocity) of Bands.traffic, all straight;
+    inf without traffic."""
+    closest = math.inf
+    for pos, vel in traffic:
+        sx, sy = pos[0] - own_en[0], pos[1] - own_en[1]
+        vx, vy = vel[0] - velocity_en[0], vel[1] - velocity_en[1]
+        v2 = vx * vx + vy * vy
+        t = 0.0 if v2 <= 0.0 else min(max(-(sx * vx + sy * vy) / v2, 0.0), lookahead_s)
+        closest = min(closest, math.hypot(sx + vx * t, sy + vy * t))
+    return closest

@@ -43,7 +43,7 @@ from typing import Iterable, Mapping
 from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution, turn_to
+from avionics.guidance.horizontal import closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_to
 from avionics.guidance.arduplane import ARDUPLANE
 from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
@@ -53,6 +53,8 @@ STATES = ("idle", "advising", "commanding", "holding", "returning", "overridden"
 MAV_AUTOPILOT_PX4 = 12  # HEARTBEAT autopilot (common.xml MAV_AUTOPILOT)
 SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not at the next period
 BANDS_MAX_AGE_S = 2.0  # bands come once a second (DAIDALUS's 1 Hz); older than two periods they are not used
+# why no track is flown, where the RA's vertical manoeuvre is flown instead (not: no bands yet, or none in conflict)
+NO_TRACK_TO_FLY = ("no_track_resolution", "track_resolution_closer")
 MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
 
 
@@ -136,11 +138,13 @@ class HorizontalLimits:
     """A DO-365 alerter's horizontal manoeuvre (horizontal.py): the alert levels that call for one (those whose
     conflicts paint the corrective region or a more severe one: DO-365's corrective and warning, "a manoeuvre is
     needed"; not preventive), the bands' corrective region, and the turn rate of the bands' kinematics (the
-    vehicle profile's when vehicle.profile is set), which the setpoint's track is stepped at."""
+    vehicle profile's when vehicle.profile is set), which the setpoint's track is stepped at, and the bands'
+    lookahead."""
 
     levels: frozenset
     corrective_region: str
     turn_rate_deg_s: float
+    lookahead_s: float
 
     @classmethod
     def of(cls, profile) -> "HorizontalLimits | None":
@@ -151,7 +155,7 @@ class HorizontalLimits:
         corrective = profile.bands.corrective_region
         levels = frozenset(i for i, lv in enumerate(profile.alerter.levels, start=1)
                            if order.get(lv.region, 0) >= order[corrective])
-        return cls(levels, corrective, profile.bands.turn_rate_deg_s)
+        return cls(levels, corrective, profile.bands.turn_rate_deg_s, profile.bands.lookahead_s)
 
 
 class _ModeRequest:
@@ -236,7 +240,7 @@ class GuidanceStage:
             if turning:
                 manoeuvre = self._horizontal(now_s, usable)
             vertical = [a for a in usable if a.level is AdvisoryLevel.RA]
-            if manoeuvre is None and vertical and (not turning or self.no_manoeuvre == "no_track_resolution"):
+            if manoeuvre is None and vertical and (not turning or self.no_manoeuvre in NO_TRACK_TO_FLY):
                 # no track resolution on either side (not merely no bands yet, or bands from before the conflict:
                 # new ones come within a second): the RA's vertical manoeuvre
                 manoeuvre = vertical_manoeuvre(
@@ -416,12 +420,32 @@ class GuidanceStage:
             self.no_manoeuvre = "track_conflict_free"  # these bands see no conflict on the present track (yet)
             return held
         worst = max(usable, key=lambda a: a.alert_level or 0)
-        found = horizontal_manoeuvre(bands.track_deg, track, worst.alert_name or "corrective",
-                                     self.config.track_margin_deg, held.right if held is not None else None,
-                                     self.turning.corrective_region)
+
+        def resolution(side):
+            return horizontal_manoeuvre(bands.track_deg, track, worst.alert_name or "corrective",
+                                        self.config.track_margin_deg, side, self.turning.corrective_region)
+
+        found = resolution(held.right if held is not None else None)
         if found is None:
             self.no_manoeuvre = "no_track_resolution"
+        elif held is None and self._closer(bands, track, found.target_track_deg):
+            other = resolution(not found.right)  # the other side, or None
+            found = other if other is not None and other.right != found.right and \
+                not self._closer(bands, track, other.target_track_deg) else None
+            if found is None:
+                self.no_manoeuvre = "track_resolution_closer"
         return found if found is not None else held
+
+    def _closer(self, bands, track_deg: float, target_deg: float) -> bool:
+        """The target track, flown at the present speed, passes some intruder closer than the present track
+        (horizontal.py closest_horizontal_m, over the bands' lookahead)."""
+        speed = math.hypot(bands.ownship_vel[0], bands.ownship_vel[1])
+
+        def closest(deg):
+            rad = math.radians(deg)
+            return closest_horizontal_m(bands.ownship_pos, (speed * math.sin(rad), speed * math.cos(rad)),
+                                        bands.traffic, self.turning.lookahead_s)
+        return closest(target_deg) < closest(track_deg)
 
     def _mission_track_in_conflict(self, now_s: float) -> bool:
         """The mission's track lies in a band at least as severe as the corrective region of fresh bands: the
