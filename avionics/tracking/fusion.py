@@ -20,9 +20,12 @@ for any unknown correlation.
 **An ADS-B failure lowers ADS-B's weight** (Dai Sec. 3.7: "adjust fusion weight"): the integrity monitor's
 degraded modes (integrity.py: position_loss, step, ramp, oscillation, inconsistent) widen the ADS-B track's
 position covariance by the detected fault size (IntegrityMonitor.widen, at least the NIC 7 containment radius),
-so A_ADS-B falls and the fused track falls back to the sensor's accuracy. Before the monitor's windows fire, a
-fault already shows as a disagreement with the sensor: a pair whose position difference fails the same gate as
-the association is fused without ADS-B (`consistent`), so a step is out at its first report.
+so A_ADS-B falls and the fused track falls back to the sensor's accuracy. A pair whose position difference fails
+the association's gate (`consistent`) has a suspect, named by the monitor: a degraded ADS-B, else the sensor
+(whose track then is off beyond its own covariance: active surveillance's 9-15 degree bearing has heavy tails);
+the suspect's covariance grows by the disagreement d d^T. The monitor tests ADS-B against itself (position
+against velocity), so a fault it has not yet seen is at most its detection threshold (about 160 m for a
+5-20 m/s ramp, docs/tracking.md "Integrity monitor").
 
 **Variable sampling period** (Dai Sec. 2.3, Table 1): the local filters sample their measurements every 1 s
 while the intruder is far, and, when it is near, faster as the position accuracy (NACp) worsens: 0.8 s at NACp
@@ -53,9 +56,8 @@ def optimal_fusion(xs: np.ndarray, p: np.ndarray):
     Returns x_0 (B, n), P_0 (B, n, n) and the weights A (B, L, n, n)."""
     b, big_l, n = xs.shape
     e = np.tile(np.eye(n), (big_l, 1))  # (L n, n)
-    p_inv, _ = spd_inverse(p)
-    et_pinv = e.T @ p_inv  # (B, n, L n)
-    p0, _ = spd_inverse(et_pinv @ e)
+    et_pinv = e.T @ np.linalg.inv(p)  # (B, n, L n); batched LAPACK (spd_inverse's unrolled form suits d <= 6)
+    p0 = np.linalg.inv(et_pinv @ e)
     a = p0 @ et_pinv  # (B, n, L n) = [A_1 ... A_L]
     x0 = (a @ xs.reshape(b, big_l * n, 1))[..., 0]
     return x0, 0.5 * (p0 + np.swapaxes(p0, 1, 2)), np.stack([a[:, :, i * n:(i + 1) * n] for i in range(big_l)], 1)
@@ -107,22 +109,31 @@ def consistent(adsb_x, adsb_p, sensor_x, sensor_p, gate_probability: float = 0.9
     return np.einsum("bi,bij,bj->b", r, s_inv, r) <= chi2_quantile(gate_probability, 3)
 
 
-def fuse(adsb_x, adsb_p, sensor_x, sensor_p, cross: str = "independent", gate_probability: float = 0.9999):
+def fuse(adsb_x, adsb_p, sensor_x, sensor_p, adsb_degraded=None, cross: str = "independent",
+         gate_probability: float = 0.9999):
     """The fused [e, n, alt, ve, vn, vu] state and covariance of paired tracks (B,) at one time. adsb_p: the ADS-B
     track's covariance as its tracker predicts it (ImmTracker.predict: widened by the integrity monitor's fault
-    size when degraded). A pair failing `consistent` keeps the sensor's estimate. Returns x (B, 6), P (B, 6, 6),
-    the ADS-B weight (B,) (trace share of A_ADS-B's position block) and the consistency (B,)."""
+    size when degraded); adsb_degraded (B,): the integrity monitor's verdict (None: all healthy). A pair failing
+    `consistent` has one suspect, the one the integrity monitor names: a degraded ADS-B, else the sensor (its
+    track is off beyond its own covariance: a bearing outlier, a bias); the suspect's position covariance grows by
+    the disagreement d d^T, so its weight along d falls. Returns x (B, 6), P (B, 6, 6), the ADS-B weight (B,)
+    (the mean diagonal of A_ADS-B's horizontal position block) and the consistency (B,)."""
     if cross not in CROSS:
         raise ValueError(f"cross must be one of {CROSS}, got {cross!r}")
+    degraded = np.zeros(len(adsb_x), bool) if adsb_degraded is None else np.asarray(adsb_degraded, bool)
     ok = consistent(adsb_x, adsb_p, sensor_x, sensor_p, gate_probability)
+    if not ok.all():
+        d = (adsb_x - sensor_x)[:, :3]
+        outer = np.where(ok[:, None, None], 0.0, d[:, :, None] * d[:, None, :])
+        adsb_p, sensor_p = adsb_p.copy(), sensor_p.copy()
+        adsb_p[:, :3, :3] += np.where(degraded[:, None, None], outer, 0.0)
+        sensor_p[:, :3, :3] += np.where(degraded[:, None, None], 0.0, outer)
     if cross == "ci":
         x, p, w = covariance_intersection(adsb_x, adsb_p, sensor_x, sensor_p)
     else:
         x, p, a = fuse_pair(adsb_x, adsb_p, sensor_x, sensor_p)
-        w = np.trace(a[:, 0, :3, :3], axis1=1, axis2=2) / 3.0
-    x = np.where(ok[:, None], x, sensor_x)
-    p = np.where(ok[:, None, None], p, sensor_p)
-    return x, p, np.where(ok, w, 0.0), ok
+        w = np.trace(a[:, 0, :2, :2], axis1=1, axis2=2) / 2.0  # the horizontal position weight
+    return x, p, w, ok
 
 
 def nacp(position_sigma_m) -> np.ndarray:

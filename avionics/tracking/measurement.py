@@ -10,14 +10,14 @@ The IMM banks (imm.py) measure the first components of their state linearly, so 
 as a *converted* measurement: the unbiased conversion of Mo, Song, Zhou, Sun & Bar-Shalom ("Unbiased converted
 measurements for tracking", IEEE TAES 34(3), 1998), with its covariance conditioned on the measurement. For an
 angle error w ~ N(0, s^2), E[cos(a - w)] = lam cos a and E[cos^2(a - w)] = (1 + lam2 cos 2a) / 2 with
-lam = exp(-s^2 / 2), lam2 = exp(-2 s^2); the classical conversion r (cos a, sin a) is biased by the factor lam
-(cross-range, 9 degrees of TCAS bearing error: 1.2 % of range, 240 m at 10 NM), the unbiased one divides it out,
-and its error covariance cov(z | x) = E[z z^T | x] - x x^T is estimated without bias from the measured values
-(every moment a product of the range's and the angles' moments: the errors are independent; `convert`). Why converted rather than an EKF update: the bank's
+lam = exp(-s^2 / 2), lam2 = exp(-2 s^2); the classical conversion r (sin a, cos a) is biased towards the sensor
+by (1 - lam) r (9 degrees of TCAS bearing error: 1.2 % of range, 230 m at 10 NM), the unbiased one divides lam
+out, and its error covariance is the one conditioned on the measurement (`convert`: every moment a product of
+the range's and the angles' moments, the errors being independent). Why converted rather than an EKF update: the bank's
 linear measurement model (Hwang's C = [I 0]) and its compiled kernels stay as they are, and at 9 degrees the
 EKF's linearisation about a cross-range error of 0.16 rad x range is the poor one (its residual is biased by the
-same lam); the debiased covariance is consistent where the linearised one is optimistic (tests/test_polar_tracking.py
-checks R against a Monte Carlo of the converted error).
+same lam); the conditioned covariance is consistent where the linearised one is optimistic
+(tests/test_polar_tracking.py checks R against a Monte Carlo of the converted error).
 """
 
 from __future__ import annotations
@@ -111,9 +111,8 @@ class PolarMeasurement:
 
 
 def _trig_products(a: np.ndarray, lam: np.ndarray, lam2: np.ndarray) -> np.ndarray:
-    """(B, 3, 3) products f_i f_j of f = (sin a, cos a, 1), each first harmonic scaled by lam and each second by
-    lam2: with lam, lam2 = 1/E[cos w], 1/E[cos 2w] this is the unbiased estimate, from a measured angle, of the
-    products at the true angle (E[cos(a + w)] = E[cos w] cos a for a symmetric error w)."""
+    """(B, 3, 3) expected products E[f_i f_j] of f = (sin, cos, 1) at a - w, w ~ N(0, s^2): the first harmonics
+    scaled by lam = E[cos w] = exp(-s^2 / 2), the second by lam2 = E[cos 2w] = exp(-2 s^2)."""
     s1, c1 = lam * np.sin(a), lam * np.cos(a)
     ss, cc, sc = 0.5 * (1 - lam2 * np.cos(2 * a)), 0.5 * (1 + lam2 * np.cos(2 * a)), 0.5 * lam2 * np.sin(2 * a)
     one = np.ones_like(a)
@@ -128,22 +127,26 @@ _B_FACTOR, _E_FACTOR = np.array([0, 1, 2]), np.array([1, 1, 0])
 def convert(range_m, bearing_rad, elevation_rad, range_sigma_m, bearing_sigma_rad, elevation_sigma_rad):
     """Unbiased converted measurement (Mo et al. 1998) of (slant range, bearing clockwise from north, elevation) to
     the relative [east, north, up] position, vectorised over B: z (B, 3) and its covariance R (B, 3, 3).
-    z = r (cos e sin b, cos e cos b, sin e) with each angle factor divided by its lam = E[cos w]. R is the unbiased
-    estimate of the conversion error's covariance at the true position, cov(z | x) = E[z z^T | x] - x x^T:
-    z z^T estimates the first term, (r^2 - s_r^2) times the unbiased estimates of the true angles' products
-    (_trig_products with 1/lam) the second; in 2-D, R11 = lam^-2 r^2 cos^2 b - (r^2 - s_r^2)(1 + cos 2b / lam2) / 2,
-    the same expectation as Mo et al.'s measurement-conditioned R but without its O(s^2) excess along range."""
-    r, b, e = (np.atleast_1d(np.asarray(v, float)) for v in (range_m, bearing_rad, elevation_rad))
-    sr, sb, se = (np.broadcast_to(np.asarray(v, float), r.shape) for v in (range_sigma_m, bearing_sigma_rad,
-                                                                          elevation_sigma_rad))
+    z = r (cos e sin b, cos e cos b, sin e) with each angle factor divided by its lam = E[cos w]. R is Mo et al.'s
+    covariance conditioned on the measurement, E[(z - x)(z - x)^T | z] = z z^T - z m^T - m z^T + E[x x^T | z] with
+    m = E[x | z], the moments those of the true angles about the measured ones (_trig_products); in 2-D
+    R11 = (lam^-2 - 2) r^2 cos^2 b + (r^2 + s_r^2)(1 + lam2 cos 2b) / 2. A second moment, so positive definite
+    for any error size, and consistent: the normalised error (z - x)^T R^-1 (z - x) averages the dimension (the
+    unbiased estimate of the covariance at the true position is neither: it goes negative along range beyond about
+    12 degrees of bearing error, and evaluated at the measured point it halves the normalised error at 9 degrees,
+    as the truth lies off the measured line of sight)."""
+    r, b, e, sr, sb, se = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float)) for v in (
+        range_m, bearing_rad, elevation_rad, range_sigma_m, bearing_sigma_rad, elevation_sigma_rad)))
     lam_b, lam_e = np.exp(-0.5 * sb**2), np.exp(-0.5 * se**2)  # E[cos w]
     unit = np.stack([np.cos(e) * np.sin(b), np.cos(e) * np.cos(b), np.sin(e)], axis=-1)
     scale = np.stack([lam_b * lam_e, lam_b * lam_e, lam_e], axis=-1)
     z = r[:, None] * unit / scale
-    tb = _trig_products(b, 1.0 / lam_b, np.exp(2.0 * sb**2))
-    te = _trig_products(e, 1.0 / lam_e, np.exp(2.0 * se**2))
-    truth_outer = tb[:, _B_FACTOR[:, None], _B_FACTOR[None, :]] * te[:, _E_FACTOR[:, None], _E_FACTOR[None, :]]
-    cov = z[:, :, None] * z[:, None, :] - (r**2 - sr**2)[:, None, None] * truth_outer
+    tb = _trig_products(b, lam_b, np.exp(-2.0 * sb**2))  # moments of the true angle about the measured one
+    te = _trig_products(e, lam_e, np.exp(-2.0 * se**2))
+    mean = r[:, None] * tb[:, _B_FACTOR, 2] * te[:, _E_FACTOR, 2]  # E[x | z]
+    second = ((r**2 + sr**2)[:, None, None] * tb[:, _B_FACTOR[:, None], _B_FACTOR[None, :]]
+              * te[:, _E_FACTOR[:, None], _E_FACTOR[None, :]])  # E[x x^T | z]
+    cov = z[:, :, None] * z[:, None, :] - z[:, :, None] * mean[:, None, :] - mean[:, :, None] * z[:, None, :] + second
     return z, 0.5 * (cov + np.swapaxes(cov, 1, 2))
 
 
