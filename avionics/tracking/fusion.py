@@ -24,8 +24,8 @@ so A_ADS-B falls and the fused track falls back to the sensor's accuracy. A pair
 the association's gate (`consistent`) has a suspect, named by the monitor: a degraded ADS-B, else the sensor
 (whose track then is off beyond its own covariance: active surveillance's 9-15 degree bearing has heavy tails);
 the suspect's covariance grows by the disagreement d d^T. The monitor tests ADS-B against itself (position
-against velocity), so a fault it has not yet seen is at most its detection threshold (about 160 m for a
-5-20 m/s ramp, docs/tracking.md "Integrity monitor").
+against velocity), so a fault it has not yet seen is below its detection threshold (about 5.7 sigma of its
+window's covariance, docs/tracking.md "Integrity monitor"): ADS-B keeps its weight until then.
 
 **Variable sampling period** (Dai Sec. 2.3, Table 1): the local filters sample their measurements every 1 s
 while the intruder is far, and, when it is near, faster as the position accuracy (NACp) worsens: 0.8 s at NACp
