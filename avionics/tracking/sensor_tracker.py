@@ -11,7 +11,7 @@ Lifecycle (Blackman & Popoli 1999, Sec. 3.3, M-of-N confirmation):
   ADS-B tracker's honest prior, record.UNKNOWN_SPEED_SIGMA_MPS);
 - a tentative track is confirmed once it was detected in M of its last N scans (default 3 of 5: at the radar's
   10 Hz, half a second; at active surveillance's 1 Hz, five seconds), and dropped once it no longer can be;
-- a confirmed track is deleted after delete_after_s without a detection.
+- a confirmed track is deleted after delete_after_s (20 s, [tracking]'s) without a detection.
 Only confirmed tracks are published (`confirmed`); `predict` gives them in the pipeline's [e, n, alt, ve, vn, vu].
 A measurement that fails PolarMeasurement.problem() is counted `sensor.rejected` and goes no further.
 """
@@ -45,12 +45,15 @@ class SensorTrack:
 
 
 class SensorTracker:
-    """Tracks of one sensor (or several of the same kind). h_modes, v_modes: the IMM's motion models (as the ADS-B
-    tracker's, models.MotionModel objects); confirm (M, N); gate_probability: the chi-square gate of a report
-    against a track's prediction (3 dof: east, north, altitude)."""
+    """Tracks of one sensor (or several of the same kind: merge their detections of one instant into one scan).
+    h_modes, v_modes: the IMM's motion models (as the ADS-B tracker's, models.MotionModel objects); confirm (M, N);
+    gate_probability: the chi-square gate of a report against a track's prediction (3 dof: east, north, altitude);
+    switch_probability, gate_probability, delete_after_s and initial_accel_sigma_mps2 default to [tracking]'s
+    imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
+    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing)."""
 
     def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05, confirm: tuple[int, int] = (3, 5),
-                 gate_probability: float = 0.9999, delete_after_s: float = 6.0, initial_accel_sigma_mps2: float = 3.0,
+                 gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
                  counters: Counter | None = None, capacity: int = 16):
         m, n = confirm
         if not 1 <= m <= n:
