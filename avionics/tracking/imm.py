@@ -241,16 +241,22 @@ class ImmBank:
             return x, p
         return combine(self.x[slots], self.p[slots], self.mu[slots])
 
-    def update(self, slots, dt, z: np.ndarray, mask: np.ndarray, r_var: np.ndarray) -> Pending:
+    def update(self, slots, dt, z: np.ndarray, mask: np.ndarray, r_var: np.ndarray,
+               r_cov: np.ndarray | None = None) -> Pending:
         """One IMM cycle for the slots with measurements z (B, d), mask (B, d) of measured components and
-        measurement variances r_var (B, d) (ignored under VB, which estimates them). Nothing is stored."""
+        measurement variances r_var (B, d) (ignored under VB, which estimates them). Nothing is stored.
+        r_cov (B, d, d): a full measurement covariance instead of r_var's diagonal, for measurements whose
+        components are correlated (a polar measurement converted to east, north: measurement.py); it runs the
+        numpy reference below (the compiled kernels take a diagonal) and not under VB (a diagonal estimate)."""
         slots = np.atleast_1d(slots)
         b, d = len(slots), self.d
         dt = np.broadcast_to(np.asarray(dt, float), slots.shape)
         mask = np.asarray(mask, bool).reshape(b, d)
         mf = mask.astype(float)
         z = np.where(mask, np.asarray(z, float).reshape(b, d), 0.0)
-        if self.compiled:
+        if r_cov is not None and self.vb is not None:
+            raise ValueError("a full measurement covariance cannot be learnt by the diagonal VB estimate")
+        if self.compiled and r_cov is None:
             return self._update_compiled(slots, dt, z, mask, r_var)
         cbar, x0, xp, pp, fm = self._interact_predict(slots, dt)
         # combined prediction (eqs 16-17 on the priors): its mean, and the variance of its first two components
@@ -266,7 +272,8 @@ class ImmBank:
 
         # Mode-matched update (Dai eqs 30-36), masked components: zero residual, unit variance, no gain.
         full = mask.all()
-        s = pp[:, :, :d, :d] + r_var[:, None, :, None] * np.eye(d)  # eq 32 (masked: 1 on the diagonal)
+        r_mat = r_var[:, None, :, None] * np.eye(d) if r_cov is None else np.asarray(r_cov, float).reshape(b, 1, d, d)
+        s = pp[:, :, :d, :d] + r_mat  # eq 32 (masked: 1 on the diagonal)
         r = z[:, None, :] - xp[:, :, :d]  # eq 30
         pht = pp[:, :, :, :d]  # P H^T
         if not full:

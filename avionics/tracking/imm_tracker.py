@@ -275,14 +275,7 @@ class ImmTracker(TrackLifecycle):
 
     # -- outputs -----------------------------------------------------------------------------------------
     def _assemble(self, xh, ph, xv, pv):
-        n = len(xh)
-        xs = np.empty((n, 6))
-        xs[:, PIPE_FROM_H] = xh[:, :4]
-        xs[:, PIPE_FROM_V] = xv
-        ps = np.zeros((n, 6, 6))
-        ps[:, PIPE_FROM_H[:, None], PIPE_FROM_H[None, :]] = ph[:, :4, :4]
-        ps[:, PIPE_FROM_V[:, None], PIPE_FROM_V[None, :]] = pv
-        return xs, ps
+        return assemble(xh, ph, xv, pv)
 
     def _posterior(self, slots: np.ndarray):
         if self.compiled:
@@ -345,3 +338,16 @@ class ImmTracker(TrackLifecycle):
             "vb_noise": nz,
         } for mh, mv, bh, bv, td, nz in zip(mu_h.tolist(), mu_v.tolist(), best_h.tolist(), best_v.tolist(),
                                              turn_dps.tolist(), noise)]
+
+
+def assemble(xh, ph, xv, pv) -> tuple[np.ndarray, np.ndarray]:
+    """The banks' combined horizontal [x, y, vx, vy, ...] and vertical [z, vz] states as the pipeline's
+    [e, n, alt, ve, vn, vu] and 6 x 6 covariance (horizontal-vertical cross terms zero: decoupled banks)."""
+    n = len(xh)
+    xs = np.empty((n, 6))
+    xs[:, PIPE_FROM_H] = xh[:, :4]
+    xs[:, PIPE_FROM_V] = xv
+    ps = np.zeros((n, 6, 6))
+    ps[:, PIPE_FROM_H[:, None], PIPE_FROM_H[None, :]] = ph[:, :4, :4]
+    ps[:, PIPE_FROM_V[:, None], PIPE_FROM_V[None, :]] = pv
+    return xs, ps

@@ -1,0 +1,204 @@
+"""Tracks of aircraft seen only by a range/bearing sensor (radar, active surveillance): reports without identity.
+
+Each scan's measurements (measurement.PolarMeasurement, one sensor, one time) are converted to the tracking frame
+(measurement.to_tracking_frame: the unbiased conversion and its covariance), associated with the tracks by gate and
+global nearest neighbour (association.py) and applied to the same IMM banks as ADS-B's (imm.ImmBank: horizontal
+[x, y, vx, vy, ax, ay], vertical [z, vz]) with the converted measurement's full 2 x 2 covariance (ImmBank.update's
+r_cov).
+
+Lifecycle (Blackman & Popoli 1999, Sec. 3.3, M-of-N confirmation):
+- an unassociated measurement starts a tentative track (position at its converted covariance, velocity at the
+  ADS-B tracker's honest prior, record.UNKNOWN_SPEED_SIGMA_MPS);
+- a tentative track is confirmed once it was detected in M of its last N scans (default 3 of 5: at the radar's
+  10 Hz, half a second; at active surveillance's 1 Hz, five seconds), and dropped once it no longer can be;
+- a confirmed track is deleted after delete_after_s (20 s, [tracking]'s) without a detection.
+Only confirmed tracks are published (`confirmed`); `predict` gives them in the pipeline's [e, n, alt, ve, vn, vu].
+A measurement that fails PolarMeasurement.problem() is counted `sensor.rejected` and goes no further.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import Counter, deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from avionics.core.chi2 import chi2_quantile
+from avionics.tracking import models
+from avionics.tracking.association import gnn
+from avionics.tracking.imm import ImmBank, spd_inverse
+from avionics.tracking.imm_tracker import assemble
+from avionics.tracking.measurement import PolarMeasurement, to_tracking_frame
+from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS
+
+
+@dataclass
+class SensorTrack:
+    track_id: int
+    slot: int
+    t_s: float  # time of the last detection applied
+    hits: deque = field(default_factory=deque)  # detected (True) or missed in each of the last N scans
+    confirmed: bool = False
+    n_updates: int = 1
+    address: int | None = None  # a Mode S reply's address, if any report carried one
+
+
+class SensorTracker:
+    """Tracks of one sensor (or several of the same kind: merge their detections of one instant into one scan).
+    h_modes, v_modes: the IMM's motion models (as the ADS-B tracker's, models.MotionModel objects); confirm (M, N);
+    gate_probability: the chi-square gate of a report against a track's prediction (3 dof: east, north, altitude);
+    switch_probability, gate_probability, delete_after_s and initial_accel_sigma_mps2 default to [tracking]'s
+    imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
+    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing)."""
+
+    def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05, confirm: tuple[int, int] = (3, 5),
+                 gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
+                 counters: Counter | None = None, capacity: int = 16):
+        m, n = confirm
+        if not 1 <= m <= n:
+            raise ValueError(f"confirmation needs 1 <= M <= N, got {confirm}")
+        self.m, self.n = m, n
+        self.gate = chi2_quantile(gate_probability, 3)
+        self.delete_after_s = delete_after_s
+        self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
+        self.counters = counters if counters is not None else Counter()
+        self.bank_h = ImmBank(list(h_modes), 4, models.switching_matrix(len(h_modes), switch_probability),
+                              capacity=capacity)
+        self.bank_v = ImmBank(list(v_modes), 2, models.switching_matrix(len(v_modes), switch_probability),
+                              capacity=capacity)
+        self.tracks: dict[int, SensorTrack] = {}
+        self._free = list(range(capacity - 1, -1, -1))
+        self._ids = itertools.count(1)
+
+    @property
+    def confirmed(self) -> list[SensorTrack]:
+        return [t for t in self.tracks.values() if t.confirmed]
+
+    # -- one scan --------------------------------------------------------------------------------------------
+    def scan(self, t_s: float, measurements: list[PolarMeasurement], own_enu, own_heading_rad) -> list:
+        """Apply one scan at t_s (its measurements; an empty scan counts as a miss for every track). Returns, per
+        measurement, the id of the track it updated or started (None: rejected)."""
+        good = []
+        for i, m in enumerate(measurements):
+            why = m.problem()
+            if why is None and abs(m.time_s - t_s) <= 1e-6:
+                good.append(i)
+            else:
+                self.counters["sensor.rejected"] += 1
+        out: list = [None] * len(measurements)
+        meas = [measurements[i] for i in good]
+        tracks = [t for t in self.tracks.values() if t.t_s < t_s]
+        pairs = []
+        if meas:
+            z_h, r_h, z_v, r_v = to_tracking_frame(meas, own_enu, own_heading_rad)
+            if tracks:
+                d2 = self._distances(tracks, t_s, z_h, r_h, z_v, r_v)
+                pairs = gnn(d2, self.gate)
+            taken = {j for _, j in pairs}
+            if pairs:
+                self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)))
+                for i, j in pairs:
+                    out[good[j]] = tracks[i].track_id
+                    if meas[j].address is not None:
+                        tracks[i].address = meas[j].address
+            new = [j for j in range(len(meas)) if j not in taken]
+            if new:
+                for j, trk in zip(new, self._start(t_s, *(a[new] for a in (z_h, r_h, z_v, r_v)))):
+                    trk.address = meas[j].address
+                    out[good[j]] = trk.track_id
+        hit = {tracks[i].track_id for i, _ in pairs}
+        for trk in tracks:
+            trk.hits.append(trk.track_id in hit)
+            while len(trk.hits) > self.n:
+                trk.hits.popleft()
+            self._review(trk, t_s)
+        return out
+
+    def _distances(self, tracks, t_s, z_h, r_h, z_v, r_v) -> np.ndarray:
+        """d^2 (T, M) of each measurement against each track's prediction at t_s (horizontal and altitude)."""
+        slots = np.array([t.slot for t in tracks])
+        dt = t_s - np.array([t.t_s for t in tracks])
+        xh, ph, _ = self.bank_h.predict(slots, dt)
+        xv, pv, _ = self.bank_v.predict(slots, dt)
+        rh = xh[:, None, :2] - z_h[None, :, :]  # (T, M, 2)
+        s_inv, _ = spd_inverse(ph[:, None, :2, :2] + r_h[None])
+        d_h = np.einsum("tmi,tmij,tmj->tm", rh, s_inv, rh)
+        d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
+        return d_h + d_v
+
+    def _update(self, tracks, t_s, z_h, r_h, z_v, r_v) -> None:
+        b = len(tracks)
+        slots = np.array([t.slot for t in tracks])
+        dt = t_s - np.array([t.t_s for t in tracks])
+        zh = np.zeros((b, 4))
+        zh[:, :2] = z_h
+        mh = np.zeros((b, 4), bool)
+        mh[:, :2] = True
+        rc = np.tile(np.eye(4), (b, 1, 1))
+        rc[:, :2, :2] = r_h
+        zv = np.zeros((b, 2))
+        zv[:, 0] = z_v
+        mv = np.array([[True, False]] * b)
+        self.bank_h.commit(self.bank_h.update(slots, dt, zh, mh, np.ones((b, 4)), r_cov=rc))
+        self.bank_v.commit(self.bank_v.update(slots, dt, zv, mv, np.stack([r_v, np.ones(b)], axis=1)))
+        for trk in tracks:
+            trk.t_s = t_s
+            trk.n_updates += 1
+
+    def _start(self, t_s, z_h, r_h, z_v, r_v) -> list[SensorTrack]:
+        b = len(z_h)
+        if len(self._free) < b:
+            old = self.bank_h.capacity
+            new = max(2 * old, old + b)
+            self.bank_h.grow(new)
+            self.bank_v.grow(new)
+            self._free = list(range(new - 1, old - 1, -1)) + self._free
+        slots = np.array([self._free.pop() for _ in range(b)])
+        x = np.zeros((b, 6))
+        x[:, :2] = z_h
+        p = np.zeros((b, 6, 6))
+        p[:, :2, :2] = r_h
+        p[:, 2, 2] = p[:, 3, 3] = UNKNOWN_SPEED_SIGMA_MPS**2
+        p[:, 4, 4] = p[:, 5, 5] = self.initial_accel_sigma_mps2**2
+        self.bank_h.init(slots, x, p)
+        xv = np.stack([z_v, np.zeros(b)], axis=1)
+        pv = np.zeros((b, 2, 2))
+        pv[:, 0, 0], pv[:, 1, 1] = r_v, UNKNOWN_VRATE_SIGMA_MPS**2
+        self.bank_v.init(slots, xv, pv)
+        out = []
+        for s in slots:
+            trk = SensorTrack(next(self._ids), int(s), t_s, deque([True]), confirmed=self.m == 1)
+            self.tracks[trk.track_id] = trk
+            self.counters["sensor.track_started"] += 1
+            out.append(trk)
+        return out
+
+    def _review(self, trk: SensorTrack, t_s: float) -> None:
+        """M-of-N confirmation of a tentative track, deletion of a hopeless or a silent one."""
+        if not trk.confirmed:
+            if sum(trk.hits) >= self.m:
+                trk.confirmed = True
+                self.counters["sensor.track_confirmed"] += 1
+            elif sum(trk.hits) + (self.n - len(trk.hits)) < self.m:
+                self._delete(trk, "sensor.tentative_dropped")
+        elif t_s - trk.t_s > self.delete_after_s:
+            self._delete(trk, "sensor.track_deleted")
+
+    def _delete(self, trk: SensorTrack, counter: str) -> None:
+        del self.tracks[trk.track_id]
+        self._free.append(trk.slot)
+        self.counters[counter] += 1
+
+    # -- outputs ---------------------------------------------------------------------------------------------
+    def predict(self, track_ids, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """States (N, 6) [east, north, alt, v_east, v_north, v_up] and covariances (N, 6, 6) at t_s."""
+        if not len(track_ids):
+            return np.empty((0, 6)), np.empty((0, 6, 6))
+        trks = [self.tracks[i] for i in track_ids]
+        slots = np.array([t.slot for t in trks])
+        dt = t_s - np.array([t.t_s for t in trks])
+        xh, ph, _ = self.bank_h.predict(slots, dt)
+        xv, pv, _ = self.bank_v.predict(slots, dt)
+        return assemble(xh, ph, xv, pv)
+
