@@ -93,6 +93,13 @@ def test_docs_zenoh_field_tables_are_the_contract(heading, fields, nested):
         assert not units or field.unit in units, (name, units, field.unit)
 
 
+def test_docs_zenoh_key_expressions_are_the_contracts():
+    documented = {re.fullmatch(r"`<prefix>/<vehicle>/(.+)`", cells[0]).group(1)
+                  for heading in ("## Key expressions", "### More key expressions")
+                  for cells in doc_table("zenoh.md", heading)}
+    assert documented == set(contract.KEYS)
+
+
 MAVLINK_TABLES = [("### DAA_ADVISORY", contract_mavlink.DAA_ADVISORY, "daa_advisory"),
                   ("### DAA_BANDS", contract_mavlink.DAA_BANDS, "daa_bands")]
 

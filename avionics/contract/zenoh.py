@@ -27,8 +27,6 @@ KEYS = {
     "snapshot": "queryable: the current picture and the recent advisory changes",
     "alive": "liveliness token, held while the process runs",
 }
-# the published kinds (the first chunk of the key under the vehicle)
-KINDS = tuple(dict.fromkeys(k.split("/")[0] for k in KEYS if k not in ("snapshot", "alive")))
 
 COMMON = (
     integer("schema", SCHEMA, "the payload's version: SCHEMA_VERSION"),
