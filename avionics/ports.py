@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import IO, Protocol
 
 from avionics.config import Config
+from avionics.contract.advisory_csv import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS, GUIDANCE_ROW
 from avionics.core.schedule import Every
 from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
@@ -88,6 +89,77 @@ class AdvisoryRefresh:
         self._earliest = math.inf
 
 
+CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
+
+
+class CallsignMemory:
+    """Callsigns outlive the track that had them (a restarted or failed track's new record has none until a report
+    brings it; receivers send it only now and then): kept CALLSIGN_MEMORY_S after the intruder was last in a result
+    (every intruder of the result once a second, the changed ones at once)."""
+
+    def __init__(self):
+        self._callsigns: dict = {}  # intruder -> (the last callsign known, when it was last an intruder of a result)
+        self._next_prune_s = 0.0
+        self._next_sweep_s = 0.0
+
+    def remember(self, result: DaaResult) -> None:
+        now = result.time_s
+        if now >= self._next_sweep_s:
+            self._next_sweep_s = now + 1.0
+            seen = result.callsigns.items()
+        else:
+            seen = ((a.intruder, result.callsigns.get(a.intruder)) for a in result.changes)
+        for key, callsign in seen:
+            if callsign:
+                self._callsigns[key] = (callsign, now)
+            elif key in self._callsigns:
+                self._callsigns[key] = (self._callsigns[key][0], now)
+        for track in result.tracks or ():
+            if track.callsign:
+                self._callsigns[track.key] = (track.callsign, now)
+        if now >= self._next_prune_s:
+            self._next_prune_s = now + CALLSIGN_MEMORY_S
+            for key in [k for k, (_, seen) in self._callsigns.items() if now - seen > CALLSIGN_MEMORY_S]:
+                del self._callsigns[key]
+
+    def callsign(self, result: DaaResult, intruder) -> str | None:
+        """The intruder's callsign now, else the last one known, else None (a text then says its zenoh id)."""
+        known = self._callsigns.get(intruder)
+        return result.callsigns.get(intruder) or (known[0] if known else None)
+
+
+class AdvisoryAnnouncements:
+    """What the advisory ports (MAVLink and zenoh) send of each result: its changes, then the active advisories
+    whose refresh is due, each with the callsign to name its intruder by. One refresh clock and one callsign memory
+    for both ports (build one and give it to each), so that both send the same advisories at the same steps and
+    name an intruder alike, also after its track was dropped. Computed once per result, whichever port asks first
+    (a port whose publish fails does not take the other's refreshes with it)."""
+
+    def __init__(self, refresh_period_s: float):
+        self._refresh = AdvisoryRefresh(refresh_period_s)
+        self._callsigns = CallsignMemory()
+        self._result: DaaResult | None = None
+        self._due: tuple = ((), ())
+
+    @classmethod
+    def of(cls, config: Config) -> "AdvisoryAnnouncements":
+        return cls(config.mavlink.collision_refresh_s)
+
+    def due(self, result: DaaResult) -> tuple[list, list]:
+        """(changes, refreshes) of the result: lists of (advisory, callsign)."""
+        if result is not self._result:
+            self._callsigns.remember(result)
+            now = result.time_s
+            changes = [(a, self._callsigns.callsign(result, a.intruder)) for a in result.changes]
+            for advisory in result.changes:
+                self._refresh.changed(advisory, now)
+            if result.final:
+                self._refresh.clear()
+            refreshes = [(a, self._callsigns.callsign(result, a.intruder)) for a in self._refresh.due(result)]
+            self._result, self._due = result, (changes, refreshes)  # after: a raise is not remembered as done
+        return self._due
+
+
 REJECTED_SENDER_REPEAT_S = 10.0  # a rejected sender that goes on is announced again this often
 
 
@@ -114,7 +186,6 @@ class RejectedSenders:
         return text if len(due) == 1 else f"{text} +{len(due) - 1}"[:encode.STATUSTEXT_LEN]
 
 
-CALLSIGN_MEMORY_S = 300.0  # a callsign is remembered this long after its intruder was last seen
 REBROADCAST_MAX = 50  # ADSB_VEHICLE per re-broadcast cycle (a ground station's display; ~2 kB at 1 Hz)
 
 
@@ -125,9 +196,11 @@ class MavlinkOut:
     as STATUSTEXT; HEARTBEAT with
     system_status STANDBY (no ownship fix yet) / ACTIVE / CRITICAL (DAA unavailable) / POWEROFF (stopped). An
     intruder is named by its callsign whenever one was ever known, also after its track is gone. send: a link's
-    send(msg). sinks: the output sinks' health (avionics/io/sinks.py): each new fault is one STATUSTEXT."""
+    send(msg). sinks: the output sinks' health (avionics/io/sinks.py): each new fault is one STATUSTEXT.
+    advisories: the announcements shared with the zenoh port (without one, its own)."""
 
-    def __init__(self, send, config: Config, send_as=None, sinks: SinkHealth | None = None):
+    def __init__(self, send, config: Config, send_as=None, sinks: SinkHealth | None = None,
+                 advisories: AdvisoryAnnouncements | None = None):
         self._send = send
         self._sinks = sinks
         self._sink_faults_sent = 0
@@ -140,11 +213,8 @@ class MavlinkOut:
         self._rebroadcast_component = m.traffic_rebroadcast_component
         self._send_as = send_as if send_as is not None else (lambda msg, _component: send(msg))
         self._rebroadcast_now = False
-        self._callsigns: dict = {}  # intruder -> (the last callsign known, when it was last an intruder of a result)
-        self._next_prune_s = 0.0
-        self._next_sweep_s = 0.0
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
-        self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
+        self._advisories = advisories or AdvisoryAnnouncements.of(config)
         self._rejected = RejectedSenders(REJECTED_SENDER_REPEAT_S)
         # io/diagnostics.py: one STATUSTEXT per wiring condition's onset (stderr repeats it, not the autopilot's
         # screen); all the active ones again when MAVLink arrives after none (an autopilot that joins a udpin link
@@ -155,48 +225,16 @@ class MavlinkOut:
         self._rebroadcast_now = self._rebroadcast is not None and self._rebroadcast.due(now_s)
         return Demand(tracks=True) if self._rebroadcast_now else NOTHING
 
-    def _remember_callsigns(self, result: DaaResult) -> None:
-        """Callsigns outlive the track that had them (a restarted or failed track's new record has none until a
-        report brings it; receivers send it only now and then): kept CALLSIGN_MEMORY_S after the intruder was
-        last in a result (every intruder of the result once a second, the changed ones at once)."""
-        now = result.time_s
-        if now >= self._next_sweep_s:
-            self._next_sweep_s = now + 1.0
-            seen = result.callsigns.items()
-        else:
-            seen = ((a.intruder, result.callsigns.get(a.intruder)) for a in result.changes)
-        for key, callsign in seen:
-            if callsign:
-                self._callsigns[key] = (callsign, now)
-            elif key in self._callsigns:
-                self._callsigns[key] = (self._callsigns[key][0], now)
-        for track in result.tracks or ():
-            if track.callsign:
-                self._callsigns[track.key] = (track.callsign, now)
-        if now >= self._next_prune_s:
-            self._next_prune_s = now + CALLSIGN_MEMORY_S
-            for key in [k for k, (_, seen) in self._callsigns.items() if now - seen > CALLSIGN_MEMORY_S]:
-                del self._callsigns[key]
-
-    def _callsign(self, result: DaaResult, intruder) -> str | None:
-        """The intruder's callsign now, else the last one known, else None (the text then says its zenoh id)."""
-        known = self._callsigns.get(intruder)
-        return result.callsigns.get(intruder) or (known[0] if known else None)
-
     def publish(self, result: DaaResult) -> None:
         now = result.time_s
-        self._remember_callsigns(result)
-        for advisory in result.changes:
-            callsign = self._callsign(result, advisory.intruder)
+        changes, refreshes = self._advisories.due(result)
+        for advisory, callsign in changes:
             self._advisory(advisory, callsign)
             if self._statustext:
                 self._send(encode.statustext(encode.advisory_text(advisory, callsign),
                                              encode.advisory_severity(advisory)))
-            self._refresh.changed(advisory, now)
-        if result.final:
-            self._refresh.clear()
-        for advisory in self._refresh.due(result):
-            self._advisory(advisory, self._callsign(result, advisory.intruder))
+        for advisory, callsign in refreshes:
+            self._advisory(advisory, callsign)
         for message in encode.daa_bands(result.bands) if result.bands is not None else ():
             self._send(message)
         if result.availability_changed and self._statustext:
@@ -250,15 +288,17 @@ class ZenohOut:
     some per-track `tracks/<intruder>` samples: a new track's at once, then each track's every TRACK_KEYS_PERIOD_S,
     spread round-robin over the ticks; ownship and status at zenoh.status_hz. publish: a ZenohBus's
     publish(suffix, payload). sinks: the output sinks' health (avionics/io/sinks.py), in the status as
-    `output_faults` and `warnings`."""
+    `output_faults` and `warnings`. advisories: the announcements shared with the MAVLink port (without one, its
+    own)."""
 
-    def __init__(self, publish, config: Config, sinks: SinkHealth | None = None):
+    def __init__(self, publish, config: Config, sinks: SinkHealth | None = None,
+                 advisories: AdvisoryAnnouncements | None = None):
         self._publish = publish
         self._sinks = sinks
         self.vehicle = config.vehicle.id
         self._tracks = Every(1.0 / config.zenoh.tracks_hz)
         self._status = Every(1.0 / config.zenoh.status_hz)
-        self._refresh = AdvisoryRefresh(config.mavlink.collision_refresh_s)
+        self._advisories = advisories or AdvisoryAnnouncements.of(config)
         self._wanted = NOTHING
         self._profile = config.advisory.profile
         self._keys_per_tick = TRACK_KEYS_PERIOD_S * config.zenoh.tracks_hz  # ticks per round of per-track keys
@@ -270,13 +310,9 @@ class ZenohOut:
         return self._wanted
 
     def publish(self, result: DaaResult) -> None:
-        for advisory in result.changes:
-            self._advisory(advisory, result)
-            self._refresh.changed(advisory, result.time_s)
-        if result.final:
-            self._refresh.clear()
-        for advisory in self._refresh.due(result):
-            self._advisory(advisory, result)
+        changes, refreshes = self._advisories.due(result)
+        for advisory, callsign in changes + refreshes:
+            self._publish(f"advisories/{advisory.intruder}", advisory_payload(self.vehicle, advisory, callsign))
         if result.guidance is not None and (result.guidance_changed or result.status is not None):
             self._publish("guidance", guidance_payload(self.vehicle, result.guidance))  # on change and with status
         if result.tracks is not None:
@@ -305,10 +341,6 @@ class ZenohOut:
         self._keyed = {t.key for t in tracks}
         for track in due:
             self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, now_s))
-
-    def _advisory(self, advisory: Advisory, result: DaaResult) -> None:
-        self._publish(f"advisories/{advisory.intruder}",
-                      advisory_payload(self.vehicle, advisory, result.callsigns.get(advisory.intruder)))
 
     def close(self) -> None:
         pass
@@ -352,12 +384,6 @@ class LogOut:
         pass
 
 
-# The advisory CSV (`sitl replay --out`, `avionics run --csv`): one row per advisory change.
-CSV_COLUMNS = ("time_s", "intruder", "advisory", "ra", "ra_sense", "target_vertical_rate_mps", "name", "reason",
-               "sensitivity_level", "range_m", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",
-               "mod_tau_s", "vertical_tau_s", "ra_separation_m", "alert_level", "alert_name", "ra_composite")
-
-
 def csv_row(a: Advisory, name: str = "") -> dict:
     """An advisory change as a CSV row: times to 0.01 s, numbers to 0.001, unknown and infinite values empty."""
     def num(v):
@@ -373,12 +399,6 @@ def csv_row(a: Advisory, name: str = "") -> dict:
         "vertical_tau_s": num(a.vertical_tau_s), "alert_level": a.alert()[0], "alert_name": a.alert()[1],
         "ra_composite": "1" if a.ra_composite else "",
     }
-
-
-# With guidance (guidance.mode advise or execute) the CSV has these columns too: every row carries the guidance's
-# decision of its step, and a change of the guidance's state is a row of its own (advisory `GUIDANCE`).
-GUIDANCE_CSV_COLUMNS = ("guidance_state", "guidance_manoeuvre", "guidance_target_vertical_rate_mps",
-                        "guidance_target_track_deg", "guidance_reason", "autopilot_mode")
 
 
 def guidance_cells(decision) -> dict:
@@ -415,7 +435,7 @@ class CsvOut:
             for row in rows:
                 row.update(cells)
             if result.guidance_changed:
-                rows.append({**{c: "" for c in CSV_COLUMNS}, "time_s": f"{result.time_s:.2f}", "advisory": "GUIDANCE",
+                rows.append({**{c: "" for c in CSV_COLUMNS}, "time_s": f"{result.time_s:.2f}", "advisory": GUIDANCE_ROW,
                              **cells})
         if rows:
             self._writer.writerows(rows)

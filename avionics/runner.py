@@ -27,7 +27,7 @@ from avionics.io.feeds.source import FeedSet, TrafficSource
 from avionics.io.link import MavlinkLink
 from avionics.io.sinks import FileSink, SinkHealth
 from avionics.loop import LinkSource, Loop, MavlinkInput
-from avionics.ports import CsvOut, LogOut, MavlinkOut, ZenohOut
+from avionics.ports import AdvisoryAnnouncements, CsvOut, LogOut, MavlinkOut, ZenohOut
 
 log = logging.getLogger("avionics")
 SHUTDOWN_FLUSH_S = 5.0  # how long the last zenoh samples (the shutdown NONEs first) may take to go out
@@ -57,9 +57,11 @@ class Runner:
 
             # queued, never blocks
             self.bus = ZenohBus(config.zenoh, config.vehicle.id, counters=self.counters, sinks=self.sinks)
-        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as, sinks=self.sinks), LogOut(log)]
+        advisories = AdvisoryAnnouncements.of(config)  # one refresh clock and callsign memory for both ports
+        ports = [MavlinkOut(self.link.send, config, send_as=self.link.send_as, sinks=self.sinks,
+                            advisories=advisories), LogOut(log)]
         if self.bus is not None:
-            ports.append(ZenohOut(self.bus.publish, config, sinks=self.sinks))
+            ports.append(ZenohOut(self.bus.publish, config, sinks=self.sinks, advisories=advisories))
         self._csv = FileSink("csv", csv_out, "w", self.sinks, newline="") if csv_out else None
         if self._csv is not None:
             ports.append(CsvOut(self._csv, guidance=config.guidance.mode != "passive"))

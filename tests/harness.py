@@ -10,7 +10,7 @@ from avionics.config import Config
 from avionics.daa import Daa, DaaResult
 from avionics.io.payloads import track_payload
 from avionics.loop import Batch, Loop, MavlinkInput
-from avionics.ports import MavlinkOut, ZenohOut
+from avionics.ports import AdvisoryAnnouncements, MavlinkOut, ZenohOut
 
 
 class Harness:
@@ -21,8 +21,10 @@ class Harness:
         self.zenoh_out: list[tuple[str, dict]] = []
         self.input = MavlinkInput(config, self.counters)
         self.daa = Daa(config, self.counters)
-        ports = [MavlinkOut(self.mavlink_out.append, config)]
-        self.zenoh = ZenohOut(lambda suffix, payload: self.zenoh_out.append((suffix, payload)), config)
+        advisories = AdvisoryAnnouncements.of(config)  # as avionics run wires the two ports
+        ports = [MavlinkOut(self.mavlink_out.append, config, advisories=advisories)]
+        self.zenoh = ZenohOut(lambda suffix, payload: self.zenoh_out.append((suffix, payload)), config,
+                              advisories=advisories)
         if config.zenoh.enabled:
             ports.append(self.zenoh)
         self.loop = Loop(self.daa, self.input, ports)

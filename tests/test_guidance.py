@@ -300,7 +300,8 @@ def test_the_csv_carries_the_guidance_columns_and_a_row_per_change():
     import csv
     import io
 
-    from avionics.ports import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS, CsvOut
+    from avionics.contract.advisory_csv import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS
+    from avionics.ports import CsvOut
 
     config = _config()
     text = io.StringIO()

@@ -1,7 +1,7 @@
 """Layers that import downward only (issue 12): the import graph of `avionics`, `avionics_eval` and `avionics_sitl` has no
 cycle, and no module imports a layer above its own.
 
-Lowest first: `avionics.core` <- the stages (`avionics.tracking`, `avionics.conflict`, `avionics.advisory`) <-
+Lowest first: `avionics.core` <- the output contract (`avionics.contract`) <- the stages (`avionics.tracking`, `avionics.conflict`, `avionics.advisory`) <-
 configuration, composition and facade <- the flight shells and I/O <- `avionics_sitl` (may import `avionics`) <-
 `avionics_eval` (demo, benches, reports: the only code that composes flight code and the simulator). Flight
 code never imports the simulator.
@@ -38,6 +38,8 @@ SIMULATOR = ("avionics_sitl", "avionics_eval")
 # nothing named by, or inside, `modules`.
 RULES = [
     ("core imports nothing above it", ("avionics.core",), "only", ("avionics.core",)),
+    # the output contract (issue 31): declarations over the core's types and units, read by stages, io and monitor
+    ("the contract imports only the core", ("avionics.contract",), "only", ("avionics.core", "avionics.contract")),
     *((f"{stage} never imports the configuration module", (stage,), "not", ("avionics.config",))
       for stage in STAGES),
     *((f"{stage} never imports the facade, the shells, io or monitor", (stage,), "not", ABOVE_THE_STAGES + SIMULATOR)

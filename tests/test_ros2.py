@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from avionics.config import load_config
+from avionics.contract.bands import BAND_KIND_NAMES, BAND_REGIONS
 from avionics.core.params import ConfigError
 from avionics.io import ros2
 from avionics.io.params import ZenohConfig
@@ -77,15 +78,15 @@ def test_any_advisory_decodes_with_rosbags_as_its_payload(typestore, values):
 
 @settings(max_examples=100, deadline=None)
 @given(bands=st.fixed_dictionaries({k: st.lists(st.tuples(finite, finite, st.sampled_from(
-    ["NONE", "FAR", "MID", "NEAR", "RECOVERY"])), max_size=5) for k in ros2.BAND_KINDS}),
-       recovery=st.fixed_dictionaries({k: st.booleans() for k in ros2.BAND_KINDS}))
+    list(BAND_REGIONS))), max_size=5) for k in BAND_KIND_NAMES}),
+       recovery=st.fixed_dictionaries({k: st.booleans() for k in BAND_KIND_NAMES}))
 def test_any_bands_decode_with_rosbags(typestore, bands, recovery):
     payload = {"vehicle": "uav1", "time_s": 12.5, "alerter": "do365", "recovery": recovery,
                **{k: [{"lower": lo, "upper": hi, "region": r} for lo, hi, r in v] for k, v in bands.items()}}
     got = typestore.deserialize_cdr(ros2.serialize("avionics_msgs/msg/Bands", ros2.bands_message(payload)),
                                     "avionics_msgs/msg/Bands")
     assert got.alerter == "do365"
-    for kind in ros2.BAND_KINDS:
+    for kind in BAND_KIND_NAMES:
         assert [(b.lower, b.upper, b.region) for b in getattr(got, kind)] == bands[kind]
         assert getattr(got, f"recovery_{kind}") is recovery[kind]
 

@@ -17,7 +17,8 @@ import pytest
 from avionics.config import load_config
 from avionics.daa import Daa
 from avionics.io.payloads import track_payload
-from avionics.io.traffic import ARROW_STREAM, TrafficBatch, decode_traffic, encode_traffic
+from avionics.contract.zenoh import ARROW_STREAM
+from avionics.io.traffic import TrafficBatch, decode_traffic, encode_traffic
 from avionics.io.zenoh_bus import ZenohBus, open_session, to_json
 from avionics.loop import Batch, Loop, MavlinkInput
 from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config

@@ -53,10 +53,11 @@ from avionics.advisory.bands_kinematics import (
 from avionics.advisory.persistence import MofN
 from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, SumZScores, relative_errors, wcv_uncertain_intervals
+from avionics.contract.bands import BAND_KIND_NAMES
 from avionics.core.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
-from avionics.core.units import FPM, FT, G0, KT, NM
+from avionics.core.units import FPM, FT, G0, KT, NM, ground_speed_mps, track_rad
 
-KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
+KINDS = BAND_KIND_NAMES  # the outputs name them so (avionics/contract/bands.py)
 TWO_PI = 2.0 * math.pi
 
 # BandsRegion.orderOfRegion
@@ -740,7 +741,7 @@ class BandsEngine:
                 maxr -= 1
         if kind.name == "track_deg":
             # DaidalusDirBands: the turn flies at least max(step_hs, min_airspeed), at turn_rate
-            gs = math.hypot(vo[0], vo[1])
+            gs = ground_speed_mps(vo[0], vo[1])
             gso = max(p.step_gs_mps, p.min_airspeed_mps, gs)
             if gs > 0:
                 vt = np.array([vo[0] * gso / gs, vo[1] * gso / gs, vo[2]])
@@ -800,9 +801,9 @@ class BandsEngine:
         p = self.params
         L = p.lookahead_s
         if kind.name == "track_deg":
-            val = math.atan2(vo[0], vo[1]) % TWO_PI
+            val = track_rad(vo[0], vo[1])
         elif kind.name == "ground_speed_mps":
-            val = math.hypot(vo[0], vo[1])
+            val = ground_speed_mps(vo[0], vo[1])
         elif kind.name == "vertical_rate_mps":
             val = float(vo[2])
         else:

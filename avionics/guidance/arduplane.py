@@ -27,9 +27,8 @@ HEADING_TYPE. Mode changes are MAV_CMD_DO_SET_MODE as for ArduCopter (GCS_Common
 
 from __future__ import annotations
 
-import math
-
 import avionics.io  # noqa: F401  (MAVLink 2)
+from avionics.core.units import track_deg
 from avionics.guidance.ardupilot import set_mode
 from avionics.io.dialect import daa as mavlink2
 
@@ -88,10 +87,6 @@ def change_speed(airspeed_mps: float, accel_mps2: float, target_system: int, tar
                        param2=airspeed_mps, param3=accel_mps2)
 
 
-def course_deg(north_mps: float, east_mps: float) -> float:
-    return math.degrees(math.atan2(east_mps, north_mps)) % 360.0
-
-
 def altitude_target(height_m: float, up_mps: float, floor_m: float, ceiling_m: float) -> float:
     """Where the manoeuvre's altitude command points: the present height when level, else ALTITUDE_HORIZON_S of
     the rate ahead, never below the floor (unless already lower: then level) nor above the ceiling (0 = none)."""
@@ -134,7 +129,7 @@ class PlaneCommands:
             return out
         if not self.course_sent:
             self.course_sent = True
-            out.append(self._send(change_heading(course_deg(north_mps, east_mps), self.system, self.component),
+            out.append(self._send(change_heading(track_deg(east_mps, north_mps), self.system, self.component),
                                   now_s))
         if height_m is None:
             return out

@@ -28,7 +28,8 @@ import math
 from collections import Counter, deque
 from dataclasses import dataclass
 
-STATUSTEXT_LEN = 50  # encode.STATUSTEXT_LEN (not imported: this module stays free of pymavlink)
+from avionics.contract.mavlink import STATUSTEXT_LEN
+
 RATE_WINDOW_S = 3.0  # the ownship rate is the mean over this long (a rule is named within 5 s of its cause)
 RATE_TOLERANCE = 0.8  # warn below this share of min_ownship_hz: a stream at exactly the minimum does not flap
 TRAFFIC_MEMORY_S = 10.0  # pressure-altitude traffic or an untrusted sender counts this long after its last report

@@ -7,60 +7,34 @@ import math
 import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DAA_ADVISORY, DAA_BANDS
 
+from avionics.contract import mavlink as contract
+from avionics.contract.bands import BAND_KINDS, BAND_REGION_UNKNOWN, BAND_REGIONS
 from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel, AltitudeDatum, AddressSource
-from avionics.core.units import FPM, FT
+from avionics.core.units import FPM, FT, ground_speed_mps, track_deg
 
-THREAT_LEVEL = {
-    AdvisoryLevel.NONE: mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE,
-    AdvisoryLevel.TA: mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW,
-    AdvisoryLevel.RA: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,
-}
-# COLLISION `action` is "Action that is being taken to avoid this collision" (common.xml), and ArduPilot's
-# AP_Avoidance takes it as what to do (docs/mavlink.md, COLLISION). By default we take no action and say so:
-# REPORT for a TA or an RA (the manoeuvre is in DAA_ADVISORY). ACTION_REQUEST (mavlink.collision_action_request)
-# asks the autopilot to climb or descend on an RA.
-# Under a DO-365 alerter (Advisory.alert_level set: profiles do365, daidalus-do365b-no-sum, do365-non-coop,
-# f3442) threat_level follows the DO-365 alert level, not the TA/RA it raises. common.xml MAV_COLLISION_THREAT_LEVEL:
-# LOW "mildly concerned", HIGH "panicking, and may take actions to avoid threat". RTCA DO-365B's preventive alert
-# asks for no manoeuvre (only not to move into the conflict): LOW; its corrective alert (a caution) and its warning
-# both ask the pilot to manoeuvre to stay or regain well clear: HIGH. The TA/RA mapping above would call a
-# corrective alert LOW, though it is the level at which DO-365 expects the aircraft to act.
-DO365_THREAT_LEVEL = {
-    0: mavlink2.MAV_COLLISION_THREAT_LEVEL_NONE,
-    1: mavlink2.MAV_COLLISION_THREAT_LEVEL_LOW,   # PREVENTIVE
-    2: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,  # CORRECTIVE
-    3: mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH,  # WARNING
-}
+
+def _values(names: dict) -> dict:
+    """A contract table of dialect entry names -> the same table of their values."""
+    return {key: getattr(mavlink2, name) for key, name in names.items()}
+
+
+# avionics/contract/mavlink.py says what each value becomes (and why); these are its tables in the dialect's numbers
+THREAT_LEVEL = _values(contract.THREAT_LEVEL)
+DO365_THREAT_LEVEL = _values(contract.DO365_THREAT_LEVEL)
 
 
 def threat_level(advisory: Advisory) -> int:
     """COLLISION threat_level: from the DO-365 alert level under a DO-365 alerter, else from the TA/RA level. A lost
-    threat held at its level keeps it (its alert level is held with it); a level above 3 (a profile with more
-    levels) counts as HIGH."""
+    threat held at its level keeps it (its alert level is held with it)."""
     if advisory.alert_level is None or advisory.level is AdvisoryLevel.NONE:
         return THREAT_LEVEL[advisory.level]
-    return DO365_THREAT_LEVEL.get(advisory.alert_level, mavlink2.MAV_COLLISION_THREAT_LEVEL_HIGH)
+    return DO365_THREAT_LEVEL.get(advisory.alert_level, getattr(mavlink2, contract.DO365_THREAT_LEVEL_ABOVE))
 
 
-ACTION = {
-    AdvisoryLevel.NONE: mavlink2.MAV_COLLISION_ACTION_NONE,
-    AdvisoryLevel.TA: mavlink2.MAV_COLLISION_ACTION_REPORT,
-    AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_REPORT,
-}
-ACTION_REQUEST = {**ACTION, AdvisoryLevel.RA: mavlink2.MAV_COLLISION_ACTION_ASCEND_OR_DESCEND}
-# A lost threat held at its level (advisory/logic.py lost_hold) keeps that level's threat_level ("how concerned the
-# aircraft is about this collision", common.xml) and action: the concern and the manoeuvre are unchanged, and
-# MAV_COLLISION_ACTION has no value for "lost" (DAA_ADVISORY's TRAFFIC_LOST flag and STATUSTEXT say it).
-SEVERITY = {
-    AdvisoryLevel.NONE: mavlink2.MAV_SEVERITY_INFO,
-    AdvisoryLevel.TA: mavlink2.MAV_SEVERITY_WARNING,
-    AdvisoryLevel.RA: mavlink2.MAV_SEVERITY_CRITICAL,
-}
-STATUSTEXT_LEN = 50
-# Why DAA is unavailable (DaaResult.unavailable_reason) -> the words of "DAA UNAVAILABLE <why>"
-UNAVAILABLE_WORDS = {"no_ownship": "no ownship position", "no_pressure_altitude": "no pressure altitude",
-                     "no_traffic_source": "traffic down", "fault": "fault", "shutdown": "shutdown",
-                     "ownship_inconsistent": "ownship jumps", "spoof_suspected": "spoof"}
+ACTION = _values(contract.ACTION)
+ACTION_REQUEST = _values(contract.ACTION_REQUEST)
+SEVERITY = _values(contract.SEVERITY)
+STATUSTEXT_LEN = contract.STATUSTEXT_LEN
 
 
 def collision(advisory: Advisory, request_action: bool = False):
@@ -104,18 +78,9 @@ def advisory_text(advisory: Advisory, callsign: str | None = None) -> str:
     return f"{level} {who} TAU {tau} {advisory.hmd_m:.0f}M {vertical}"[:STATUSTEXT_LEN]
 
 
-SENSE = {None: mavlink2.DAA_RA_SENSE_NONE, "climb": mavlink2.DAA_RA_SENSE_CLIMB,
-         "descend": mavlink2.DAA_RA_SENSE_DESCEND}
-STRENGTH = {None: mavlink2.DAA_RA_STRENGTH_NONE, "preventive": mavlink2.DAA_RA_STRENGTH_PREVENTIVE,
-            "level_off": mavlink2.DAA_RA_STRENGTH_LEVEL_OFF, "corrective": mavlink2.DAA_RA_STRENGTH_CORRECTIVE,
-            "increase": mavlink2.DAA_RA_STRENGTH_INCREASE}
-
-
-# Advisory.integrity -> DAA_INTEGRITY (daa.xml; the modes of tracking/integrity.py)
-INTEGRITY = {"ok": mavlink2.DAA_INTEGRITY_OK, "degraded:position_loss": mavlink2.DAA_INTEGRITY_POSITION_LOSS,
-             "degraded:step": mavlink2.DAA_INTEGRITY_STEP, "degraded:ramp": mavlink2.DAA_INTEGRITY_RAMP,
-             "degraded:oscillation": mavlink2.DAA_INTEGRITY_OSCILLATION,
-             "degraded:inconsistent": mavlink2.DAA_INTEGRITY_INCONSISTENT}
+SENSE = _values(contract.SENSE)
+STRENGTH = _values(contract.STRENGTH)
+INTEGRITY = _values(contract.INTEGRITY)
 
 
 def _nan_if_none_or_inf(value: float | None) -> float:
@@ -142,16 +107,14 @@ def daa_advisory(advisory: Advisory, callsign: str | None = None, pc: float | No
         time_to_cpa=advisory.t_cpa_s, horizontal_miss=advisory.hmd_m,
         vertical_miss=_nan_if_none_or_inf(advisory.vmd_m), tau=_nan_if_none_or_inf(advisory.range_tau_s),
         mod_tau=_nan_if_none_or_inf(advisory.mod_tau_s), pc=_nan_if_none_or_inf(pc),
-        callsign=(callsign or "").encode("ascii", "replace")[:9], integrity=INTEGRITY.get(advisory.integrity, 0),
+        callsign=(callsign or "").encode("ascii", "replace")[:contract.CALLSIGN_LEN], integrity=INTEGRITY.get(advisory.integrity, 0),
         alert_level=advisory.alert()[0])
 
 
-BANDS_KINDS = {"track_deg": mavlink2.DAA_BANDS_KIND_TRACK, "ground_speed_mps": mavlink2.DAA_BANDS_KIND_GROUND_SPEED,
-               "vertical_rate_mps": mavlink2.DAA_BANDS_KIND_VERTICAL_SPEED, "altitude_m": mavlink2.DAA_BANDS_KIND_ALTITUDE}
-BANDS_REGIONS = {"NONE": mavlink2.DAA_BANDS_REGION_NONE, "FAR": mavlink2.DAA_BANDS_REGION_FAR,
-                 "MID": mavlink2.DAA_BANDS_REGION_MID, "NEAR": mavlink2.DAA_BANDS_REGION_NEAR,
-                 "RECOVERY": mavlink2.DAA_BANDS_REGION_RECOVERY}
-BANDS_PER_MESSAGE = 10  # DAA_BANDS's arrays
+BANDS_KINDS = {kind.name: getattr(mavlink2, kind.mavlink) for kind in BAND_KINDS}
+BANDS_REGIONS = _values(BAND_REGIONS)
+BANDS_REGION_UNKNOWN = getattr(mavlink2, BAND_REGION_UNKNOWN)
+BANDS_PER_MESSAGE = contract.BANDS_PER_MESSAGE
 
 
 def daa_bands(bands) -> list:
@@ -170,8 +133,8 @@ def daa_bands(bands) -> list:
                 time_boot_ms=time_boot_ms, kind=kind, flags=flags, part=part, parts=len(chunks), count=len(chunk),
                 lower=[float(b.lower) for b in chunk] + [math.nan] * pad,
                 upper=[float(b.upper) for b in chunk] + [math.nan] * pad,
-                region=[BANDS_REGIONS.get(b.region, mavlink2.DAA_BANDS_REGION_UNKNOWN) for b in chunk]
-                + [mavlink2.DAA_BANDS_REGION_UNKNOWN] * pad))
+                region=[BANDS_REGIONS.get(b.region, BANDS_REGION_UNKNOWN) for b in chunk]
+                + [BANDS_REGION_UNKNOWN] * pad))
     return out
 
 
@@ -187,7 +150,7 @@ def availability_text(reason: str | None, detail: str = "") -> str:
     """"DAA UNAVAILABLE <why>[ <detail>]" (reason: DaaResult.unavailable_reason), or "DAA AVAILABLE"."""
     if reason is None:
         return "DAA AVAILABLE"
-    return " ".join(w for w in ("DAA UNAVAILABLE", UNAVAILABLE_WORDS.get(reason, reason), detail) if w)[:STATUSTEXT_LEN]
+    return " ".join(w for w in ("DAA UNAVAILABLE", contract.UNAVAILABLE_WORDS.get(reason, reason), detail) if w)[:STATUSTEXT_LEN]
 
 
 def output_fault_text(fault) -> str:
@@ -252,8 +215,8 @@ def adsb_vehicle(track, now_s: float):
     return mavlink2.MAVLink_adsb_vehicle_message(
         ICAO_address=track.key.address, lat=int(round(track.lat_deg * 1e7)), lon=int(round(track.lon_deg * 1e7)),
         altitude_type=altitude_type, altitude=max(-2**31 + 1, min(2**31 - 2, altitude_mm)),
-        heading=int(round(math.degrees(math.atan2(east, north)) * 100.0)) % 36000,
-        hor_velocity=min(65534, int(round(math.hypot(east, north) * 100.0))),
+        heading=int(round(track_deg(east, north) * 100.0)) % 36000,
+        hor_velocity=min(65534, int(round(ground_speed_mps(east, north) * 100.0))),
         ver_velocity=max(-32767, min(32766, int(round(up * 100.0)))), callsign=callsign,
         emitter_type=track.emitter_type if 0 <= track.emitter_type <= 255 else 0,
         tslc=min(254, max(0, int(now_s - track.last_report_s))), flags=flags, squawk=squawk)

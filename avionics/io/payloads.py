@@ -1,58 +1,38 @@
-"""JSON payloads of the zenoh contract (docs/zenoh.md). Plain dicts of SI numbers, enums as strings."""
+"""JSON payloads of the zenoh contract (avionics/contract/zenoh.py, docs/zenoh.md). Plain dicts of SI numbers,
+enums as strings, keys in the contract's order."""
 
 from __future__ import annotations
 
 import math
 
 from avionics import __version__
+from avionics.contract.bands import BAND_KIND_NAMES
+from avionics.contract.zenoh import ADVISORY, SCHEMA_VERSION, TRACK_MODEL_CV
 from avionics.core.types import ASSESSMENT_FIELDS, Advisory, TrackView
+from avionics.core.units import ground_speed_mps, track_deg
 
-SCHEMA_VERSION = 2  # 2: RA sense, strength, target rate, conflict probabilities
+# The advisory fields that are not an Advisory attribute of the same name, each from (vehicle, advisory, callsign)
+_ADVISORY_MADE = {
+    "schema": lambda vehicle, a, callsign: SCHEMA_VERSION,
+    "vehicle": lambda vehicle, a, callsign: vehicle,
+    "intruder": lambda vehicle, a, callsign: str(a.intruder),
+    "address": lambda vehicle, a, callsign: a.intruder.address,
+    "address_source": lambda vehicle, a, callsign: a.intruder.source.value,
+    "callsign": lambda vehicle, a, callsign: callsign,
+    "level": lambda vehicle, a, callsign: a.level.name,
+    # the alerter's level number and name (advisory/alerting.py; tcas2: 0 NONE, 1 TA, 2 RA; a DO-365 alerter:
+    # 0 NONE, 1 PREVENTIVE, 2 CORRECTIVE, 3 WARNING)
+    "alert_level": lambda vehicle, a, callsign: a.alert()[0],
+    "alert_name": lambda vehicle, a, callsign: a.alert()[1],
+    "altitude_datum": lambda vehicle, a, callsign: a.altitude_datum.value if a.altitude_datum else None,
+}
+_ADVISORY_FIELDS = tuple((f.name, _ADVISORY_MADE.get(f.name)) for f in ADVISORY)
 
 
 def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = None) -> dict:
-    return {
-        "schema": SCHEMA_VERSION,
-        "vehicle": vehicle,
-        "intruder": str(advisory.intruder),
-        "address": advisory.intruder.address,
-        "address_source": advisory.intruder.source.value,
-        "callsign": callsign,
-        "level": advisory.level.name,
-        # the alerter's level number and name (advisory/alerting.py; tcas2: 0 NONE, 1 TA, 2 RA; a DO-365
-        # alerter: 0 NONE, 1 PREVENTIVE, 2 CORRECTIVE, 3 WARNING)
-        "alert_level": advisory.alert()[0],
-        "alert_name": advisory.alert()[1],
-        "reason": advisory.reason,
-        "time_s": advisory.time_s,
-        "sensitivity_level": advisory.sensitivity_level,
-        "range_m": advisory.range_m,
-        "closure_rate_mps": advisory.closure_rate_mps,
-        "t_cpa_s": advisory.t_cpa_s,
-        "hmd_m": advisory.hmd_m,
-        "vmd_m": advisory.vmd_m,
-        "range_tau_s": advisory.range_tau_s,
-        "mod_tau_s": advisory.mod_tau_s,
-        "vertical_tau_s": advisory.vertical_tau_s,
-        "altitude_datum": advisory.altitude_datum.value if advisory.altitude_datum else None,
-        "datum_mismatch": advisory.datum_mismatch,
-        "pc_ta": advisory.pc_ta,
-        "pc_ra": advisory.pc_ra,
-        "pc_now": advisory.pc_now,
-        "pc_max": advisory.pc_max,
-        "t_pc_max_s": advisory.t_pc_max_s,
-        "pc_within": advisory.pc_within,
-        "pc_within_age_s": advisory.pc_within_age_s,
-        "ra_sense": advisory.ra_sense,
-        "ra_strength": advisory.ra_strength,
-        "ra_words": advisory.ra_words,
-        "target_vertical_rate_mps": advisory.target_vertical_rate_mps,
-        "ra_reversed": advisory.ra_reversed,
-        "ra_crossing": advisory.ra_crossing,
-        "ra_separation_m": advisory.ra_separation_m,
-        "ra_composite": advisory.ra_composite,
-        "integrity": advisory.integrity,
-    }
+    """The contract's advisory fields, in order: the Advisory's attribute of the same name, or made above."""
+    return {name: made(vehicle, advisory, callsign) if made else getattr(advisory, name)
+            for name, made in _ADVISORY_FIELDS}
 
 
 def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
@@ -73,7 +53,7 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
         "emitter_type": track.emitter_type,
         "simulated": track.simulated,
         "spoof_suspected": track.spoof_suspected,
-        "model": "cv-kalman",  # an IMM filter's modes overwrite this with the filter's name
+        "model": TRACK_MODEL_CV,  # an IMM filter's modes overwrite this with the filter's name
         "time_s": now_s,
         "last_report_s": track.last_report_s,
         "age_s": now_s - track.last_report_s,
@@ -83,8 +63,8 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
         "altitude_m": float(x[2]) if altitude_valid else None,
         "altitude_datum": track.datum.value if altitude_valid and track.datum else None,
         "velocity_enu_mps": [ve, vn, vu],
-        "ground_speed_mps": math.hypot(ve, vn),
-        "track_deg": math.degrees(math.atan2(ve, vn)) % 360.0,
+        "ground_speed_mps": ground_speed_mps(ve, vn),
+        "track_deg": track_deg(ve, vn),
         "vertical_rate_mps": vu if altitude_valid else None,
         "position_sigma_m": math.sqrt(max(p[0, 0] + p[1, 1], 0.0)),
         "velocity_sigma_mps": math.sqrt(max(p[3, 3] + p[4, 4], 0.0)),
@@ -107,11 +87,8 @@ def ownship_payload(vehicle: str, now_s: float, ownship: dict | None) -> dict:
     if ownship is None:
         return out
     ve, vn, vu = ownship["velocity_enu_mps"]
-    return {**out, **ownship, "ground_speed_mps": math.hypot(ve, vn),
-            "track_deg": math.degrees(math.atan2(ve, vn)) % 360.0, "vertical_rate_mps": vu}
-
-
-BAND_KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
+    return {**out, **ownship, "ground_speed_mps": ground_speed_mps(ve, vn), "track_deg": track_deg(ve, vn),
+            "vertical_rate_mps": vu}
 
 
 def bands_payload(vehicle: str, alerter: str, bands) -> dict:
@@ -121,11 +98,11 @@ def bands_payload(vehicle: str, alerter: str, bands) -> dict:
     ve, vn, vu = bands.ownship_vel
     return {
         "schema": SCHEMA_VERSION, "vehicle": vehicle, "time_s": bands.time_s, "alerter": alerter,
-        "ownship": {"track_deg": math.degrees(math.atan2(ve, vn)) % 360.0, "ground_speed_mps": math.hypot(ve, vn),
+        "ownship": {"track_deg": track_deg(ve, vn), "ground_speed_mps": ground_speed_mps(ve, vn),
                     "vertical_rate_mps": vu, "altitude_m": bands.ownship_pos[2]},
         **{kind: [{"lower": b.lower, "upper": b.upper, "region": b.region} for b in getattr(bands, kind)]
-           for kind in BAND_KINDS},
-        "recovery": {kind: bool(bands.recovery.get(kind, False)) for kind in BAND_KINDS},
+           for kind in BAND_KIND_NAMES},
+        "recovery": {kind: bool(bands.recovery.get(kind, False)) for kind in BAND_KIND_NAMES},
         "intruders": [{"intruder": key, "alert_level": level, "alert_name": name}
                       for key, level, name in bands.intruders],
     }

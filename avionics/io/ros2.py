@@ -28,6 +28,8 @@ from importlib import resources
 
 import zenoh
 
+from avionics.contract.bands import BAND_KIND_NAMES
+
 # The standard definitions the messages use, as ros2/common_interfaces (std_msgs, diagnostic_msgs; Humble) and
 # ros2/rcl_interfaces (builtin_interfaces) define them.
 STANDARD = {
@@ -44,7 +46,6 @@ PRIMITIVES = {"bool": "?", "byte": "B", "char": "B", "uint8": "B", "int8": "b", 
 CDR_LE = b"\x00\x01\x00\x00"
 # The zenoh keys under the vehicle's namespace, by the JSON topic they encode (docs/zenoh.md, "ROS 2").
 TOPICS = {"advisories": "daa/advisories", "traffic": "daa/traffic", "bands": "daa/bands", "status": "daa/status"}
-BAND_KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
 
 
 def definition(name: str) -> str:
@@ -160,7 +161,7 @@ def track_message(p: dict) -> dict:
 
 def bands_message(p: dict) -> dict:
     out = {"header": header(p["time_s"], p["vehicle"]), "alerter": p["alerter"]}
-    for kind in BAND_KINDS:
+    for kind in BAND_KIND_NAMES:
         out[kind] = [{"lower": float(b["lower"]), "upper": float(b["upper"]), "region": b["region"]} for b in p[kind]]
         out[f"recovery_{kind}"] = bool(p["recovery"][kind])
     return out

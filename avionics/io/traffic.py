@@ -2,8 +2,8 @@
 track tick in ONE zenoh sample, as an Apache Arrow IPC stream (encoding `application/vnd.apache.arrow.stream`).
 
 One record batch, one row per track, one column per field of the per-track payload (payloads.track_payload) with
-the types of TRAFFIC_TYPES; the header (schema, layout, vehicle, time_s, and the key names of the IMM's map-valued
-fields) is the Arrow schema's metadata. `traffic_rows` turns the rows back into per-track payloads in their wire
+the types of the contract's TRAFFIC_COLUMNS (avionics/contract/zenoh.py); the header (schema, layout, vehicle,
+time_s, and the key names of the IMM's map-valued fields) is the Arrow schema's metadata. `traffic_rows` turns the rows back into per-track payloads in their wire
 form (non-finite floats null), field for field; numeric columns computed vectorised (ground speed, track, sigmas)
 agree with payloads.track_payload to the last bit or two (numpy's hypot/arctan2 against math's).
 
@@ -27,27 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from avionics.contract.zenoh import KEYED_COLUMNS, SCHEMA_VERSION, TRACK_MODEL_CV, TRAFFIC_LAYOUT
 from avionics.core.types import ASSESSMENT_FIELDS
-from avionics.io.payloads import SCHEMA_VERSION, track_payload
-
-TRAFFIC_LAYOUT = 1  # the batch's own layout version (the fields inside follow SCHEMA_VERSION)
-ARROW_STREAM = "application/vnd.apache.arrow.stream"
-DEFAULT_MODEL = "cv-kalman"  # a track without IMM mode outputs (payloads.track_payload)
-KEYED_FIELDS = ("mode_probabilities", "vertical_mode_probabilities", "vb_noise")  # maps sent as value lists
-# column -> Arrow type name (docs/zenoh.md): f64 float64, i32 int32, i64 int64, bool, str utf8, f64[k]
-# fixed_size_list<float64>[k] (k from the data: 3 for velocity_enu_mps, the mode count for the keyed maps).
-TRAFFIC_TYPES = {
-    "intruder": "str", "address": "i32", "address_source": "str", "callsign": "str", "squawk": "i32",
-    "emitter_type": "i32", "simulated": "bool", "spoof_suspected": "bool", "model": "str", "last_report_s": "f64",
-    "age_s": "f64", "updates": "i64", "lat_deg": "f64", "lon_deg": "f64", "altitude_m": "f64",
-    "altitude_datum": "str", "velocity_enu_mps": "f64[3]", "ground_speed_mps": "f64", "track_deg": "f64",
-    "vertical_rate_mps": "f64", "position_sigma_m": "f64", "velocity_sigma_mps": "f64", "advisory": "str",
-    "integrity": "str", "integrity_fault_m": "f64", **{name: "f64" for name in ASSESSMENT_FIELDS},
-    # IMM trackers only (absent with the CV filter):
-    "mode_probabilities": "f64[k]", "most_likely_mode": "str", "turn_rate_dps": "f64",
-    "vertical_mode_probabilities": "f64[k]", "vertical_mode": "str", "vb_noise": "f64[k]",
-}
-
+from avionics.core.units import ground_speed_mps, track_deg
+from avionics.io.payloads import track_payload
 
 def _finite(values) -> list:
     isfinite = math.isfinite
@@ -76,7 +59,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "emitter_type": pa.array([t.emitter_type for t in tracks], i32),
         "simulated": pa.array([bool(t.simulated) for t in tracks], pa.bool_()),
         "spoof_suspected": pa.array([bool(t.spoof_suspected) for t in tracks], pa.bool_()),
-        "model": pa.array([m.get("model", DEFAULT_MODEL) if m else DEFAULT_MODEL for m in modes], pa.string()),
+        "model": pa.array([m.get("model", TRACK_MODEL_CV) if m else TRACK_MODEL_CV for m in modes], pa.string()),
         "last_report_s": pa.array(last), "age_s": pa.array(now_s - last),
         "updates": pa.array(np.fromiter((t.n_updates for t in tracks), np.int64, n)),
         "lat_deg": pa.array(np.fromiter((t.lat_deg for t in tracks), float, n)),
@@ -85,8 +68,8 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "altitude_datum": pa.array([t.datum.value if a and t.datum else None for t, a in zip(tracks, alt_ok)],
                                    pa.string()),
         "velocity_enu_mps": pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(x[:, 3:6]).ravel()), 3),
-        "ground_speed_mps": pa.array(np.hypot(ve, vn)),
-        "track_deg": pa.array(np.degrees(np.arctan2(ve, vn)) % 360.0),
+        "ground_speed_mps": pa.array(ground_speed_mps(ve, vn)),
+        "track_deg": pa.array(track_deg(ve, vn)),
         "vertical_rate_mps": pa.array(vu, mask=~alt_ok),
         "position_sigma_m": pa.array(np.sqrt(np.maximum(p[:, 0, 0] + p[:, 1, 1], 0.0))),
         "velocity_sigma_mps": pa.array(np.sqrt(np.maximum(p[:, 3, 3] + p[:, 4, 4], 0.0))),
@@ -101,7 +84,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
     for name in (k for k in first if k != "model") if first else ():
         values = [m.get(name) if m else None for m in modes]
         sample = next((v for v in values if v is not None), None)
-        if name in KEYED_FIELDS and isinstance(sample, dict):
+        if name in KEYED_COLUMNS and isinstance(sample, dict):
             names = list(sample)
             key_names[name] = names
             flat = np.array([list(v.values()) if v is not None and list(v) == names else [np.nan] * len(names)

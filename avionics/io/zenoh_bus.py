@@ -1,14 +1,7 @@
 """zenoh publishing of the onboard picture as JSON (encoding application/json), off the onboard loop.
 
-Key expressions (vehicle = config vehicle.id, intruder = "<source>-<ICAO hex>", e.g. 1090es-A1B2C3):
-  <prefix>/<vehicle>/advisories/<intruder>   on every change and each collision_refresh_s while active
-  <prefix>/<vehicle>/traffic                 at zenoh.tracks_hz: every track in one Arrow IPC sample (io/traffic.py)
-  <prefix>/<vehicle>/tracks/<intruder>       a new track at once, then each every 10 s (ports.TRACK_KEYS_PERIOD_S)
-  <prefix>/<vehicle>/ownship                 at zenoh.status_hz
-  <prefix>/<vehicle>/status                  at zenoh.status_hz, with the rejection counters
-  <prefix>/<vehicle>/bands                   once a second with a DO-365 alerter: the guidance bands
-  <prefix>/<vehicle>/snapshot                queryable: the current picture and the recent advisory changes
-  <prefix>/<vehicle>/alive                   liveliness token, held while the process runs
+Key expressions <prefix>/<vehicle>/<key>: the contract's KEYS (avionics/contract/zenoh.py, docs/zenoh.md); this module
+puts the samples, serves the `snapshot` queryable and holds the `alive` liveliness token.
 
 `ZenohBus.publish()` never blocks and never talks to zenoh: it files the sample (a few microseconds) and a
 publisher thread puts it. Advisories wait in an unbounded FIFO that is always drained first (an advisory
@@ -30,13 +23,13 @@ from collections import Counter, deque
 
 import zenoh
 
+from avionics.contract.zenoh import ADVISORY_STATE_FIELDS, ARROW_STREAM, SNAPSHOT_SCHEMA
 from avionics.core.jsonsafe import dumps
 from avionics.io.params import ZenohConfig, read_password, zenoh_error_text
 from avionics.io.ros2 import Ros2Publisher
 from avionics.io.sinks import SinkHealth
-from avionics.io.traffic import ARROW_STREAM, TrafficBatch
+from avionics.io.traffic import TrafficBatch
 
-SNAPSHOT_SCHEMA = 1
 # The publisher thread is Python too, so it must not take the interpreter lock or a CPU from the onboard
 # loop in the middle of a tick (on a loaded machine a thread hand-off costs the loop milliseconds):
 # - publish() never wakes it: it polls the queues every POLL_S;
@@ -48,8 +41,6 @@ SETTLE_S = 0.002
 SETTLE_MAX_S = 0.020
 SLICE_S = 0.0005
 PROBE_S = 0.0002
-# What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
-ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed", "ra_composite")
 # advisories and the guidance's decisions (what the aircraft was told to do): reliable, never dropped, ahead of data
 RELIABLE_KINDS = ("advisories", "guidance")
 VITAL_KINDS = ("status", "ownship", "bands")  # their own queue, ahead of the tracks

@@ -19,12 +19,12 @@ import zenoh
 
 from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import open_session
-from avionics.monitor.schema import (MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejected, check_id, clean_sample,
-                                     clean_snapshot, clean_traffic)
+from avionics.monitor.schema import (KIND_FIELDS, MAX_SAMPLE_BYTES, MAX_SNAPSHOT_BYTES, Rejected, check_id,
+                                     clean_sample, clean_snapshot, clean_traffic)
 from avionics.monitor.state import FleetState
 
 log = logging.getLogger("avionics.monitor")
-KINDS = ("ownship", "status", "tracks", "advisories", "bands", "traffic")  # bands: DO-365 guidance (per vehicle)
+KINDS = tuple(KIND_FIELDS)  # the contract's topics the monitor checks and shows (not guidance)
 INBOX_LIMIT = 100_000  # samples received but not yet applied (then zenoh is pushed back on)
 # The link light: no sample for this long with a router or peer connected is "no_data". Every onboard node sends
 # ownship and status at zenoh.status_hz (1 Hz by default, io/params.py): 5 periods, the track stale_s as well.

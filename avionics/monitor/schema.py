@@ -2,8 +2,8 @@
 picture (state.py), the page or the terminal view.
 
 Anyone who can reach the zenoh network can publish under `daa/**` (no credentials without TLS), so a sample is
-data to check, not to trust. Each payload kind has a table of the fields the monitor knows (docs/zenoh.md):
-type, range and string length. A sample with a known field of the wrong type, out of range, not finite, too long,
+data to check, not to trust. Each payload kind has a table of the fields the monitor knows, made from the
+contract's (avionics/contract/zenoh.py, docs/zenoh.md): type, range and string length. A sample with a known field of the wrong type, out of range, not finite, too long,
 or a string with control or bidi-override characters is *rejected* whole (clean_sample raises Rejected, whose
 `reason` names the field: the feed counts it in `/api/stats` and drops it). Fields the monitor does not know
 are kept only when they are short scalars or short lists of them (at most MAX_UNKNOWN_FIELDS, so a newer schema's
@@ -13,8 +13,8 @@ hold.
 Every known field is optional and may be null (older schemas lack fields; the contract uses null for unknown
 and infinite values). Enumerations (`level`, `advisory`, `ra_sense`, ...) are checked as bounded strings, not
 against their current values: a future level is shown as text rather than losing the sample, and the page and
-the terminal view render every payload string as text, never as markup. Fields the monitor does not display
-(e.g. `spoof_suspected`, `daa_available`) are not in the tables, so a change to their form never costs a sample.
+the terminal view render every payload string as text, never as markup. The status fields the monitor does not
+display (e.g. `daa_available`, `wiring`) are not in its table, so a change to their form never costs a status.
 
 Traffic (`<prefix>/<vehicle>/traffic`, an Arrow IPC stream of every track, io/traffic.py): the stream is decoded
 and fully validated first; a batch that is not a stream, too big, with a header that is not the contract's (schema,
@@ -32,14 +32,17 @@ from __future__ import annotations
 
 import re
 
+from avionics.contract import fields as contract_fields, zenoh as contract
+from avionics.contract.bands import BAND_KIND_NAMES
+from avionics.contract.fields import Field
+
 MAX_SAMPLE_BYTES = 256 * 1024  # one track is ~1.2 kB, a status with every counter a few kB
 MAX_SNAPSHOT_BYTES = 32 * 1024 * 1024  # a vehicle's whole picture: thousands of tracks and the change log
 MAX_TRAFFIC_BYTES = 32 * 1024 * 1024  # one traffic batch (Arrow): ~320 bytes a track
 MAX_TRAFFIC_ROWS = 20_000  # tracks in one traffic batch
-MAX_ID_LEN = 64  # vehicle and intruder ids (key expression chunks), callsigns, enumerations
-MAX_TEXT_LEN = 256  # reasons, RA words, warnings
+MAX_ID_LEN = contract_fields.ID_LEN  # vehicle and intruder ids (key expression chunks), callsigns, enumerations
+MAX_TEXT_LEN = contract_fields.TEXT_LEN  # reasons, RA words, warnings
 MAX_LIST = 10_000  # list fields (datum_mismatch_intruders) and snapshot lists
-MAX_MAP = 4_096  # counters
 MAX_UNKNOWN_FIELDS = 32
 MAX_UNKNOWN_LIST = 64
 # C0/C1 controls (terminal escapes, newlines), and bidi overrides / isolates (text that displays reversed)
@@ -236,64 +239,51 @@ def _clean(fields: dict, payload: dict) -> dict:
     return out
 
 
-# -- the contract (docs/zenoh.md), with generous physical bounds -----------------------------------------------------
-TIME = _num(-1e6, 1e10)
-DURATION = _num(-1e7, 1e7)
-DIST = _num(0.0, 1e8)
-SIGNED_DIST = _num(-1e8, 1e8)
-ALT = _num(-2_000.0, 100_000.0)
-SPEED = _num(0.0, 10_000.0)
-RATE = _num(-10_000.0, 10_000.0)
-ANGLE = _num(-360.0, 720.0)
-PROB = _num(-1e-6, 1.0 + 1e-6)
-ID = _str(MAX_ID_LEN)
-TEXT = _str(MAX_TEXT_LEN)
+# -- the checks of the contract's fields (avionics/contract/zenoh.py: type and limit) ----------------------------------
+def check_of(field: Field):
+    """The check of one contract field: its type, within its limit (a bands kind: ordered intervals)."""
+    t, limit = field.type, field.limit
+    if t == "float":
+        return _num(*limit)
+    if t == "int":
+        return _int(*limit)
+    if t == "bool":
+        return _bool
+    if t == "string":
+        return _str(limit)
+    if t == "float[3]":
+        return _vec3(limit)
+    if t == "[string]":
+        return _list(_str(limit), field.size or MAX_LIST)
+    if t == "{string: float}":
+        return _map(_num(*limit), field.size, field.key_len)
+    if t == "{string: int}":
+        return _map(_int(*limit), field.size)
+    if t == "{string: bool}":
+        return _map(_bool, field.size)
+    if t == "{string: [string]}":
+        return _map(_list(_str(limit), MAX_UNKNOWN_LIST), field.size)
+    if t == "object":
+        return _object(table(field.fields))
+    if t == "[object]" and field.name in BAND_KIND_NAMES:
+        return _intervals(*limit, field.size)
+    if t == "[object]":
+        return _objects(table(field.fields), field.size)
+    raise ValueError(f"no check for {field.name}: {t}")
 
-COMMON = {
-    "schema": _int(0, 1_000_000), "vehicle": ID, "time_s": TIME,
-}
-INTRUDER = {
-    **COMMON, "intruder": ID, "address": _int(0, 0xFFFFFF), "address_source": ID, "callsign": ID,
-    "range_m": DIST, "t_cpa_s": DURATION, "hmd_m": DIST, "vmd_m": SIGNED_DIST, "range_tau_s": DURATION,
-    "mod_tau_s": DURATION, "vertical_tau_s": DURATION, "altitude_datum": ID, "datum_mismatch": _bool,
-    "pc_ta": PROB, "pc_ra": PROB, "pc_now": PROB, "pc_max": PROB, "pc_within": PROB, "pc": PROB,
-    "t_pc_max_s": DURATION, "pc_within_age_s": DURATION, "sensitivity_level": _int(0, 1_000),
-}
-TRACK = {
-    **INTRUDER, "squawk": _int(0, 9_999), "emitter_type": _int(0, 255), "simulated": _bool, "model": ID,
-    "last_report_s": TIME, "age_s": DURATION, "updates": _int(0, 10**15),
-    "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "altitude_m": ALT,
-    "velocity_enu_mps": _vec3(10_000.0), "ground_speed_mps": SPEED, "track_deg": ANGLE, "vertical_rate_mps": RATE,
-    "position_sigma_m": DIST, "velocity_sigma_mps": SPEED, "advisory": ID,
-    "mode_probabilities": _map(PROB, 16), "most_likely_mode": ID, "imm_mode": ID, "turn_rate_dps": RATE,
-    "vertical_mode_probabilities": _map(PROB, 16), "vertical_mode": ID,
-    "vb_noise": _map(_num(0.0, 1e8), 16), "integrity": ID, "integrity_fault_m": DIST,
-}
-ADVISORY = {
-    **INTRUDER, "level": ID, "alert_level": _int(0, 9), "alert_name": ID, "reason": TEXT,
-    "closure_rate_mps": _num(-1e5, 1e5), "ra_sense": ID,
-    "ra_strength": ID, "ra_words": TEXT, "target_vertical_rate_mps": RATE, "ra_reversed": _bool,
-    "ra_crossing": _bool, "ra_separation_m": SIGNED_DIST, "ra_composite": _bool, "integrity": ID,
-}
-OWNSHIP = {
-    **COMMON, "valid": _bool, "lat_deg": _num(-90.0, 90.0), "lon_deg": _num(-360.0, 360.0), "alt_msl_m": ALT,
-    "pressure_altitude_m": ALT, "height_above_home_m": _num(-100_000.0, 100_000.0),
-    "velocity_enu_mps": _vec3(10_000.0), "ground_speed_mps": SPEED, "track_deg": ANGLE, "vertical_rate_mps": RATE,
-}
-STATUS = {
-    **COMMON, "version": ID, "ownship": _object(OWNSHIP), "ownship_valid": _bool,
-    "pressure_altitude_available": _bool, "datum_mismatch_intruders": _list(ID), "sensitivity_level": _int(0, 1_000),
-    "tracks": _int(0, 10**9), "advisories": _map(_int(0, 10**9), 16), "warnings": _list(TEXT, 64),
-    "counters": _map(_num(-1e18, 1e18), MAX_MAP, 128),
-}
-MAX_BAND_INTERVALS = 256  # per kind: DAIDALUS gives a handful; a split at north adds one
+
+def table(fields, only=None) -> dict:
+    """name -> check of the contract's fields (only: of those names, the ones the monitor shows)."""
+    return {f.name: check_of(f) for f in fields if only is None or f.name in only}
+
+
 BAND_EPS = 1e-6  # order tolerance between consecutive intervals (their bounds are the same numbers)
 
 
-def _intervals(lo: float, hi: float):
+def _intervals(lo: float, hi: float, max_items: int):
     """A kind's bands: [{lower, upper, region}] in increasing order within [lo, hi]; [] = no bands computed.
     An interval with a bad field is Rejected naming it (`<kind>.region`); out of order or range raises _Bad."""
-    items = _objects({"lower": _num(lo, hi), "upper": _num(lo, hi), "region": ID}, MAX_BAND_INTERVALS)
+    items = _objects({"lower": _num(lo, hi), "upper": _num(lo, hi), "region": _str(MAX_ID_LEN)}, max_items)
 
     def check(x):
         bands = items(x)
@@ -329,20 +319,21 @@ def _objects(fields: dict, max_items: int):
     return check
 
 
-# Topic <prefix>/<vehicle>/bands: DAIDALUS guidance bands of a DO-365 alerter, SI units like every payload.
-BAND_KINDS = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
-BANDS = {
-    **COMMON, "alerter": ID,
-    "ownship": _object({"track_deg": ANGLE, "ground_speed_mps": SPEED, "vertical_rate_mps": RATE, "altitude_m": ALT}),
-    "track_deg": _intervals(0.0, 360.0), "ground_speed_mps": _intervals(0.0, 10_000.0),
-    "vertical_rate_mps": _intervals(-10_000.0, 10_000.0), "altitude_m": _intervals(-2_000.0, 100_000.0),
-    "recovery": _map(_bool, 16),
-    "intruders": _objects({"intruder": ID, "alert_level": _int(0, 9), "alert_name": ID}, 2_000),
+# The monitor checks every field of the contract's payloads, but the status's fields it does not show: a change to
+# their form never costs a status (its ownship is the status's, checked whole). Older schemas' names it still reads
+# (monitor/state.py): a track's `imm_mode`, an advisory's `pc`.
+STATUS_SHOWN = ("schema", "vehicle", "time_s", "version", "ownship", "ownship_valid", "pressure_altitude_available",
+                "datum_mismatch_intruders", "sensitivity_level", "tracks", "advisories", "warnings", "counters")
+OLDER = {"tracks": {"imm_mode": _str(MAX_ID_LEN)}, "advisories": {"pc": _num(*contract_fields.PROBABILITY)}}
+KIND_FIELDS = {
+    "tracks": _compile({**table(contract.TRACK), **OLDER["tracks"]}),
+    "advisories": _compile({**table(contract.ADVISORY), **OLDER["advisories"]}),
+    "ownship": _compile(table(contract.OWNSHIP)),
+    "status": _compile(table(contract.STATUS, STATUS_SHOWN)),
+    "bands": _compile(table(contract.BANDS)),
+    "traffic": _compile(table(contract.TRAFFIC_HEADER)),
 }
-TRAFFIC_HEADER = {**COMMON, "layout": _int(0, 1_000_000), "keys": _map(_list(ID, 64), 16)}
-KIND_FIELDS = {kind: _compile(fields) for kind, fields in
-               (("tracks", TRACK), ("advisories", ADVISORY), ("ownship", OWNSHIP), ("status", STATUS),
-                ("bands", BANDS), ("traffic", TRAFFIC_HEADER))}
+COMMON = table(contract.COMMON)
 
 
 def clean_sample(kind: str, payload, name: str | None = None) -> dict:

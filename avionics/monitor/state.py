@@ -28,15 +28,16 @@ import time
 from collections import Counter, OrderedDict, deque
 from dataclasses import dataclass, field
 
+from avionics.contract.bands import BAND_KIND_NAMES
+from avionics.contract.zenoh import SCHEMA_VERSION
 from avionics.core.geodesy import WGS84_A, WGS84_E2
 from avionics.core.units import FPM, FT, NM
 from avionics.io.zenoh_bus import advisory_state
-from avionics.monitor.schema import BAND_KINDS
 
 PROXIMATE_RANGE_M = 6 * NM  # TCAS II proximate traffic: within 6 NM ...
 PROXIMATE_ALT_M = 1200 * FT  # ... and +-1200 ft
 ARROW_RATE_MPS = 500 * FPM  # vertical-rate arrow from 500 fpm
-KNOWN_SCHEMA = 2
+KNOWN_SCHEMA = SCHEMA_VERSION  # a newer payload is shown, with a note (the contract this monitor was built with)
 
 
 
@@ -649,7 +650,7 @@ class FleetState:
         if b is None:
             return None
         age = self.clock() - v.bands_seen
-        out = {k: b.get(k) for k in ("time_s", "alerter", "ownship", *BAND_KINDS, "recovery", "intruders", "schema")}
+        out = {k: b.get(k) for k in ("time_s", "alerter", "ownship", *BAND_KIND_NAMES, "recovery", "intruders", "schema")}
         out.update(stale=v.bands_stale or age > self.bands_stale_s, age_s=age, stale_s=self.bands_stale_s)
         return out
 

@@ -29,15 +29,16 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.contract.bands import BAND_KINDS
+from avionics.core.units import FPM, FT, NM
 from avionics.monitor.state import FleetState
 
 # Band regions in the page's colours (NASA daa-displays, src/daa-displays/daa-utils.ts bandColors: FAR dashed
 # yellow, MID yellow, NEAR red, RECOVERY dashed green; NONE is not drawn there, dim here)
 BAND_STYLE = {"NONE": "dim", "FAR": "yellow underline", "MID": "bold yellow", "NEAR": "bold red",
               "RECOVERY": "bold green underline"}
-BAND_KINDS = (("track_deg", "TRK °", 1.0), ("ground_speed_mps", "GS kt", KT), ("vertical_rate_mps", "V/S fpm", FPM),
-              ("altitude_m", "ALT ft", FT))
+# kind, label with display unit, SI units per display unit (avionics/contract/bands.py)
+BAND_ROWS = tuple((k.name, f"{k.label} {k.display_unit}", k.per_display_unit) for k in BAND_KINDS)
 
 
 def level_name(level, name) -> str:
@@ -64,7 +65,7 @@ def bands_text(bands: dict | None) -> Text:
     text = Text()
     if not bands:
         return text
-    for kind, label, unit in BAND_KINDS:
+    for kind, label, unit in BAND_ROWS:
         text.append(f"{label:8} ", style="grey70")
         intervals = bands.get(kind)
         if (bands.get("recovery") or {}).get(kind) is True:

@@ -38,7 +38,9 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from urllib.parse import parse_qs, unquote, urlparse
 
+from avionics.contract.bands import BAND_KINDS
 from avionics.core.jsonsafe import dumps  # inf/NaN as null
+from avionics.core.units import FPM, FT, KT, NM
 from avionics.monitor.state import Cursor, FleetState
 
 MIN_PUSH_PERIOD_S = 0.1  # track updates are batched to at most 10 pushes per second
@@ -52,8 +54,19 @@ _BUSY = (b"HTTP/1.0 503 Service Unavailable\r\nContent-Type: text/plain\r\nConte
          b"Retry-After: 1\r\nConnection: close\r\n\r\n%s") % (len(_BUSY_BODY), _BUSY_BODY)
 
 
+CONTRACT_MARK = b"/*contract*/null"  # where the page gets what it shares with the outputs
+
+
+def page_contract() -> dict:
+    """What the page takes from the output contract: the band kinds and the display units (core/units.py)."""
+    return {"units": {"FT": FT, "NM": NM, "KT": KT, "FPM": FPM},
+            "band_kinds": [{"name": k.name, "label": k.label, "display_unit": k.display_unit,
+                            "per_display_unit": k.per_display_unit} for k in BAND_KINDS]}
+
+
 def page_html() -> bytes:
-    return resources.files("avionics.monitor").joinpath("static/index.html").read_bytes()
+    page = resources.files("avionics.monitor").joinpath("static/index.html").read_bytes()
+    return page.replace(CONTRACT_MARK, dumps(page_contract()).encode(), 1)
 
 
 def content_security_policy(page: bytes) -> str:

@@ -40,7 +40,7 @@ from avionics.io.link import MAX_DATAGRAMS_PER_RECEIVE
 from avionics.io.zenoh_bus import ZenohBus
 from avionics.daa import Daa
 from avionics.loop import Batch, Loop, MavlinkInput
-from avionics.ports import MavlinkOut, ZenohOut
+from avionics.ports import AdvisoryAnnouncements, MavlinkOut, ZenohOut
 
 LAT0, LON0, ALT0 = 47.40, 8.55, 1500.0
 
@@ -117,7 +117,9 @@ def _setup(n: int, seconds: float, port: int, zenoh: bool = True, rate_hz: float
     bus = ZenohBus(config.zenoh, config.vehicle.id) if zenoh else None
     sent = _Sent(bus)
     mavlink = MavlinkInput(config, counters)
-    ports = [MavlinkOut(sent.mavlink, config)] + ([ZenohOut(sent.zenoh, config)] if zenoh else [])
+    advisories = AdvisoryAnnouncements.of(config)  # as avionics run wires the two ports
+    ports = [MavlinkOut(sent.mavlink, config, advisories=advisories)] + (
+        [ZenohOut(sent.zenoh, config, advisories=advisories)] if zenoh else [])
     loop = Loop(Daa(config, counters), mavlink, ports)
     return config, counters, loop, mavlink, FrameScanner(counters), bus, sent, _traffic(n, seconds, rate_hz=rate_hz)
 

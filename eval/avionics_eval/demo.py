@@ -22,6 +22,7 @@ import threading
 import time
 
 from avionics.config import ZenohConfig
+from avionics.contract.bands import BAND_KINDS
 from avionics.core.units import FT
 from avionics_sitl.encounters import ScenarioError, load_scenario  # noqa: F401  (ScenarioError: exit 2, avionics_eval.cli)
 
@@ -82,18 +83,16 @@ def _start_onboard(port: int, endpoint: str, duration_s: float, profile: str | N
     ], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-BAND_UNITS = {"track_deg": ("track", 1.0, "deg"), "ground_speed_mps": ("GS", 0.514444, "kt"),
-              "vertical_rate_mps": ("V/S", 0.00508, "fpm"), "altitude_m": ("alt", FT, "ft")}
-
-
 def bands_text(payload: dict) -> str:
     """The conflict (and recovery) intervals of a bands sample, one kind after the other: what a pilot would have
     to keep out of (docs/zenoh.md, Bands)."""
     parts = []
-    for kind, (label, unit, name) in BAND_UNITS.items():
-        shown = [f"{b['region']} {b['lower'] / unit:.0f}-{b['upper'] / unit:.0f}" for b in payload[kind]
+    for kind in BAND_KINDS:
+        unit = kind.per_display_unit
+        shown = [f"{b['region']} {b['lower'] / unit:.0f}-{b['upper'] / unit:.0f}" for b in payload[kind.name]
                  if b["region"] != "NONE"]
-        parts.append(f"{label} [{name}] " + (", ".join(shown) if shown else "clear" if payload[kind] else "--"))
+        parts.append(f"{kind.label} [{kind.display_unit}] "
+                     + (", ".join(shown) if shown else "clear" if payload[kind.name] else "--"))
     return "; ".join(parts)
 
 

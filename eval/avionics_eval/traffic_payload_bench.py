@@ -37,11 +37,11 @@ from avionics.core.types import (
 )
 from avionics.daa import Daa
 from avionics.io.payloads import track_payload
+from avionics.core.units import KT
 from avionics.io.traffic import decode_traffic, encode_traffic
 from avionics.io.zenoh_bus import open_session, to_json
 
 LAT0, LON0, ALT0 = 47.40, 8.55, 1500.0
-KT = 1852.0 / 3600.0
 
 
 def traffic_inputs(n: int, seconds: float = 3.0, seed: int = 1):

@@ -61,7 +61,7 @@ def cmd_replay(args) -> int:
     elif not args.fly_guidance:
         import csv
 
-        from avionics.ports import CSV_COLUMNS
+        from avionics.contract.advisory_csv import CSV_COLUMNS
 
         writer = csv.DictWriter(sys.stdout, fieldnames=CSV_COLUMNS)
         writer.writeheader()

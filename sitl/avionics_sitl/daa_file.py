@@ -41,7 +41,7 @@ import numpy as np
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AltitudeDatum
 from avionics.core.uncertainty import SumData
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.core.units import FPM, FT, KT, NM, ground_speed_mps, track_deg
 from avionics_sitl.aircraft import AircraftSpec
 from avionics_sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
 from avionics_sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
@@ -257,8 +257,8 @@ def _parse_row(fields: list[str], columns: list[str], factors: list[float], line
 
 
 def _spec(name: str, index: int, first: _Row) -> AircraftSpec:
-    speed = math.hypot(first.ve, first.vn)
-    heading = math.degrees(math.atan2(first.ve, first.vn)) % 360.0 if speed > 0 else 0.0
+    speed = ground_speed_mps(first.ve, first.vn)
+    heading = track_deg(first.ve, first.vn) if speed > 0 else 0.0
     callsign = re.sub(r"[^A-Z0-9]", "", name.upper())[:8]
     where = f"line {first.line}: aircraft {name!r}"
     try:

@@ -21,7 +21,8 @@ from avionics.core.types import Advisory, IntruderKey, IntruderReport, OwnshipFi
 from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch, Loop, MavlinkInput
-from avionics.ports import CSV_COLUMNS, NOTHING, MavlinkOut, csv_row
+from avionics.contract.advisory_csv import CSV_COLUMNS
+from avionics.ports import NOTHING, MavlinkOut, csv_row
 from avionics_sitl.autopilot import AutopilotConfig, Packer, ownship_messages, schedule
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.progress import progress_bar

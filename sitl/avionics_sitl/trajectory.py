@@ -27,6 +27,7 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
+from avionics.core import units
 from avionics.core.geodesy import LocalTangentPlane
 from avionics_sitl.aircraft import AircraftSpec, Leg
 
@@ -45,12 +46,12 @@ class KinematicState:
 
     @property
     def ground_speed_mps(self) -> float:
-        return math.hypot(self.vel_east_mps, self.vel_north_mps)
+        return units.ground_speed_mps(self.vel_east_mps, self.vel_north_mps)
 
     @property
     def track_deg(self) -> float:
         """True track in [0, 360): 0 north, 90 east. 0 when not moving horizontally."""
-        return math.degrees(math.atan2(self.vel_east_mps, self.vel_north_mps)) % 360.0
+        return units.track_deg(self.vel_east_mps, self.vel_north_mps)
 
 
 class Trajectory(Protocol):
