@@ -64,12 +64,12 @@ def _enu(traj, t: float) -> np.ndarray:
 
 
 def sensor_scans(scenario: Scenario, sensors: list[SimulatedSensor], end_s: float, start_s: float = 0.0) -> list[Scan]:
-    """Every scan of every sensor from start_s to end_s, in time order."""
+    """Every scan of every sensor from start_s up to (not at) end_s, in time order: what a live flight sends."""
     own_traj, intruder_trajs = scenario.trajectories()
     scans = []
     for sensor in sensors:
         period = 1.0 / sensor.errors.rate_hz
-        for k in range(int(math.ceil(start_s / period - 1e-9)), int(math.floor(end_s / period + 1e-9)) + 1):
+        for k in range(int(math.ceil(start_s / period - 1e-9)), int(math.ceil(end_s / period - 1e-9))):
             t = k * period
             own = _enu(own_traj, t)
             heading = math.atan2(own[3], own[4]) if math.hypot(own[3], own[4]) > 0.0 else 0.0
