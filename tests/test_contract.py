@@ -1,9 +1,10 @@
 """The output contract (avionics/contract/, issue 31): every output declared once, and what must agree with it.
 
-- docs/zenoh.md's field tables (advisory, track, status, ownship, bands) name the contract's fields with its types
-  and units, and docs/mavlink.md's DAA_ADVISORY and DAA_BANDS tables its message fields: docs and code cannot drift.
-- The generated dialect has the contract's DAA_ADVISORY and DAA_BANDS fields with their types, and every enum entry
-  the contract names.
+- docs/zenoh.md's field tables (advisory, track, status, ownship, bands, and the sensor input) name the contract's
+  fields with its types and units, and docs/mavlink.md's DAA_ADVISORY, DAA_BANDS and DAA_SENSOR_MEASUREMENT tables
+  its message fields: docs and code cannot drift.
+- The generated dialect has those messages' contract fields with their types, and every enum entry the contract
+  names.
 - What the ports publish, from a real run, has the contract's fields in its order; the traffic batch's Arrow
   columns have the contract's types.
 - Both advisory ports name an intruder alike: after its track is dropped, the zenoh advisory carries the callsign

@@ -1,7 +1,8 @@
 """The MAVLink outputs (docs/mavlink.md, Outputs): what each of our advisory values becomes in COLLISION,
-DAA_ADVISORY, DAA_BANDS and STATUSTEXT; and the one input of our dialect, DAA_SENSOR_MEASUREMENT. Enumeration values are named as the dialect names them
-(avionics/io/dialect/daa.xml with common.xml); avionics/io/encode.py resolves the names and builds the messages.
-A test checks docs/mavlink.md's DAA_ADVISORY and DAA_BANDS tables and the generated dialect against these."""
+DAA_ADVISORY, DAA_BANDS and STATUSTEXT; and our dialect's one input, DAA_SENSOR_MEASUREMENT (docs/mavlink.md,
+Inputs). Enumeration values are named as the dialect names them (avionics/io/dialect/daa.xml with common.xml);
+avionics/io/encode.py resolves the names and builds the messages. A test checks docs/mavlink.md's DAA_ADVISORY,
+DAA_BANDS and DAA_SENSOR_MEASUREMENT tables and the generated dialect against these."""
 
 from __future__ import annotations
 
