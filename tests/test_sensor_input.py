@@ -4,9 +4,10 @@ them (`sitl live --sensor`, sitl/avionics_sitl/sensor_feed.py).
 - zenoh: two real sessions (peer mode on loopback, scouting off): the simulator's publisher puts the radar's scans on
   `daa/uav1/sensor/0`, the receiver's SensorSubscriber files them and the decoder gives back what was measured;
   garbage, NaN and out-of-range samples and returns are counted and the next good sample decoded.
-- MAVLink: `sitl live --sensor radar` as a child process over real UDP and pymavlink framing: no ADSB_VEHICLE, and
-  every DAA_SENSOR_MEASUREMENT decodes to the simulator's measurement at float32 precision; bad messages are counted
-  and a good one after them decoded.
+- MAVLink: bad messages over real UDP and pymavlink framing are counted and a good one after them decoded.
+- `sitl live --sensor radar,active --sensor-link both` as a child process: no ADSB_VEHICLE; every
+  DAA_SENSOR_MEASUREMENT (UDP) decodes to the simulator's measurement at float32 precision, every zenoh sample
+  exactly.
 - hypothesis over both decoders' parsing: nothing raises, nothing non-finite gets through.
 """
 
@@ -171,12 +172,14 @@ def test_simulated_radar_over_real_zenoh_sessions_is_decoded_as_measured(tcp_por
     try:
         assert wait_for(lambda: any(True for _ in sender.info.peers_zid()))  # connected: the subscriber is known
         sender.put("daa/uav1/sensor/0", b"\x00 garbage")
-        assert wait_for(lambda: subscriber._queue)
+        filed = []
+        assert wait_for(lambda: filed.extend(subscriber.drain()) or filed)  # the route is up: the scans go next
         publisher.start()
         clock.start()
 
         def drained():
-            for sensor_id, raw, received_s in subscriber.drain():
+            for sensor_id, raw, received_s in filed + subscriber.drain():
+                filed.clear()
                 time_s = json.loads(raw)["time_s"] if raw.startswith(b"{") else None
                 got[time_s] = (decoder.decode(raw, sensor_id, received_s), received_s)
             return scans[-1].deliver_s in got
@@ -282,16 +285,22 @@ def test_message_decoder_never_raises_and_never_passes_a_non_finite_value(values
 
 
 @pytest.mark.live
-def test_sitl_live_sensor_radar_serves_measurements_and_no_adsb_vehicle(udp_port):
-    """`sitl live head-on --sensor radar` as a child process: what arrives on UDP is the simulator's radar scans
-    (the same seed, computed here) at float32 precision, and no ADSB_VEHICLE."""
+def test_sitl_live_sensors_serve_measurements_on_both_links_and_no_adsb_vehicle(udp_port, tcp_port):
+    """`sitl live head-on --sensor radar,active --sensor-link both` as a child process: what arrives on UDP
+    (DAA_SENSOR_MEASUREMENT) and on zenoh (its session connects to ours) is the simulator's scans (the same seed,
+    computed here), at float32 precision on MAVLink and exactly on zenoh, and no ADSB_VEHICLE."""
+    endpoint = f"tcp/127.0.0.1:{tcp_port}"
     counters = Counter()
     link = MavlinkLink(f"udpin:127.0.0.1:{udp_port}", counters, 1, 191)
-    received = []
+    receiver = open_session(ZenohConfig(listen=(endpoint,), connect=()))
+    subscriber = SensorSubscriber(receiver, "daa", "uav1", lambda: 0.0)
+    scans = sensor_scans(load_scenario("head-on"), simulated_sensors(("radar", "active"), 0, False), END_S, START_S)
+    received, samples = [], []
     try:
         sitl = subprocess.Popen(
-            [sys.executable, "-m", "avionics_sitl.cli", "live", "head-on", "--sensor", "radar", "--start",
-             str(START_S), "--duration", str(END_S - START_S), "--connection", f"udpout:127.0.0.1:{udp_port}"],
+            [sys.executable, "-m", "avionics_sitl.cli", "live", "head-on", "--sensor", "radar,active", "--sensor-link",
+             "both", "--zenoh-connect", endpoint, "--start", str(START_S), "--duration", str(END_S - START_S),
+             "--connection", f"udpout:127.0.0.1:{udp_port}"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         try:
             wait_for(lambda: received.extend(link.receive(0.05)) or sitl.poll() is not None)
@@ -301,20 +310,32 @@ def test_sitl_live_sensor_radar_serves_measurements_and_no_adsb_vehicle(udp_port
                 sitl.kill()
                 sitl.communicate()
         received.extend(link.receive(0.2))
+        wait_for(lambda: samples.extend(subscriber.drain()) or len(samples) >= len(scans), 10.0)  # in flight
     finally:
         link.close()
+        subscriber.close()
+        receiver.close()
     assert sitl.returncode == 0, err
     summary = json.loads(err.splitlines()[-1])
     kinds = Counter(m.get_type() for m in received)
-    scans = sensor_scans(load_scenario("head-on"), simulated_sensors(("radar",), 0, False), END_S, START_S)
-    sent = {(int(round(s.deliver_s * 1e6)), 0): m for s in scans for m in s.measurements}  # one intruder
-    print(json.dumps({"sitl": summary, "received": kinds}))
+    sent = {(int(round(s.deliver_s * 1e6)), int(s.sensor.sensor_id)): m for s in scans for m in s.measurements}
+    print(json.dumps({"sitl": summary, "received": kinds, "zenoh_samples": len(samples)}))
     assert kinds["ADSB_VEHICLE"] == 0 and kinds["GLOBAL_POSITION_INT"] > 0
-    assert summary["sensor_measurements"] == len(sent) >= 10
+    assert summary["sensor_measurements"] == len(sent) >= 10 and summary["sensor_samples"] == len(scans)
     got = [m for m in received if m.get_type() == "DAA_SENSOR_MEASUREMENT"]
     assert len(got) >= 0.9 * len(sent)  # UDP on loopback: a datagram lost under load is not a failure here
+    assert {m.sensor_id for m in got} == {0, 1}  # radar and active surveillance
     decoder_counters = Counter()
     for msg in got:
         decoded = SensorMessageDecoder(decoder_counters).decode(msg, 0.0)
         assert same(decoded, f32(sent[(msg.time_usec, msg.sensor_id)]), 0.0)
+    # zenoh: the scans put once the sitl's session had reached ours (the first may precede the connection)
+    assert len(samples) >= len(scans) // 2
+    decoder = SensorPayloadDecoder(decoder_counters, "uav1")
+    by_time = {(s.deliver_s, s.sensor.sensor_id): s for s in scans}
+    for sensor_id, raw, _ in samples:
+        scan = by_time[(json.loads(raw)["time_s"], sensor_id)]
+        decoded = decoder.decode(raw, sensor_id, 0.0)
+        assert len(decoded) == len(scan.measurements)
+        assert all(same(d, m, 1e-12) and d.mount == m.mount for d, m in zip(decoded, scan.measurements))
     assert [k for k in decoder_counters if not k.startswith("rx.")] == []
