@@ -224,6 +224,8 @@ def test_message_round_trips_radar_and_mode_s_at_float32_precision():
     assert got.mount == SensorMount("0", "radar")  # unconfigured: all round, of the message's kind
     got = decoder.decode(reply, 5.0)
     assert same(got, f32(mode_s_reply()), 0.0) and got.address == 0xA1B2C3 and got.mount is ACTIVE
+    (second,) = _framed(sensor_message(radar_return(range_m=9000.0), 26.0, 0.1, 0))  # the same scan, read later
+    assert decoder.decode(second, 50.3).time_s == pytest.approx(49.9)  # grouped with its scan's first detection
     assert [k for k in counters if not k.startswith("rx.")] == []
 
 

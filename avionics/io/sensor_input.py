@@ -216,6 +216,7 @@ class SensorMessageDecoder:
     def __init__(self, counters: Counter, mounts: dict[str, SensorMount] | None = None):
         self.counters = counters
         self.mounts = dict(mounts or {})
+        self._scan: dict[str, tuple[int, float]] = {}  # instance -> (time_usec, time_s) of its latest scan
 
     def decode(self, msg, received_s: float) -> PolarMeasurement | None:
         self.counters["rx.sensor.mavlink"] += 1
@@ -233,7 +234,7 @@ class SensorMessageDecoder:
         if msg.flags & _ADDRESS_VALID and not 0 < msg.address <= 0xFFFFFF:
             return self._reject("address")
         m = PolarMeasurement(
-            mount=mount, time_s=received_s - msg.age / 1000.0, range_m=float(msg.range),
+            mount=mount, time_s=self._time_s(name, msg, received_s), range_m=float(msg.range),
             azimuth_rad=float(msg.azimuth), range_sigma_m=float(msg.range_std),
             azimuth_sigma_rad=float(msg.azimuth_std), elevation_rad=_present(msg.elevation),
             elevation_sigma_rad=_present(msg.elevation_std), altitude_m=_present(msg.altitude),
@@ -241,6 +242,16 @@ class SensorMessageDecoder:
             range_rate_sigma_mps=_present(msg.range_rate_std),
             address=msg.address if msg.flags & _ADDRESS_VALID else None)
         return _usable(m, self.counters, "sensor.mavlink")
+
+    def _time_s(self, name: str, msg, received_s: float) -> float:
+        """receipt - age; the detections of one scan (one time_usec) share the first one's, though read apart, so
+        the intake can group a scan by (sensor, time_s) as the zenoh sample groups it."""
+        last = self._scan.get(name)
+        if last is not None and last[0] == msg.time_usec:
+            return last[1]
+        time_s = received_s - msg.age / 1000.0
+        self._scan[name] = (msg.time_usec, time_s)
+        return time_s
 
     def _reject(self, reason: str) -> None:
         self.counters[f"sensor.mavlink.{reason}"] += 1
