@@ -1,9 +1,10 @@
 """The output contract (avionics/contract/, issue 31): every output declared once, and what must agree with it.
 
-- docs/zenoh.md's field tables (advisory, track, status, ownship, bands) name the contract's fields with its types
-  and units, and docs/mavlink.md's DAA_ADVISORY and DAA_BANDS tables its message fields: docs and code cannot drift.
-- The generated dialect has the contract's DAA_ADVISORY and DAA_BANDS fields with their types, and every enum entry
-  the contract names.
+- docs/zenoh.md's field tables (advisory, track, status, ownship, bands, and the sensor input) name the contract's
+  fields with its types and units, and docs/mavlink.md's DAA_ADVISORY, DAA_BANDS and DAA_SENSOR_MEASUREMENT tables
+  its message fields: docs and code cannot drift.
+- The generated dialect has those messages' contract fields with their types, and every enum entry the contract
+  names.
 - What the ports publish, from a real run, has the contract's fields in its order; the traffic batch's Arrow
   columns have the contract's types.
 - Both advisory ports name an intruder alike: after its track is dropped, the zenoh advisory carries the callsign
@@ -72,7 +73,7 @@ def doc_type(field: Field) -> str:
 
 ZENOH_TABLES = [("## Advisory", contract.ADVISORY, False), ("## Track", contract.TRACK, False),
                 ("## Status", contract.STATUS, True), ("### Ownship", contract.OWNSHIP, False),
-                ("## Bands", contract.BANDS, False)]
+                ("## Bands", contract.BANDS, False), ("## Sensor", contract.SENSOR, True)]
 
 
 @pytest.mark.parametrize("heading, fields, nested", ZENOH_TABLES, ids=[h for h, _, _ in ZENOH_TABLES])
@@ -101,7 +102,8 @@ def test_docs_zenoh_key_expressions_are_the_contracts():
 
 
 MAVLINK_TABLES = [("### DAA_ADVISORY", contract_mavlink.DAA_ADVISORY, "daa_advisory"),
-                  ("### DAA_BANDS", contract_mavlink.DAA_BANDS, "daa_bands")]
+                  ("### DAA_BANDS", contract_mavlink.DAA_BANDS, "daa_bands"),
+                  ("### DAA_SENSOR_MEASUREMENT", contract_mavlink.DAA_SENSOR_MEASUREMENT, "daa_sensor_measurement")]
 
 
 def _heading(doc: str, start: str) -> str:
@@ -121,8 +123,7 @@ def test_docs_mavlink_tables_and_the_dialect_are_the_contract(heading, fields, m
     lengths = dict(zip(cls.ordered_fieldnames, cls.array_lengths))  # pymavlink: in wire order
     generated = {name: f"{kind}[{lengths[name]}]" if lengths[name] else kind
                  for name, kind in zip(cls.fieldnames, cls.fieldtypes)}
-    assert generated == {f.name: f.type.replace("uint32", "uint32_t").replace("uint8", "uint8_t")
-                         for f in fields}
+    assert generated == {f.name: re.sub(r"^(u?int\d+)", r"\1_t", f.type) for f in fields}
 
 
 def test_every_dialect_name_the_contract_uses_exists():
@@ -131,6 +132,7 @@ def test_every_dialect_name_the_contract_uses_exists():
               contract_mavlink.INTEGRITY, contract_mavlink.SEVERITY, contract_bands.BAND_REGIONS)
     names = [name for table in tables for name in table.values()]
     names += [k.mavlink for k in contract_bands.BAND_KINDS] + [contract_bands.BAND_REGION_UNKNOWN]
+    names += [*contract_mavlink.SENSOR_KIND.values(), contract_mavlink.SENSOR_ADDRESS_VALID]
     assert [n for n in names if not isinstance(getattr(m2, n, None), int)] == []
     assert m2.MAVLink_statustext_message.array_lengths[m2.MAVLink_statustext_message.fieldnames.index("text")] \
         == contract_mavlink.STATUSTEXT_LEN

@@ -66,7 +66,8 @@ def test_our_messages_are_in_our_block_and_no_public_dialect_uses_it():
     from pymavlink.generator import mavparse
 
     ours = mavparse.MAVXML(str(XML), mavparse.PROTOCOL_2_0)
-    assert {m.name: m.id for m in ours.message} == {"DAA_ADVISORY": 52610, "DAA_BANDS": 52611}
+    assert {m.name: m.id for m in ours.message} == {"DAA_ADVISORY": 52610, "DAA_BANDS": 52611,
+                                                    "DAA_SENSOR_MEASUREMENT": 52612}
     assert all(m.id in BLOCK for m in ours.message)
     assert [(owner, lo, hi) for owner, lo, hi in ALL_XML_BLOCKS for m in ours.message if lo <= m.id <= hi] == []
     import pymavlink.dialects.v20 as stock

@@ -3,7 +3,7 @@
 Types are written as docs/zenoh.md writes them: `int`, `float`, `string`, `bool`, `float[3]` (a JSON array of three
 numbers), `{string: float}` (an object of that value type, e.g. a map of names to probabilities), `[string]`,
 `object` (its `fields`), `[object]` (a list of objects, each of its `fields`). Units: `—` (none), `s`, `m`, `m/s`,
-`deg`, `deg/s`, `ms`. Every field may be null (the contract's unknown and infinite values are null).
+`deg`, `deg/s`, `ms`, `Hz`, `dB`. Every field may be null (the contract's unknown and infinite values are null).
 
 `limit` is what a receiver may reject outside: (low, high) for numbers (and for the values of a map), the largest
 length for strings and for the items of a [string], the largest magnitude of each component of a float[3].

@@ -1,7 +1,8 @@
 """The MAVLink outputs (docs/mavlink.md, Outputs): what each of our advisory values becomes in COLLISION,
-DAA_ADVISORY, DAA_BANDS and STATUSTEXT. Enumeration values are named as the dialect names them
-(avionics/io/dialect/daa.xml with common.xml); avionics/io/encode.py resolves the names and builds the messages.
-A test checks docs/mavlink.md's DAA_ADVISORY and DAA_BANDS tables and the generated dialect against these."""
+DAA_ADVISORY, DAA_BANDS and STATUSTEXT; and our dialect's one input, DAA_SENSOR_MEASUREMENT (docs/mavlink.md,
+Inputs). Enumeration values are named as the dialect names them (avionics/io/dialect/daa.xml with common.xml);
+avionics/io/encode.py resolves the names and builds the messages. A test checks docs/mavlink.md's DAA_ADVISORY,
+DAA_BANDS and DAA_SENSOR_MEASUREMENT tables and the generated dialect against these."""
 
 from __future__ import annotations
 
@@ -82,6 +83,31 @@ DAA_BANDS = (
     MessageField("upper", f"float[{BANDS_PER_MESSAGE}]", "kind's unit", "interval ends (NaN unused)"),
     MessageField("region", f"uint8[{BANDS_PER_MESSAGE}]", "—", "interval regions (DAA_BANDS_REGION)"),
 )
+
+# -- DAA_SENSOR_MEASUREMENT (daa.xml), an input: one detection of an onboard range/bearing sensor (issue 30); the
+# fields of the zenoh sensor payload's return (contract/zenoh.py SENSOR_RETURN) in MAVLink's units (radians) and
+# the wire's float32, NaN where the zenoh field is null. avionics/io/sensor_input.py builds and decodes it.
+DAA_SENSOR_MEASUREMENT = (
+    MessageField("time_usec", "uint64", "us", "time_s x 1e6 (the sensor's clock)"),
+    MessageField("age", "uint16", "ms", "age_s x 1000"),
+    MessageField("sensor_id", "uint8", "—", "the sensor instance (zenoh `sensor`: its decimal text)"),
+    MessageField("kind", "uint8", "—", "kind (SENSOR_KIND)"),
+    MessageField("flags", "uint8", "—", "DAA_SENSOR_FLAGS_ADDRESS_VALID when address is set"),
+    MessageField("address", "uint32", "—", "address (0 when null)"),
+    MessageField("range", "float", "m", "range_m"),
+    MessageField("azimuth", "float", "rad", "azimuth_deg in radians"),
+    MessageField("elevation", "float", "rad", "elevation_deg in radians (NaN for null)"),
+    MessageField("range_rate", "float", "m/s", "range_rate_mps (NaN for null)"),
+    MessageField("altitude", "float", "m", "altitude_m (NaN for null)"),
+    MessageField("amplitude", "float", "dB", "amplitude_db (NaN for null)"),
+    MessageField("range_std", "float", "m", "range_sigma_m"),
+    MessageField("azimuth_std", "float", "rad", "azimuth_sigma_deg in radians"),
+    MessageField("elevation_std", "float", "rad", "elevation_sigma_deg in radians (NaN for null)"),
+    MessageField("range_rate_std", "float", "m/s", "range_rate_sigma_mps (NaN for null)"),
+    MessageField("altitude_std", "float", "m", "altitude_sigma_m (NaN for null)"),
+)
+SENSOR_KIND = {"radar": "DAA_SENSOR_KIND_RADAR", "active": "DAA_SENSOR_KIND_ACTIVE"}
+SENSOR_ADDRESS_VALID = "DAA_SENSOR_FLAGS_ADDRESS_VALID"
 
 # -- STATUSTEXT ------------------------------------------------------------------------------------------------------
 STATUSTEXT_LEN = 50  # STATUSTEXT text, char[50]

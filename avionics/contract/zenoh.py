@@ -26,6 +26,7 @@ KEYS = {
     "bands": "bands of a DO-365 alerter, once a second",
     "snapshot": "queryable: the current picture and the recent advisory changes",
     "alive": "liveliness token, held while the process runs",
+    "sensor/<id>": "an input: one scan of the ownship's range/bearing sensor <id> (radar, active surveillance)",
 }
 
 COMMON = (
@@ -200,5 +201,47 @@ TRAFFIC_COLUMNS = {f.name: "i64" if f.name == "updates" else ARROW_TYPES[f.type]
                    for f in TRACK if f.name not in names(TRAFFIC_HEADER)}
 KEYED_COLUMNS = tuple(f.name for f in IMM if f.type == "{string: float}")  # maps sent as value lists
 
+# The ownship's range/bearing sensors' measurements (issue 30), an input the process subscribes to: one sample per
+# scan of one sensor, after ROS 2 radar_msgs RadarScan (header.stamp: time_s; RadarReturn[]: returns), in the
+# contract's units (degrees, not RadarReturn's radians) and the aviation sign (azimuth positive right, clockwise
+# from the nose, where RadarReturn's REP-103 azimuth is positive anticlockwise). avionics/io/sensor_input.py
+# builds and decodes it into tracking/measurement.py PolarMeasurement.
+SENSOR_ANGLE = (-180.0, 180.0)  # deg, about the nose
+SENSOR_SIGMA_ANGLE = (0.0, 180.0)  # deg
+MAX_SENSOR_RETURNS = 256  # detections in one scan (a receiver's bound on a sample)
+MAX_SENSOR_AGE_S = 60.0  # a measurement older than this when published is not traffic any more
+SENSOR_RETURN = (
+    number("range_m", "m", DISTANCE, "slant range from the sensor (RadarReturn range), > 0"),
+    number("azimuth_deg", "deg", SENSOR_ANGLE, "in the horizontal plane, clockwise from the ownship's nose"),
+    number("elevation_deg", "deg", (-90.0, 90.0), "above the horizontal (RadarReturn elevation); radar, else null"),
+    number("range_rate_mps", "m/s", (-SPEED[1], SPEED[1]), "d(range)/dt, positive opening (RadarReturn "
+           "doppler_velocity); null when not measured"),
+    number("amplitude_db", "dB", (-1_000.0, 1_000.0), "return strength (RadarReturn amplitude); null if none"),
+    number("altitude_m", "m", ALTITUDE, "the reply's pressure altitude (Mode C/S); active surveillance, else null"),
+    integer("address", (0, 0xFFFFFF), "a Mode S reply's 24-bit address; null for a radar return or Mode C"),
+    number("range_sigma_m", "m", DISTANCE, "1 sigma of range_m (random and bias in quadrature)"),
+    number("azimuth_sigma_deg", "deg", SENSOR_SIGMA_ANGLE, "1 sigma of azimuth_deg"),
+    number("elevation_sigma_deg", "deg", SENSOR_SIGMA_ANGLE, "1 sigma of elevation_deg; with it"),
+    number("range_rate_sigma_mps", "m/s", SPEED, "1 sigma of range_rate_mps; with it"),
+    number("altitude_sigma_m", "m", DISTANCE, "1 sigma of altitude_m; with it"),
+)
+SENSOR = (
+    *COMMON[:2],
+    number("time_s", "s", TIME, "time of measurement on the sensor's clock (RadarScan header.stamp)"),
+    ident("sensor", "the sensor's id, the key's <id>"),
+    ident("kind", "`radar` or `active` (active surveillance)"),
+    number("age_s", "s", (0.0, MAX_SENSOR_AGE_S), "the measurement's age when published: the receiver dates it "
+           "receipt - age_s"),
+    number("boresight_deg", "deg", SENSOR_ANGLE, "mount: boresight azimuth, clockwise from the nose; null 0"),
+    number("half_azimuth_deg", "deg", (0.0, 180.0), "mount: field of regard's half-width about it; null 180"),
+    number("elevation_min_deg", "deg", (-90.0, 90.0), "mount: field of regard's lower edge; null -90"),
+    number("elevation_max_deg", "deg", (-90.0, 90.0), "mount: field of regard's upper edge; null 90"),
+    number("min_range_m", "m", DISTANCE, "mount: no detection nearer; null 0"),
+    number("max_range_m", "m", DISTANCE, "mount: no detection farther; null unlimited"),
+    number("rate_hz", "Hz", (0.0, 1_000.0), "mount: scan rate; null 1"),
+    Field("returns", "[object]", "—", "this scan's detections (RadarScan returns); empty: nothing seen", None,
+          MAX_SENSOR_RETURNS, SENSOR_RETURN),
+)
+
 PAYLOADS = {"advisories": ADVISORY, "tracks": TRACK, "ownship": OWNSHIP, "status": STATUS, "bands": BANDS,
-            "guidance": GUIDANCE, "traffic": TRAFFIC_HEADER}
+            "guidance": GUIDANCE, "traffic": TRAFFIC_HEADER, "sensor": SENSOR}

@@ -77,6 +77,15 @@ def tcp_listen_address(text: str) -> tuple[str, int]:
     return (host or "127.0.0.1"), port_number(port)
 
 
+def _sensor_list(text: str) -> tuple[str, ...]:
+    from avionics_sitl.sensor_feed import sensor_list
+
+    try:
+        return sensor_list(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def autopilot_mode_name(mode: int, autopilot: str) -> str:
     from avionics_sitl.guided_plane import mode_name
 
@@ -122,19 +131,40 @@ def cmd_live(args) -> int:
         return 0
     end_s = scenario.duration_s if args.duration is None else min(scenario.duration_s, args.start + args.duration)
     clock = ScenarioClock(args.start)
+    scans, sensor_events, publisher, session = [], [], None, None
+    if set(args.sensor) - {"adsb"}:  # the ownship's radar / active surveillance (sitl/avionics_sitl/sensor_feed.py)
+        from avionics_sitl.sensor_feed import mavlink_events, sensor_scans, simulated_sensors
+
+        scans = sensor_scans(scenario, simulated_sensors(args.sensor, args.seed, exact=args.noise == "none"), end_s,
+                             args.start)
+        if args.sensor_link in ("mavlink", "both"):
+            sensor_events = mavlink_events(scans)
     # listening before the link opens and the clock starts: a port in use is exit 1 before anything flies
     servers = feed_servers(scenario, PRESETS[args.noise], args.seed, clock, end_s, sbs=args.sbs, beast=args.beast)
     try:
+        if scans and args.sensor_link in ("zenoh", "both"):
+            from avionics.io.params import ZenohConfig
+            from avionics.io.zenoh_bus import open_session
+            from avionics_sitl.sensor_feed import ZenohSensorPublisher
+
+            session = open_session(ZenohConfig(listen=(), connect=(args.zenoh_connect,)))  # ZenohBusError: exit 1
+            publisher = ZenohSensorPublisher(session, scans, clock, args.zenoh_prefix, args.zenoh_vehicle)
+            servers.append(publisher)
         for server in servers:
             server.start()  # sends nothing before the clock starts (fly starts it once the link is open)
         recording = fly(scenario, args.connection, PRESETS[args.noise], seed=args.seed, start_s=args.start,
-                        duration_s=args.duration, on_receive=show, adsb_vehicle=not args.no_adsb_vehicle,
-                        clock=clock)
+                        duration_s=args.duration, on_receive=show,
+                        adsb_vehicle="adsb" in args.sensor and not args.no_adsb_vehicle, clock=clock,
+                        extra_events=sensor_events)
     finally:
         for server in servers:
             server.stop()  # also on Ctrl-C and errors: the listeners and every client connection are closed
+        if session is not None:
+            session.close()
     summary = {"sent": recording.sent, "received": len(recording.received),
                "collisions": len(recording.of_type("COLLISION"))}
+    if scans:
+        summary["sensor_measurements"] = sum(len(s.measurements) for s in scans)
     for server in servers:
         summary[server.sent_key] = server.sent
     print(json.dumps(summary), file=sys.stderr)
@@ -210,6 +240,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="serve Beast binary frames on TCP (as dump1090/readsb port 30005; HOST default 127.0.0.1)")
     f.add_argument("--no-adsb-vehicle", action="store_true",
                    help="leave ADSB_VEHICLE out of the MAVLink schedule: the feeds are the only traffic source")
+    s = p.add_argument_group("onboard sensors (docs/scenarios.md, \"Onboard sensors\"): how the intruders are seen")
+    s.add_argument("--sensor", type=_sensor_list, default=("adsb",), metavar="adsb|radar|active[,...]",
+                   help="adsb: ADSB_VEHICLE (and --sbs/--beast); radar, active: the ownship's DO-365 Appendix Q radar "
+                        "and active surveillance measure the intruders (exactly with --noise none); without adsb no "
+                        "intruder sends ADSB_VEHICLE (default: adsb)")
+    s.add_argument("--sensor-link", choices=("mavlink", "zenoh", "both"), default="mavlink",
+                   help="where the sensors' measurements go: DAA_SENSOR_MEASUREMENT on the MAVLink link, the zenoh "
+                        "sensor topic, or both (default: mavlink)")
+    s.add_argument("--zenoh-connect", default="tcp/127.0.0.1:7447", metavar="ENDPOINT",
+                   help="with --sensor-link zenoh|both: the zenoh endpoint to connect to (default: where avionics run "
+                        "listens)")
+    s.add_argument("--zenoh-prefix", default="daa", metavar="PREFIX", help="zenoh.key_prefix (default: daa)")
+    s.add_argument("--zenoh-vehicle", default="uav1", metavar="ID", help="vehicle.id (default: uav1)")
     p.set_defaults(func=cmd_live)
     return parser
 
@@ -221,6 +264,10 @@ def main(argv=None) -> int:
                                                                            or args.no_adsb_vehicle):
         parser.error("--fly-guidance sends ownship and traffic on MAVLink only: not with --sbs, --beast, "
                      "--no-adsb-vehicle")
+    if args.func is cmd_live and "adsb" not in args.sensor and (args.sbs or args.beast or args.no_adsb_vehicle):
+        parser.error("--sbs, --beast and --no-adsb-vehicle are ADS-B: --sensor must include adsb")
+    if getattr(args, "fly_guidance", False) and args.func is cmd_live and args.sensor != ("adsb",):
+        parser.error("--fly-guidance serves traffic as ADSB_VEHICLE only: not with --sensor")
     if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):
         parser.error("--no-adsb-vehicle needs --sbs or --beast (otherwise no traffic is sent at all)")
     return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file

@@ -31,6 +31,9 @@ class ScenarioClock:
     def start(self) -> None:
         self._wall0 = time.monotonic() - self.start_s
 
+    def started(self) -> bool:
+        return self._wall0 is not None
+
     @property
     def wall0(self) -> float:
         """The monotonic time of scenario time 0 (once started)."""
@@ -97,14 +100,18 @@ class Recording:
 
 def fly(scenario: Scenario, connection: str, impairments: AdsbImpairments, seed: int = 0,
         start_s: float = 0.0, duration_s: float | None = None, autopilot: AutopilotConfig = AutopilotConfig(),
-        on_receive=None, stop=None, adsb_vehicle: bool = True, clock: ScenarioClock | None = None) -> Recording:
+        on_receive=None, stop=None, adsb_vehicle: bool = True, clock: ScenarioClock | None = None,
+        extra_events=()) -> Recording:
     """Send the schedule from scenario time start_s in real time; receive until the end. on_receive(Received)
     is called for each message from the DAA side (e.g. to print COLLISION as it arrives). adsb_vehicle=False: the
-    ownship only (the traffic goes by receiver feeds). clock: started here once the link is open, for the feed
-    servers paced by it (its start_s is start_s)."""
+    ownship only (the traffic goes by receiver feeds or the sensors). clock: started here once the link is open, for
+    the feed servers paced by it (its start_s is start_s). extra_events: more of the autopilot's messages merged into
+    the schedule (the sensors' DAA_SENSOR_MEASUREMENT, sensor_feed.py)."""
     end_s = scenario.duration_s if duration_s is None else min(scenario.duration_s, start_s + duration_s)
-    events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s) if e.deliver_s >= start_s
-              and (adsb_vehicle or e.msg.get_type() != "ADSB_VEHICLE")]
+    events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s)
+              if adsb_vehicle or e.msg.get_type() != "ADSB_VEHICLE"]
+    events = sorted((e for e in [*events, *extra_events] if start_s <= e.deliver_s <= end_s),
+                    key=lambda e: e.deliver_s)
     recording = Recording()
     if clock is None:
         clock = ScenarioClock(start_s)

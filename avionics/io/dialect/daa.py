@@ -498,6 +498,24 @@ enums["DAA_BANDS_REGION"][255] = EnumEntry("DAA_BANDS_REGION_UNKNOWN", """Not co
 DAA_BANDS_REGION_ENUM_END = 256
 enums["DAA_BANDS_REGION"][256] = EnumEntry("DAA_BANDS_REGION_ENUM_END", """""")
 
+# DAA_SENSOR_KIND
+enums["DAA_SENSOR_KIND"] = Enum()
+enums["DAA_SENSOR_KIND"].bitmask = False
+DAA_SENSOR_KIND_RADAR = 1
+enums["DAA_SENSOR_KIND"][1] = EnumEntry("DAA_SENSOR_KIND_RADAR", """Airborne radar: range, azimuth, elevation, usually range rate.""")
+DAA_SENSOR_KIND_ACTIVE = 2
+enums["DAA_SENSOR_KIND"][2] = EnumEntry("DAA_SENSOR_KIND_ACTIVE", """Active surveillance (a TCAS-like interrogator): range, bearing and the reply's pressure altitude.""")
+DAA_SENSOR_KIND_ENUM_END = 3
+enums["DAA_SENSOR_KIND"][3] = EnumEntry("DAA_SENSOR_KIND_ENUM_END", """""")
+
+# DAA_SENSOR_FLAGS
+enums["DAA_SENSOR_FLAGS"] = Enum()
+enums["DAA_SENSOR_FLAGS"].bitmask = True
+DAA_SENSOR_FLAGS_ADDRESS_VALID = 1
+enums["DAA_SENSOR_FLAGS"][1] = EnumEntry("DAA_SENSOR_FLAGS_ADDRESS_VALID", """address holds a Mode S reply's 24-bit address.""")
+DAA_SENSOR_FLAGS_ENUM_END = 2
+enums["DAA_SENSOR_FLAGS"][2] = EnumEntry("DAA_SENSOR_FLAGS_ENUM_END", """""")
+
 # DAA_BANDS_FLAGS
 enums["DAA_BANDS_FLAGS"] = Enum()
 enums["DAA_BANDS_FLAGS"].bitmask = True
@@ -8013,6 +8031,7 @@ MAVLINK_MSG_ID_BAD_DATA = -1
 MAVLINK_MSG_ID_UNKNOWN = -2
 MAVLINK_MSG_ID_DAA_ADVISORY = 52610
 MAVLINK_MSG_ID_DAA_BANDS = 52611
+MAVLINK_MSG_ID_DAA_SENSOR_MEASUREMENT = 52612
 MAVLINK_MSG_ID_SENSOR_OFFSETS = 150
 MAVLINK_MSG_ID_SET_MAG_OFFSETS = 151
 MAVLINK_MSG_ID_MEMINFO = 152
@@ -8420,6 +8439,65 @@ class MAVLink_daa_bands_message(MAVLink_message):
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_daa_bands_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_daa_sensor_measurement_message(MAVLink_message):
+    """
+    One detection of an onboard range/bearing sensor (radar, active
+    surveillance) with its 1-sigma errors, for a detect-and-avoid
+    process to track traffic that does not broadcast. One message per
+    detection; the detections of one scan share time_usec. Angles
+    about the vehicle's nose in the horizontal plane (a stabilised
+    sensor). Either elevation or altitude is set.
+    """
+
+    id = MAVLINK_MSG_ID_DAA_SENSOR_MEASUREMENT
+    msgname = "DAA_SENSOR_MEASUREMENT"
+    fieldnames = ["time_usec", "age", "sensor_id", "kind", "flags", "address", "range", "azimuth", "elevation", "range_rate", "altitude", "amplitude", "range_std", "azimuth_std", "elevation_std", "range_rate_std", "altitude_std"]
+    ordered_fieldnames = ["time_usec", "address", "range", "azimuth", "elevation", "range_rate", "altitude", "amplitude", "range_std", "azimuth_std", "elevation_std", "range_rate_std", "altitude_std", "age", "sensor_id", "kind", "flags"]
+    fieldtypes = ["uint64_t", "uint16_t", "uint8_t", "uint8_t", "uint8_t", "uint32_t", "float", "float", "float", "float", "float", "float", "float", "float", "float", "float", "float"]
+    fielddisplays_by_name: Dict[str, str] = {"flags": "bitmask"}
+    fieldenums_by_name: Dict[str, str] = {"kind": "DAA_SENSOR_KIND", "flags": "DAA_SENSOR_FLAGS"}
+    fieldunits_by_name: Dict[str, str] = {"time_usec": "us", "age": "ms", "range": "m", "azimuth": "rad", "elevation": "rad", "range_rate": "m/s", "altitude": "m", "amplitude": "dB", "range_std": "m", "azimuth_std": "rad", "elevation_std": "rad", "range_rate_std": "m/s", "altitude_std": "m"}
+    native_format = bytearray(b"<QIfffffffffffHBBB")
+    orders = [0, 13, 14, 15, 16, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12]
+    lengths = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
+    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    crc_extra = 196
+    unpacker = struct.Struct("<QIfffffffffffHBBB")
+    instance_field = "sensor_id"
+    instance_offset = 58
+
+    def __init__(self, time_usec: int, age: int, sensor_id: int, kind: int, flags: int, address: int, range: float, azimuth: float, elevation: float, range_rate: float, altitude: float, amplitude: float, range_std: float, azimuth_std: float, elevation_std: float, range_rate_std: float, altitude_std: float):
+        MAVLink_message.__init__(self, MAVLink_daa_sensor_measurement_message.id, MAVLink_daa_sensor_measurement_message.msgname)
+        self._fieldnames = MAVLink_daa_sensor_measurement_message.fieldnames
+        self._instance_field = MAVLink_daa_sensor_measurement_message.instance_field
+        self._instance_offset = MAVLink_daa_sensor_measurement_message.instance_offset
+        self.time_usec = time_usec
+        self.age = age
+        self.sensor_id = sensor_id
+        self.kind = kind
+        self.flags = flags
+        self.address = address
+        self.range = range
+        self.azimuth = azimuth
+        self.elevation = elevation
+        self.range_rate = range_rate
+        self.altitude = altitude
+        self.amplitude = amplitude
+        self.range_std = range_std
+        self.azimuth_std = azimuth_std
+        self.elevation_std = elevation_std
+        self.range_rate_std = range_rate_std
+        self.altitude_std = altitude_std
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.time_usec, self.address, self.range, self.azimuth, self.elevation, self.range_rate, self.altitude, self.amplitude, self.range_std, self.azimuth_std, self.elevation_std, self.range_rate_std, self.altitude_std, self.age, self.sensor_id, self.kind, self.flags), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_daa_sensor_measurement_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_sensor_offsets_message(MAVLink_message):
@@ -22468,6 +22546,7 @@ setattr(MAVLink_heartbeat_message, "name", mavlink_msg_deprecated_name_property(
 mavlink_map: Dict[int, Type[MAVLink_message]] = {
     MAVLINK_MSG_ID_DAA_ADVISORY: MAVLink_daa_advisory_message,
     MAVLINK_MSG_ID_DAA_BANDS: MAVLink_daa_bands_message,
+    MAVLINK_MSG_ID_DAA_SENSOR_MEASUREMENT: MAVLink_daa_sensor_measurement_message,
     MAVLINK_MSG_ID_SENSOR_OFFSETS: MAVLink_sensor_offsets_message,
     MAVLINK_MSG_ID_SET_MAG_OFFSETS: MAVLink_set_mag_offsets_message,
     MAVLINK_MSG_ID_MEMINFO: MAVLink_meminfo_message,
@@ -23258,6 +23337,66 @@ class MAVLink(object):
 
         """
         self.send(self.daa_bands_encode(time_boot_ms, kind, flags, part, parts, count, lower, upper, region), force_mavlink1=force_mavlink1)
+
+    def daa_sensor_measurement_encode(self, time_usec: int, age: int, sensor_id: int, kind: int, flags: int, address: int, range: float, azimuth: float, elevation: float, range_rate: float, altitude: float, amplitude: float, range_std: float, azimuth_std: float, elevation_std: float, range_rate_std: float, altitude_std: float) -> MAVLink_daa_sensor_measurement_message:
+        """
+        One detection of an onboard range/bearing sensor (radar, active
+        surveillance) with its 1-sigma errors, for a detect-and-avoid
+        process to track traffic that does not broadcast. One message
+        per detection; the detections of one scan share time_usec.
+        Angles about the vehicle's nose in the horizontal plane (a
+        stabilised sensor). Either elevation or altitude is set.
+
+        time_usec                 : Time of measurement (sender's clock). [us] (type:uint64_t)
+        age                       : Age of the measurement when sent: the receiver dates it at receipt minus age. [ms] (type:uint16_t)
+        sensor_id                 : Sensor instance on this vehicle. (type:uint8_t)
+        kind                      : Sensor kind. (type:uint8_t, values:DAA_SENSOR_KIND)
+        flags                     : Flags. (type:uint8_t, values:DAA_SENSOR_FLAGS)
+        address                   : Mode S address of the reply (24 bit); valid with DAA_SENSOR_FLAGS_ADDRESS_VALID. (type:uint32_t)
+        range                     : Slant range from the sensor. [m] (type:float)
+        azimuth                   : Azimuth in the horizontal plane, positive clockwise (right) from the vehicle's nose, -pi..pi. [rad] (type:float)
+        elevation                 : Elevation above the horizontal, positive up; NaN when not measured (active surveillance). [rad] (type:float)
+        range_rate                : Range rate, positive opening; NaN when not measured. [m/s] (type:float)
+        altitude                  : Reported pressure altitude of the reply (Mode C/S); NaN for a radar return. [m] (type:float)
+        amplitude                 : Return amplitude; NaN when not reported. [dB] (type:float)
+        range_std                 : Range 1-sigma error. [m] (type:float)
+        azimuth_std               : Azimuth 1-sigma error. [rad] (type:float)
+        elevation_std             : Elevation 1-sigma error; NaN with elevation. [rad] (type:float)
+        range_rate_std            : Range rate 1-sigma error; NaN with range_rate. [m/s] (type:float)
+        altitude_std              : Altitude 1-sigma error; NaN with altitude. [m] (type:float)
+
+        """
+        return MAVLink_daa_sensor_measurement_message(time_usec, age, sensor_id, kind, flags, address, range, azimuth, elevation, range_rate, altitude, amplitude, range_std, azimuth_std, elevation_std, range_rate_std, altitude_std)
+
+    def daa_sensor_measurement_send(self, time_usec: int, age: int, sensor_id: int, kind: int, flags: int, address: int, range: float, azimuth: float, elevation: float, range_rate: float, altitude: float, amplitude: float, range_std: float, azimuth_std: float, elevation_std: float, range_rate_std: float, altitude_std: float, force_mavlink1: bool = False) -> None:
+        """
+        One detection of an onboard range/bearing sensor (radar, active
+        surveillance) with its 1-sigma errors, for a detect-and-avoid
+        process to track traffic that does not broadcast. One message
+        per detection; the detections of one scan share time_usec.
+        Angles about the vehicle's nose in the horizontal plane (a
+        stabilised sensor). Either elevation or altitude is set.
+
+        time_usec                 : Time of measurement (sender's clock). [us] (type:uint64_t)
+        age                       : Age of the measurement when sent: the receiver dates it at receipt minus age. [ms] (type:uint16_t)
+        sensor_id                 : Sensor instance on this vehicle. (type:uint8_t)
+        kind                      : Sensor kind. (type:uint8_t, values:DAA_SENSOR_KIND)
+        flags                     : Flags. (type:uint8_t, values:DAA_SENSOR_FLAGS)
+        address                   : Mode S address of the reply (24 bit); valid with DAA_SENSOR_FLAGS_ADDRESS_VALID. (type:uint32_t)
+        range                     : Slant range from the sensor. [m] (type:float)
+        azimuth                   : Azimuth in the horizontal plane, positive clockwise (right) from the vehicle's nose, -pi..pi. [rad] (type:float)
+        elevation                 : Elevation above the horizontal, positive up; NaN when not measured (active surveillance). [rad] (type:float)
+        range_rate                : Range rate, positive opening; NaN when not measured. [m/s] (type:float)
+        altitude                  : Reported pressure altitude of the reply (Mode C/S); NaN for a radar return. [m] (type:float)
+        amplitude                 : Return amplitude; NaN when not reported. [dB] (type:float)
+        range_std                 : Range 1-sigma error. [m] (type:float)
+        azimuth_std               : Azimuth 1-sigma error. [rad] (type:float)
+        elevation_std             : Elevation 1-sigma error; NaN with elevation. [rad] (type:float)
+        range_rate_std            : Range rate 1-sigma error; NaN with range_rate. [m/s] (type:float)
+        altitude_std              : Altitude 1-sigma error; NaN with altitude. [m] (type:float)
+
+        """
+        self.send(self.daa_sensor_measurement_encode(time_usec, age, sensor_id, kind, flags, address, range, azimuth, elevation, range_rate, altitude, amplitude, range_std, azimuth_std, elevation_std, range_rate_std, altitude_std), force_mavlink1=force_mavlink1)
 
     def sensor_offsets_encode(self, mag_ofs_x: int, mag_ofs_y: int, mag_ofs_z: int, mag_declination: float, raw_press: int, raw_temp: int, gyro_cal_x: float, gyro_cal_y: float, gyro_cal_z: float, accel_cal_x: float, accel_cal_y: float, accel_cal_z: float) -> MAVLink_sensor_offsets_message:
         """
