@@ -28,10 +28,10 @@ increase, its conflict is resolved"; the v7.1 HMD filter may end it earlier).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Protocol
 
 import numpy as np
 
+from avionics.advisory.levels import AlertLevel, Continuation, Detector  # noqa: F401  (the alerter's types)
 from avionics.advisory.tables import SensitivityLevel
 from avionics.conflict.cpa import PairGeometry
 from avionics.conflict.probability import as_c
@@ -71,22 +71,6 @@ class Encounter:
         """The relative altitude with the margin taken off (never below 0): uncertainty never hides a threat."""
         sz = self.geometry.sz_m
         return np.sign(sz) * np.maximum(np.abs(sz) - self.vertical_margin_m, 0.0)
-
-
-class Detector(Protocol):
-    """DAIDALUS Detection3D over N pairs: `violation` (the volume is lost now) and `conflict` (it is lost at some
-    time within [0, time_s]; for TCAS3D the time is the TAU of the thresholds). Returns (N,) bool."""
-
-    def violation(self, encounter: Encounter, thresholds) -> np.ndarray: ...
-
-    def conflict(self, encounter: Encounter, thresholds, time_s: float) -> np.ndarray: ...
-
-
-class Continuation(Protocol):
-    """Keeps an alert of a level on after its detector stopped firing (hysteresis): (N,) bool for the pairs that
-    had the level (`had` (N,) bool) and keep it."""
-
-    def __call__(self, encounter: Encounter, thresholds, had: np.ndarray) -> np.ndarray: ...
 
 
 # --- TCAS3D -----------------------------------------------------------------------------------------------
@@ -292,53 +276,6 @@ def _open_slab_interval(sz, vz, h_m):
 
 
 @dataclass(frozen=True)
-class AlertLevel:
-    """One alert level (DAIDALUS AlertThresholds): its number (1 = least severe), name, detector, its thresholds
-    per sensitivity level (None where the level has no such alert) and its hysteresis: min_duration_s (an alert
-    of this level, once on, is held at least this long: the TCAS TA's 8 s) and a continuation (keeps it on after
-    the detector stops firing: the TCAS RA while the range closes).
-
-    alerting_time_s: the detector's conflict must begin within it (None: the thresholds' own, the TCAS TAU);
-    early_alerting_time_s: used instead for an intruder whose alert is already this level (DAIDALUS
-    DaidalusCore.check_alerting_thresholds). advisory: the advisory level it raises (AdvisoryLevel TA or RA;
-    None: its own number, as the tcas2 alerter's TA and RA). region: the guidance-bands region its conflicts
-    paint (DAIDALUS BandsRegion: NONE, FAR, MID, NEAR)."""
-
-    number: int
-    name: str
-    detector: Detector
-    thresholds: object  # see thresholds_at
-    min_duration_s: float = 0.0
-    continuation: Continuation | None = None
-    alerting_time_s: float | None = None
-    early_alerting_time_s: float | None = None
-    advisory: int | None = None
-    region: str = "NONE"
-
-    @property
-    def advisory_level(self) -> int:
-        return self.number if self.advisory is None else self.advisory
-
-    def thresholds_at(self, level: SensitivityLevel | None):
-        """The detector's thresholds at a sensitivity level: `thresholds` itself where it is a value (a well-clear
-        level's WcvThresholds, the same at every level), else `thresholds(level)` (the TCAS columns of the
-        level's row; None where the level has no such alert)."""
-        return self.thresholds(level) if callable(self.thresholds) else self.thresholds
-
-    def fires(self, encounter: Encounter, level: SensitivityLevel, early: np.ndarray | None = None) -> np.ndarray | None:
-        """(N,) bool: the detector's conflict within the alerting time (the early one where `early`, (N,) bool);
-        None without thresholds."""
-        thresholds = self.thresholds_at(level)
-        if thresholds is None:
-            return None
-        time_s = self.alerting_time_s if self.alerting_time_s is not None else thresholds.alerting_time_s
-        fires = self.detector.conflict(encounter, thresholds, time_s)
-        if early is not None and self.early_alerting_time_s is not None and early.any():
-            fires = np.where(early, self.detector.conflict(encounter, thresholds, self.early_alerting_time_s), fires)
-        return fires
-
-
-@dataclass(frozen=True)
 class Alerter:
     """An ordered list of alert levels (numbers 1..n; 0 = no alert). `alert` returns per pair the number of the
     most severe level whose detector fires (DAIDALUS Alerter / DaidalusCore.alert_level)."""
@@ -466,28 +403,11 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
 
 
 def wcv_alerter(spec, name: str = "wcv") -> Alerter:
-    """A DO-365 well-clear alerter from a profile's [alerter] table (advisory/tables.py WcvAlerterSpec): each level
-    a WCV_TAUMOD detector (advisory/wcv.py; WCV_TAUMOD_SUM, advisory/wcv_sum.py, where the table has
-    [alerter.sum]) with its thresholds at every sensitivity level, its alerting and early
-    alerting times, the advisory it raises and its bands region. A level that raises an RA needs the intruder's
-    altitude (the manoeuvre is vertical); the others show an intruder without altitude on range alone. Their
+    """A DO-365 well-clear alerter: the levels of a profile's [alerter] table as advisory/tables.py read them
+    (WcvAlerterSpec.levels: AlertLevels with WCV_TAUMOD detectors, advisory/wcv.py, or WCV_TAUMOD_SUM,
+    advisory/wcv_sum.py, where the table has [alerter.sum]; the guidance bands read the same levels). Their
     hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""
-    from avionics.advisory.wcv import WCV_TAUMOD
-    from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM
-
-    def detector(altitude_required: bool):
-        if spec.sum is None:
-            return WCV_TAUMOD(altitude_required=altitude_required)
-        return WCV_TAUMOD_SUM(altitude_required=altitude_required, z_scores=spec.sum, lookahead_s=spec.lookahead_s)
-
-    ra = int(AdvisoryLevel.RA)
-    levels = tuple(
-        AlertLevel(i, lv.name, detector(lv.advisory == "RA"),
-                   lv.thresholds,
-                   alerting_time_s=lv.alerting_time_s, early_alerting_time_s=lv.early_alerting_time_s,
-                   advisory=ra if lv.advisory == "RA" else int(AdvisoryLevel.TA), region=lv.region)
-        for i, lv in enumerate(spec.levels, start=1))
-    return Alerter(name, levels)
+    return Alerter(name, tuple(spec.levels))
 
 
 CD3D_D_M, CD3D_H_M, CD3D_LOOKAHEAD_S = 5.0 * NM, 1000.0 * FT, 180.0  # DAIDALUS Alerter.CD3D()
