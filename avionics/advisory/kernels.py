@@ -195,18 +195,12 @@ def _optimal_pair(v1x, v1y, v2x, v2y, w1x, w1y, w2x, w2y):
     if _sumof(w1x, w1y, w2x, w2y, v1x, v1y) and _sumof(w1x, w1y, w2x, w2y, v2x, v2y):
         dx, dy = _hat(v1x + v2x, v1y + v2y)
         return dx, dy, dx, dy
-    if _sumof(w1x, w1y, w2x, w2y, v1x, v1y) and _sumof(v1x, v1y, v2x, v2y, w1x, w1y):
-        dx, dy = _hat(v1x + w1x, v1y + w1y)
-        return dx, dy, dx, dy
-    if _sumof(w1x, w1y, w2x, w2y, v1x, v1y) and _sumof(v1x, v1y, v2x, v2y, w2x, w2y):
-        dx, dy = _hat(v1x + w2x, v1y + w2y)
-        return dx, dy, dx, dy
-    if _sumof(w1x, w1y, w2x, w2y, v2x, v2y) and _sumof(v1x, v1y, v2x, v2y, w1x, w1y):
-        dx, dy = _hat(v2x + w1x, v2y + w1y)
-        return dx, dy, dx, dy
-    if _sumof(w1x, w1y, w2x, w2y, v2x, v2y) and _sumof(v1x, v1y, v2x, v2y, w2x, w2y):
-        dx, dy = _hat(v2x + w2x, v2y + w2y)
-        return dx, dy, dx, dy
+    for k in range(4):  # one direction of each cone in the other's: (v1, w1), (v1, w2), (v2, w1), (v2, w2)
+        ax, ay = (v1x, v1y) if k < 2 else (v2x, v2y)
+        bx, by = (w1x, w1y) if k % 2 == 0 else (w2x, w2y)
+        if _sumof(w1x, w1y, w2x, w2y, ax, ay) and _sumof(v1x, v1y, v2x, v2y, bx, by):
+            dx, dy = _hat(ax + bx, ay + by)
+            return dx, dy, dx, dy
     d11 = v1x * w1x + v1y * w1y
     d12 = v1x * w2x + v1y * w2y
     d21 = v2x * w1x + v2y * w1y
