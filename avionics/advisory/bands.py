@@ -739,9 +739,13 @@ class BandsEngine:
                           maxl, maxr, so, vo, si, vi, L)
 
     def _recovery_bands(self, cand: _Candidates, idx, T):
-        """DaidalusRealBands.compute_recovery_bands: (none segments, found)."""
+        """DaidalusRealBands.compute_recovery_bands: (none segments, found). recovery_info: (time, horizontal,
+        vertical distance, n factor) when found; (-inf, -inf, -inf, n factor) when not (its recovery_time_ ...
+        start at NEGATIVE_INFINITY: DAIDALUS's RecoveryInformation of a saturated recovery, e.g. an NMAC that no
+        value avoids)."""
         p = self.params
         L = p.lookahead_s
+        self.recovery_info = (-math.inf, -math.inf, -math.inf, 0)
         nmac = Cylinder(p.horizontal_nmac_m, p.vertical_nmac_m)
         none = cand.green_segments(idx, nmac, 0.0, T, None)
         if not none.any():
@@ -774,6 +778,7 @@ class BandsEngine:
                 if not p.ca_bands:
                     return none, False
             nfactor += 1
+            self.recovery_info = (-math.inf, -math.inf, -math.inf, nfactor)
             cyl = Cylinder(max(p.horizontal_nmac_m, cyl.d_m * factor), max(p.vertical_nmac_m, cyl.h_m * factor))
         return none, False
 
@@ -818,7 +823,6 @@ class BandsEngine:
                 none_sets[r] = cand.green_segments(idx, lv.thresholds, 0.0, T, None)
                 if kind.recovery and not none_sets[r].any() and r <= self._corrective:
                     cidx, cT = acs[self._corrective]
-                    self.recovery_info = None
                     none_sets[self._corrective], _ = self._recovery_bands(cand, cidx, cT)
                     self.recovery_information[kind.name] = self.recovery_info
                     recovery = True
