@@ -311,8 +311,8 @@ def test_mirroring_east_west_mirrors_the_track_bands(intruders, own_gs):
         pos = [[sign * x, y, 3000 + z] for x, y, z, *_ in intruders]
         vel = [[sign * gs * math.sin(math.radians(tr)), gs * math.cos(math.radians(tr)), vs]
                for *_, tr, gs, vs in intruders]
-        return BandsEngine(BandsParams(), DO365B_LEVELS).compute(0.0, [0, 0, 3000], [0, own_gs, 0], pos, vel, list(range(len(pos))),
-                                     [2] * len(pos))
+        return BandsEngine(BandsParams(), DO365B_LEVELS).compute(0.0, [0, 0, 3000], [0, own_gs, 0], pos, vel,
+                                                                 list(range(len(pos))), [2] * len(pos))
     a, b = run(1.0), run(-1.0)
     probes = np.arange(0.5, 360.0, 1.0)  # between the 1 deg candidates: never on a band end
     ra = [a.region_at("track_deg", x) for x in probes]

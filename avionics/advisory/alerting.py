@@ -369,7 +369,8 @@ class _CompiledWcv:
             return None
         if any(not isinstance(lv.thresholds, WcvThresholds) or lv.alerting_time_s is None for lv in levels):
             return None
-        sums = {(lv.detector.z_scores, lv.detector.lookahead_s) for lv in levels if isinstance(lv.detector, WCV_TAUMOD_SUM)}
+        sums = {(lv.detector.z_scores, lv.detector.lookahead_s) for lv in levels
+                if isinstance(lv.detector, WCV_TAUMOD_SUM)}
         if len(sums) > 1:
             return None
         rows = [(t.dthr_m, t.dthr_m**2, t.zthr_m, t.tthr_s, t.tcoa_s, lv.alerting_time_s,
@@ -387,7 +388,7 @@ class _CompiledWcv:
         return wcv_kernels.wcv_alert_pairs(
             as_c(g.s_xy_m), as_c(g.v_xy_mps), as_c(g.sz_m), as_c(g.vz_mps), _per_pair(encounter.has_altitude, n, bool),
             _per_pair(encounter.vertical_margin_m, n, np.float64),
-            np.zeros((n, 4)) if errors is None else as_c(errors), 
+            np.zeros((n, 4)) if errors is None else as_c(errors),
             np.zeros(n, np.int64) if previous is None else as_c(previous, np.int64), self.levels, self.sum_params,
             len(self.levels) if max_level is None else int(max_level))
 

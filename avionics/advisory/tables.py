@@ -243,9 +243,9 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
         ra = row["advisory"] == "RA"
         detector = WCV_TAUMOD(altitude_required=ra) if sum_z is None else \
             WCV_TAUMOD_SUM(altitude_required=ra, z_scores=sum_z, lookahead_s=lookahead)
+        advisory = int(AdvisoryLevel.RA if ra else AdvisoryLevel.TA)
         levels.append(AlertLevel(i + 1, name, detector, thresholds, alerting_time_s=alerting,
-                                 early_alerting_time_s=early, advisory=int(AdvisoryLevel.RA if ra else AdvisoryLevel.TA),
-                                 region=row.get("region", "NONE")))
+                                 early_alerting_time_s=early, advisory=advisory, region=row.get("region", "NONE")))
     if not levels:
         raise ProfileError(f"{where}: no [[alerter.levels]]")
     ra = int(AdvisoryLevel.RA)
