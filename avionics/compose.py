@@ -109,11 +109,9 @@ def build_bands(profile):
     spec = profile.alerter
     if spec is None:
         return None
-    from avionics.advisory.bands import BandsEngine, BandsLevel  # not imported for tcas2: start-up (issue 13)
+    from avionics.advisory.bands import BandsEngine  # not imported for tcas2: start-up (issue 13)
 
-    levels = [BandsLevel(i, lv.region, lv.thresholds, lv.alerting_time_s, lv.early_alerting_time_s)
-              for i, lv in enumerate(spec.levels, start=1)]
-    return BandsEngine(profile.bands, levels, sum_z=spec.sum)  # SUM: the bands' tests are the alerter's
+    return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum)  # the alerter's levels; SUM: its tests too
 
 
 def build_gate(advisory_params):

@@ -25,13 +25,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avionics.advisory.bands import (
-    DO365B_LEVELS, KINDS, BandsLevel, BandInterval, Bands, BandsEngine, BandsParams,
-)
-from avionics.advisory.wcv import DO365_PHASE_I
+from avionics.advisory.bands import KINDS, BandInterval, Bands, BandsEngine, BandsParams
+from avionics.advisory.levels import AlertLevel
+from avionics.advisory.tables import load_profile
+from avionics.advisory.wcv import WCV_TAUMOD
 from avionics.core.units import FPM, FT, KT, NM
 from avionics_sitl.daa_file import EUCLIDEAN_ORIGIN, _parse_rows, _rows_by_aircraft, _text_of
 from avionics.core.geodesy import LocalTangentPlane
+
+DO365B_LEVELS = load_profile("daidalus-do365b-no-sum").alerter.levels  # DO_365B_no_SUM.conf DWC_Phase_I, the data
+DO365_PHASE_I = DO365B_LEVELS[-1].thresholds  # its det_3
 
 CONFORMANCE = Path(__file__).resolve().parents[2] / "shared" / "conformance" / "daidalus"
 BANDS_DIR = CONFORMANCE / "bands"
@@ -149,7 +152,7 @@ def _golden(name: str):
 def golden_comparison(name: str):
     """(matched, total, max end error of the matched sets per golden kind, the misses)."""
     gold, levels = _golden(name)
-    engine = BandsEngine()
+    engine = BandsEngine(BandsParams(), DO365B_LEVELS)
     matched = total = 0
     max_err = dict.fromkeys(GOLDEN_KINDS, 0.0)
     misses = []
@@ -209,7 +212,8 @@ def test_head_on_splits_into_turn_left_and_turn_right():
     thr = DO365_PHASE_I
     v = 200 * KT
     gap = 15637.0
-    levels = (BandsLevel(2, "MID", thr, 55.0, 75.0),)
+    levels = (AlertLevel(2, "CORRECTIVE", WCV_TAUMOD(), thr, alerting_time_s=55.0, early_alerting_time_s=75.0,
+                         region="MID"),)
     omega = math.radians(3.0)
     t = np.arange(0.0, 180.0, 0.05)
     red = []
@@ -273,7 +277,7 @@ geometry = st.tuples(
        intruders=st.lists(geometry, min_size=1, max_size=3))
 def test_bands_cover_each_range_contiguously(own_trk, own_gs, own_vs, intruders):
     params = BandsParams()
-    engine = BandsEngine(params)
+    engine = BandsEngine(params, DO365B_LEVELS)
     vo = [own_gs * math.sin(math.radians(own_trk)), own_gs * math.cos(math.radians(own_trk)), own_vs]
     pos = [[x, y, 3000 + z] for x, y, z, *_ in intruders]
     vel = [[gs * math.sin(math.radians(tr)), gs * math.cos(math.radians(tr)), vs] for *_, tr, gs, vs in intruders]
@@ -286,7 +290,7 @@ def test_bands_cover_each_range_contiguously(own_trk, own_gs, own_vs, intruders)
 @settings(max_examples=15, deadline=None)
 @given(own_trk=st.floats(0, 360), bearing=st.floats(0, 360), trk=st.floats(0, 360))
 def test_far_traffic_gives_no_bands(own_trk, bearing, trk):
-    engine = BandsEngine()
+    engine = BandsEngine(BandsParams(), DO365B_LEVELS)
     v = 200 * KT
     d = 100 * NM  # far beyond what 180 s at 400 kn closing covers
     vo = [v * math.sin(math.radians(own_trk)), v * math.cos(math.radians(own_trk)), 0.0]
@@ -307,8 +311,8 @@ def test_mirroring_east_west_mirrors_the_track_bands(intruders, own_gs):
         pos = [[sign * x, y, 3000 + z] for x, y, z, *_ in intruders]
         vel = [[sign * gs * math.sin(math.radians(tr)), gs * math.cos(math.radians(tr)), vs]
                for *_, tr, gs, vs in intruders]
-        return BandsEngine().compute(0.0, [0, 0, 3000], [0, own_gs, 0], pos, vel, list(range(len(pos))),
-                                     [2] * len(pos))
+        return BandsEngine(BandsParams(), DO365B_LEVELS).compute(0.0, [0, 0, 3000], [0, own_gs, 0], pos, vel,
+                                                                 list(range(len(pos))), [2] * len(pos))
     a, b = run(1.0), run(-1.0)
     probes = np.arange(0.5, 360.0, 1.0)  # between the 1 deg candidates: never on a band end
     ra = [a.region_at("track_deg", x) for x in probes]
@@ -334,7 +338,7 @@ def test_region_at_and_empty_kinds():
 
 
 def test_engine_validates_lengths_and_resets():
-    engine = BandsEngine()
+    engine = BandsEngine(BandsParams(), DO365B_LEVELS)
     with pytest.raises(ValueError):
         engine.compute(0.0, [0, 0, 1000], [0, 100, 0], [[0, 5000, 1000]], [[0, -100, 0]], ["a", "b"], [0])
     b1 = engine.compute(0.0, [0, 0, 1000], [0, 100, 0], [[0, 9000, 1000]], [[0, -100, 0]], ["a"], [2])
@@ -347,7 +351,6 @@ def test_engine_validates_lengths_and_resets():
 # --- the bands with sensor uncertainty mitigation (a profile with [alerter.sum]) -----------------------------------
 
 def _sum_engine():
-    from avionics.advisory.tables import load_profile
     from avionics.compose import build_bands
 
     return build_bands(load_profile("daidalus-do365b-sum"))

@@ -15,7 +15,8 @@ import re
 import numpy as np
 import pytest
 
-from avionics.advisory.wcv import DO365_PHASE_I, conflict, wcv_interval
+from avionics.advisory.wcv import conflict, wcv_interval
+from avionics.advisory.tables import load_profile
 from avionics.config import ZenohConfig, load_config
 from avionics.core.types import AdvisoryLevel
 from avionics.io import encode
@@ -28,6 +29,8 @@ from avionics_sitl.encounters import load_scenario
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from tests.conftest import DEADLINE_S
+
+DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
 
 
 class _Capture:

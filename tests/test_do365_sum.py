@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 
 from avionics.advisory.alerting import Encounter, wcv_alerter
 from avionics.advisory.tables import load_profile
-from avionics.advisory.wcv import DO365_PHASE_I, WCV_TAUMOD
+from avionics.advisory.wcv import WCV_TAUMOD
 from avionics.advisory.wcv_sum import (
     MIN_ERROR, WCV_TAUMOD_SUM, SumZScores, wcv_uncertain_interval, wcv_uncertain_intervals,
 )
@@ -34,6 +34,8 @@ from avionics.core.uncertainty import SumData, horizontal_uncertainty
 from avionics.conflict.cpa import pair_geometry
 from avionics.core.units import FPM, FT, KT, NM
 from tests.golden.generate import CONFORMANCE, replayed_csv
+
+DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
 
 pytestmark = pytest.mark.xdist_group("replays-do365")
 SUM_DIR = CONFORMANCE / "sum"

@@ -19,13 +19,17 @@ import math
 import numpy as np
 import pytest
 
-from avionics.advisory.bands import BandsEngine
+from avionics.advisory.bands import BandsEngine, BandsParams
 from avionics.advisory.bands_kinematics import Cylinder, cylinder_interval
-from avionics.advisory.wcv import DO365_PHASE_I, WCV_TAUMOD, conflict, wcv_interval
+from avionics.advisory.wcv import WCV_TAUMOD, conflict, wcv_interval
+from avionics.advisory.tables import load_profile
 from avionics.core.almost import (
     PRECISION5, almost_equals, almost_geq, almost_greater, almost_leq, almost_less,
 )
 from avionics.core.units import FPM, FT, KT, NM
+
+DO365B_LEVELS = load_profile("daidalus-do365b-no-sum").alerter.levels  # DO_365B_no_SUM.conf DWC_Phase_I, the data
+DO365_PHASE_I = DO365B_LEVELS[-1].thresholds  # its det_3
 
 OWN_FT, INTRUDER_FT = 17000.0, 17450.0  # both on the 25 ft grid, 450 ft apart
 SEP_M = INTRUDER_FT * FT - OWN_FT * FT
@@ -91,7 +95,7 @@ def test_cylinder_at_its_height_is_clear():
 def _bands(intruder_ft, intruder_vs_fpm):
     own = [0.0, 0.0, OWN_FT * FT]
     intruder = [[0.0, 0.5 * NM, intruder_ft * FT]]
-    return BandsEngine().compute(0.0, own, [0.0, 150 * KT, 0.0], intruder,
+    return BandsEngine(BandsParams(), DO365B_LEVELS).compute(0.0, own, [0.0, 150 * KT, 0.0], intruder,
                                  [[0.0, -120 * KT, intruder_vs_fpm * FPM]], ["tie"], [1])
 
 
@@ -130,7 +134,23 @@ def test_vertical_speed_recovery_with_both_descending_450_ft_apart():
     comparison at the recovery cylinder's 450 ft made the whole range RECOVERY; DAIDALUS v2.0.4 gives these."""
     own = [0.0, 0.0, 28875.0 * FT]
     intruder = [[-1000.0, -650.0, 29325.0 * FT]]
-    b = BandsEngine().compute(0.0, own, [0.0, 54.0, -1000 * FPM], intruder, [[-88.0, 86.0, -1000 * FPM]],
-                              ["tie"], [3])
+    b = BandsEngine(BandsParams(), DO365B_LEVELS).compute(0.0, own, [0.0, 54.0, -1000 * FPM], intruder,
+                                                          [[-88.0, 86.0, -1000 * FPM]], ["tie"], [3])
     vs = [(round(iv.lower / FPM), round(iv.upper / FPM), iv.region) for iv in b.vertical_rate_mps]
     assert vs == [(-6000, -1000, "RECOVERY"), (-1000, 6000, "NEAR")]
+
+
+def test_a_recovery_that_no_value_finds_reports_minus_infinity_as_daidalus():
+    """Ownship descending at 1000 fpm, an intruder 111 m away and 100 ft below climbing at 2070 fpm: every value of
+    every kind passes through the NMAC cylinder, so the bands stay NEAR and the recovery search finds nothing.
+    DAIDALUS v2.0.4 (its Java on the same state, 2026-12-05) reports timeToRecovery() = -infinity then (recovery
+    attempted, DaidalusRealBands.compute_recovery_bands' NEGATIVE_INFINITY), not NaN (no recovery attempted);
+    so does recovery_information (here before it was None, found in 11 of 1,800 states compared)."""
+    own, own_v = [0.0, 0.0, 8610.6], [-54.52165583582027, -1.196130881102894, -5.08]
+    engine = BandsEngine(BandsParams(), DO365B_LEVELS)
+    b = engine.compute(0.0, own, own_v, [[45.70357936898783, 101.32584984923422, 8580.12]],
+                       [[-67.55153694518366, -41.99613362734122, 10.522457442253392]], ["nmac"], [0])
+    assert [(round(iv.lower / FPM), round(iv.upper / FPM), iv.region) for iv in b.vertical_rate_mps] == \
+        [(-6000, 6000, "NEAR")]
+    assert b.recovery["vertical_rate_mps"]
+    assert engine.recovery_information["vertical_rate_mps"] == (-math.inf, -math.inf, -math.inf, 0)

@@ -28,10 +28,10 @@ increase, its conflict is resolved"; the v7.1 HMD filter may end it earlier).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Callable, Protocol
 
 import numpy as np
 
+from avionics.advisory.levels import AlertLevel, Continuation, Detector  # noqa: F401  (the alerter's types)
 from avionics.advisory.tables import SensitivityLevel
 from avionics.conflict.cpa import PairGeometry
 from avionics.conflict.probability import as_c
@@ -40,6 +40,7 @@ from avionics.core.types import AdvisoryLevel
 from avionics.core.units import FT, NM
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
+wcv_kernels = jit.lazy(__name__, "avionics.advisory.kernels", "wcv_kernels")
 
 NONE = int(AdvisoryLevel.NONE)
 
@@ -70,22 +71,6 @@ class Encounter:
         """The relative altitude with the margin taken off (never below 0): uncertainty never hides a threat."""
         sz = self.geometry.sz_m
         return np.sign(sz) * np.maximum(np.abs(sz) - self.vertical_margin_m, 0.0)
-
-
-class Detector(Protocol):
-    """DAIDALUS Detection3D over N pairs: `violation` (the volume is lost now) and `conflict` (it is lost at some
-    time within [0, time_s]; for TCAS3D the time is the TAU of the thresholds). Returns (N,) bool."""
-
-    def violation(self, encounter: Encounter, thresholds) -> np.ndarray: ...
-
-    def conflict(self, encounter: Encounter, thresholds, time_s: float) -> np.ndarray: ...
-
-
-class Continuation(Protocol):
-    """Keeps an alert of a level on after its detector stopped firing (hysteresis): (N,) bool for the pairs that
-    had the level (`had` (N,) bool) and keep it."""
-
-    def __call__(self, encounter: Encounter, thresholds, had: np.ndarray) -> np.ndarray: ...
 
 
 # --- TCAS3D -----------------------------------------------------------------------------------------------
@@ -291,47 +276,6 @@ def _open_slab_interval(sz, vz, h_m):
 
 
 @dataclass(frozen=True)
-class AlertLevel:
-    """One alert level (DAIDALUS AlertThresholds): its number (1 = least severe), name, detector, its thresholds
-    per sensitivity level (None where the level has no such alert) and its hysteresis: min_duration_s (an alert
-    of this level, once on, is held at least this long: the TCAS TA's 8 s) and a continuation (keeps it on after
-    the detector stops firing: the TCAS RA while the range closes).
-
-    alerting_time_s: the detector's conflict must begin within it (None: the thresholds' own, the TCAS TAU);
-    early_alerting_time_s: used instead for an intruder whose alert is already this level (DAIDALUS
-    DaidalusCore.check_alerting_thresholds). advisory: the advisory level it raises (AdvisoryLevel TA or RA;
-    None: its own number, as the tcas2 alerter's TA and RA). region: the guidance-bands region its conflicts
-    paint (DAIDALUS BandsRegion: NONE, FAR, MID, NEAR)."""
-
-    number: int
-    name: str
-    detector: Detector
-    thresholds: Callable[[SensitivityLevel], object | None]
-    min_duration_s: float = 0.0
-    continuation: Continuation | None = None
-    alerting_time_s: float | None = None
-    early_alerting_time_s: float | None = None
-    advisory: int | None = None
-    region: str = "NONE"
-
-    @property
-    def advisory_level(self) -> int:
-        return self.number if self.advisory is None else self.advisory
-
-    def fires(self, encounter: Encounter, level: SensitivityLevel, early: np.ndarray | None = None) -> np.ndarray | None:
-        """(N,) bool: the detector's conflict within the alerting time (the early one where `early`, (N,) bool);
-        None without thresholds."""
-        thresholds = self.thresholds(level)
-        if thresholds is None:
-            return None
-        time_s = self.alerting_time_s if self.alerting_time_s is not None else thresholds.alerting_time_s
-        fires = self.detector.conflict(encounter, thresholds, time_s)
-        if early is not None and self.early_alerting_time_s is not None and early.any():
-            fires = np.where(early, self.detector.conflict(encounter, thresholds, self.early_alerting_time_s), fires)
-        return fires
-
-
-@dataclass(frozen=True)
 class Alerter:
     """An ordered list of alert levels (numbers 1..n; 0 = no alert). `alert` returns per pair the number of the
     most severe level whose detector fires (DAIDALUS Alerter / DaidalusCore.alert_level)."""
@@ -342,6 +286,7 @@ class Alerter:
     def __post_init__(self):
         if [lv.number for lv in self.levels] != list(range(1, len(self.levels) + 1)):
             raise ValueError(f"alerter {self.name}: the levels must be numbered 1..{len(self.levels)} in order")
+        object.__setattr__(self, "_compiled", _CompiledWcv.of(self.levels))
 
     @property
     def most_severe(self) -> int:
@@ -373,7 +318,11 @@ class Alerter:
               previous: np.ndarray | None = None) -> np.ndarray:
         """(N,) int: the most severe level (<= max_level: e.g. the RA inhibited at low altitude) whose detector
         fires at this sensitivity level; 0 where none does. previous (N,) int: each intruder's alert level so
-        far, for the levels' early alerting times (DaidalusCore.raw_alert_level)."""
+        far, for the levels' early alerting times (DaidalusCore.raw_alert_level). A well-clear alerter runs as
+        one compiled kernel call when the kernels are ready (advisory/kernels.py wcv_alert_pairs; this loop over
+        the levels' numpy detectors is its reference)."""
+        if self._compiled is not None and jit.ready():
+            return self._compiled.alert(encounter, max_level, previous)
         out = np.full(len(encounter.has_altitude), NONE, int)
         for lv in self.levels:
             if max_level is not None and lv.number > max_level:
@@ -391,13 +340,57 @@ class Alerter:
         for lv in self.levels:
             if lv.continuation is None or (max_level is not None and lv.number > max_level):
                 continue
-            thresholds = lv.thresholds(level)
+            thresholds = lv.thresholds_at(level)
             if thresholds is None:
                 continue
             keep = lv.continuation(encounter, thresholds, previous == lv.number) & (candidates < lv.number)
             candidates = np.where(keep, lv.number, candidates)
             continued |= keep
         return candidates, continued
+
+
+class _CompiledWcv:
+    """A well-clear alerter's levels as the compiled kernel takes them (advisory/kernels.py LEVEL_COLUMNS and
+    SUM_COLUMNS), built once per Alerter: every level a WCV_TAUMOD (or every one a WCV_TAUMOD_SUM with the same
+    z-scores and lookahead) with fixed thresholds and an alerting time; `of` returns None for any other alerter."""
+
+    __slots__ = ("levels", "sum_params")
+
+    def __init__(self, levels: np.ndarray, sum_params: np.ndarray):
+        self.levels, self.sum_params = levels, sum_params
+
+    @classmethod
+    def of(cls, levels) -> "_CompiledWcv | None":
+        from avionics.advisory.wcv import WCV_TAUMOD, WcvThresholds
+        from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM
+
+        kinds = {type(lv.detector) for lv in levels}
+        if not levels or not kinds <= {WCV_TAUMOD, WCV_TAUMOD_SUM} or len(kinds) > 1:
+            return None
+        if any(not isinstance(lv.thresholds, WcvThresholds) or lv.alerting_time_s is None for lv in levels):
+            return None
+        sums = {(lv.detector.z_scores, lv.detector.lookahead_s) for lv in levels
+                if isinstance(lv.detector, WCV_TAUMOD_SUM)}
+        if len(sums) > 1:
+            return None
+        rows = [(t.dthr_m, t.dthr_m**2, t.zthr_m, t.tthr_s, t.tcoa_s, lv.alerting_time_s,
+                 np.nan if lv.early_alerting_time_s is None else lv.early_alerting_time_s,
+                 float(lv.detector.altitude_required)) for lv in levels for t in (lv.thresholds,)]
+        z, lookahead = sums.pop() if sums else (None, 0.0)
+        sum_params = np.zeros(8) if z is None else np.array(
+            [1.0, z.h_pos, z.h_vel_min, z.h_vel_max, z.h_vel_distance_m, z.v_pos, z.v_vel, lookahead])
+        return cls(np.array(rows, np.float64), sum_params)
+
+    def alert(self, encounter: Encounter, max_level: int | None, previous: np.ndarray | None) -> np.ndarray:
+        g = encounter.geometry
+        n = len(encounter.has_altitude)
+        errors = encounter.uncertainty if self.sum_params[0] else None
+        return wcv_kernels.wcv_alert_pairs(
+            as_c(g.s_xy_m), as_c(g.v_xy_mps), as_c(g.sz_m), as_c(g.vz_mps), _per_pair(encounter.has_altitude, n, bool),
+            _per_pair(encounter.vertical_margin_m, n, np.float64),
+            np.zeros((n, 4)) if errors is None else as_c(errors),
+            np.zeros(n, np.int64) if previous is None else as_c(previous, np.int64), self.levels, self.sum_params,
+            len(self.levels) if max_level is None else int(max_level))
 
 
 def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Alerter:
@@ -411,28 +404,11 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
 
 
 def wcv_alerter(spec, name: str = "wcv") -> Alerter:
-    """A DO-365 well-clear alerter from a profile's [alerter] table (advisory/tables.py WcvAlerterSpec): each level
-    a WCV_TAUMOD detector (advisory/wcv.py; WCV_TAUMOD_SUM, advisory/wcv_sum.py, where the table has
-    [alerter.sum]) with its thresholds at every sensitivity level, its alerting and early
-    alerting times, the advisory it raises and its bands region. A level that raises an RA needs the intruder's
-    altitude (the manoeuvre is vertical); the others show an intruder without altitude on range alone. Their
+    """A DO-365 well-clear alerter: the levels of a profile's [alerter] table as advisory/tables.py read them
+    (WcvAlerterSpec.levels: AlertLevels with WCV_TAUMOD detectors, advisory/wcv.py, or WCV_TAUMOD_SUM,
+    advisory/wcv_sum.py, where the table has [alerter.sum]; the guidance bands read the same levels). Their
     hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""
-    from avionics.advisory.wcv import WCV_TAUMOD
-    from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM
-
-    def detector(altitude_required: bool):
-        if spec.sum is None:
-            return WCV_TAUMOD(altitude_required=altitude_required)
-        return WCV_TAUMOD_SUM(altitude_required=altitude_required, z_scores=spec.sum, lookahead_s=spec.lookahead_s)
-
-    ra = int(AdvisoryLevel.RA)
-    levels = tuple(
-        AlertLevel(i, lv.name, detector(lv.advisory == "RA"),
-                   (lambda thr: lambda _level: thr)(lv.thresholds),
-                   alerting_time_s=lv.alerting_time_s, early_alerting_time_s=lv.early_alerting_time_s,
-                   advisory=ra if lv.advisory == "RA" else int(AdvisoryLevel.TA), region=lv.region)
-        for i, lv in enumerate(spec.levels, start=1))
-    return Alerter(name, levels)
+    return Alerter(name, tuple(spec.levels))
 
 
 CD3D_D_M, CD3D_H_M, CD3D_LOOKAHEAD_S = 5.0 * NM, 1000.0 * FT, 180.0  # DAIDALUS Alerter.CD3D()
@@ -443,4 +419,4 @@ def cd3d_alerter(d_m: float = CD3D_D_M, h_m: float = CD3D_H_M, lookahead_s: floa
     """One level: the CD3D cylinder's loss within the lookahead, the same at every sensitivity level (DAIDALUS
     Alerter.CD3D(): CDCylinder(5 nmi, 1000 ft), alerting time 180 s)."""
     thresholds = CylinderThresholds(d_m, h_m, lookahead_s)
-    return Alerter("cd3d", (AlertLevel(1, name, CD3D(), lambda _level: thresholds),))
+    return Alerter("cd3d", (AlertLevel(1, name, CD3D(), thresholds),))

@@ -51,7 +51,8 @@ from avionics.advisory.bands_kinematics import (
     level_out_times, turn, vs_accel,
 )
 from avionics.advisory.persistence import MofN
-from avionics.advisory.wcv import DO365_PHASE_I, WcvThresholds, conflict, wcv_interval
+from avionics.advisory.levels import AlertLevel
+from avionics.advisory.wcv import WcvThresholds, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, SumZScores, relative_errors, wcv_uncertain_intervals
 from avionics.contract.bands import BAND_KIND_NAMES
 from avionics.core.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
@@ -69,26 +70,6 @@ _REGION_OF_INDEX = (NEAR, MID, FAR)
 
 
 # --- parameters -------------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class BandsLevel:
-    """One alert level of the alerter (DAIDALUS AlertThresholds): its detector's thresholds, the bands region
-    its conflicts paint, and its alerting and early alerting times."""
-
-    level: int
-    region: str  # "NONE", "FAR", "MID" or "NEAR"
-    thresholds: WcvThresholds
-    alerting_time_s: float
-    early_alerting_time_s: float
-
-
-# DO_365B_no_SUM.conf, alerter 1 (DWC_Phase_I)
-DO365B_LEVELS: tuple[BandsLevel, ...] = (
-    BandsLevel(1, "NONE", WcvThresholds(0.66 * NM, 700.0 * FT, 35.0, 0.0), 55.0, 75.0),
-    BandsLevel(2, "MID", DO365_PHASE_I, 55.0, 75.0),
-    BandsLevel(3, "NEAR", DO365_PHASE_I, 25.0, 55.0),
-)
-
 
 @dataclass(frozen=True)
 class BandsParams:
@@ -654,12 +635,13 @@ class BandsEngine:
     """DAIDALUS bands for one ownship, with the state DAIDALUS's bands keep between calls (BandsHysteresis per
     kind, and when each intruder was first seen, for the early alerting time)."""
 
-    def __init__(self, params: BandsParams = BandsParams(), levels: Sequence[BandsLevel] = DO365B_LEVELS,
-                 sum_z: SumZScores | None = None):
+    def __init__(self, params: BandsParams, levels: Sequence[AlertLevel], sum_z: SumZScores | None = None):
         self.params = params
         self.sum_z = sum_z  # the alerter's [alerter.sum]: its detectors are WCV_TAUMOD_SUM, so are the bands' tests
-        # BandsLevel objects or plain (level, region, thresholds, alerting_time_s, early_alerting_time_s) tuples
-        self.levels = tuple(lv if isinstance(lv, BandsLevel) else BandsLevel(*lv) for lv in levels)
+        # the alerter's own levels (advisory/levels.py, a profile's [[alerter.levels]]): each level's thresholds
+        # (WcvThresholds), the region it paints, its alerting and early alerting times, as DAIDALUS's bands read
+        # the alerter's AlertThresholds
+        self.levels = tuple(levels)
         p = params
         self._kinds = (
             _Kind("track_deg", TWO_PI, 0.0, TWO_PI, math.radians(p.step_track_deg), p.recovery_track),
@@ -668,7 +650,7 @@ class BandsEngine:
             _Kind("altitude_m", 0.0, p.min_alt_m, p.max_alt_m, p.step_alt_m, p.recovery_alt),
         )
         # regions painted (DaidalusCore.bands4region_): index 0 NEAR, 1 MID, 2 FAR -> the level that paints it
-        self._level_for_region: list[BandsLevel | None] = []
+        self._level_for_region: list[AlertLevel | None] = []
         for reg in _REGION_OF_INDEX:
             lv = [lv for lv in self.levels if _ORDER[lv.region] == reg]
             self._level_for_region.append(lv[0] if lv else None)
@@ -703,7 +685,7 @@ class BandsEngine:
                 continue
             tin, tout = _lines(lv.thresholds, s, v, p.lookahead_s, sum_data)
             is_conf = conflict(tin, tout)
-            at = np.where(early_ok & (np.asarray(alert_levels) == lv.level), lv.early_alerting_time_s,
+            at = np.where(early_ok & (np.asarray(alert_levels) == lv.number), lv.early_alerting_time_s,
                           lv.alerting_time_s)
             # ConflictData.conflictBefore: time_in == 0 or Util.almost_less(time_in, t) (PRECISION13)
             before = is_conf & ((tin == 0) | almost_less_13(tin, at))
@@ -759,9 +741,13 @@ class BandsEngine:
                           maxl, maxr, so, vo, si, vi, L)
 
     def _recovery_bands(self, cand: _Candidates, idx, T):
-        """DaidalusRealBands.compute_recovery_bands: (none segments, found)."""
+        """DaidalusRealBands.compute_recovery_bands: (none segments, found). recovery_info: (time, horizontal,
+        vertical distance, n factor) when found; (-inf, -inf, -inf, n factor) when not (its recovery_time_ ...
+        start at NEGATIVE_INFINITY: DAIDALUS's RecoveryInformation of a saturated recovery, e.g. an NMAC that no
+        value avoids)."""
         p = self.params
         L = p.lookahead_s
+        self.recovery_info = (-math.inf, -math.inf, -math.inf, 0)
         nmac = Cylinder(p.horizontal_nmac_m, p.vertical_nmac_m)
         none = cand.green_segments(idx, nmac, 0.0, T, None)
         if not none.any():
@@ -794,6 +780,7 @@ class BandsEngine:
                 if not p.ca_bands:
                     return none, False
             nfactor += 1
+            self.recovery_info = (-math.inf, -math.inf, -math.inf, nfactor)
             cyl = Cylinder(max(p.horizontal_nmac_m, cyl.d_m * factor), max(p.vertical_nmac_m, cyl.h_m * factor))
         return none, False
 
@@ -838,7 +825,6 @@ class BandsEngine:
                 none_sets[r] = cand.green_segments(idx, lv.thresholds, 0.0, T, None)
                 if kind.recovery and not none_sets[r].any() and r <= self._corrective:
                     cidx, cT = acs[self._corrective]
-                    self.recovery_info = None
                     none_sets[self._corrective], _ = self._recovery_bands(cand, cidx, cT)
                     self.recovery_information[kind.name] = self.recovery_info
                     recovery = True

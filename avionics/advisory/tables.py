@@ -16,9 +16,11 @@ from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 
-from avionics.advisory.wcv import WcvThresholds
-from avionics.advisory.wcv_sum import SumZScores
+from avionics.advisory.levels import AlertLevel
+from avionics.advisory.wcv import WCV_TAUMOD, WcvThresholds
+from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM, SumZScores
 from avionics.core.params import ConfigError, _show, check_float, is_file
+from avionics.core.types import AdvisoryLevel
 from avionics.core.units import FT, FPM, G0, NM
 
 PROFILE_DIR = "profiles"
@@ -65,28 +67,14 @@ class ResponseModel:
 
 
 @dataclass(frozen=True, slots=True)
-class WcvLevelSpec:
-    """One alert level of a well-clear alerter (DAIDALUS AlertThresholds with a WCV_TAUMOD detector): its name,
-    the advisory it raises ("TA": traffic to show and watch, "RA": a manoeuvre now), the bands region its
-    conflicts paint (BandsRegion: NONE, FAR, MID, NEAR), the detector thresholds, the alerting time and the early
-    alerting time (used while the intruder's alert is already this level: DaidalusCore.check_alerting_thresholds)."""
-
-    name: str
-    advisory: str
-    region: str
-    thresholds: WcvThresholds
-    alerting_time_s: float
-    early_alerting_time_s: float
-
-
-@dataclass(frozen=True, slots=True)
 class WcvAlerterSpec:
-    """A DO-365 well-clear alerter ([alerter] kind = "wcv" of a profile): its levels 1..n (least severe first)
+    """A DO-365 well-clear alerter ([alerter] kind = "wcv" of a profile): its levels 1..n (least severe first; each
+    an advisory/levels.py AlertLevel, DAIDALUS's AlertThresholds, read by the alerter and the guidance bands alike)
     and DAIDALUS's alerting hysteresis (HysteresisData: M of N over evaluations every period_s, persistence,
     reset after hysteresis_time_s without an evaluation). source: where the numbers come from."""
 
     source: str
-    levels: tuple[WcvLevelSpec, ...]
+    levels: tuple[AlertLevel, ...]
     hysteresis_time_s: float
     persistence_time_s: float
     alerting_m: int
@@ -212,32 +200,6 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
         raise ProfileError(f"{where}: unknown key(s) {sorted(unknown)}")
     if table.get("kind") != "wcv":
         raise ProfileError(f"{where}.kind: expected \"wcv\" (the TCAS alerter needs no [alerter] table)")
-    levels = []
-    for i, row in enumerate(_tables(table.get("levels", []), f"{where}.levels")):
-        at = f"{where}.levels[{i}]"
-        unknown = set(row) - WCV_LEVEL_KEYS
-        if unknown:
-            raise ProfileError(f"{at}: unknown key(s) {sorted(unknown)}")
-        if row.get("advisory") not in ("TA", "RA"):
-            raise ProfileError(f"{at}.advisory: expected \"TA\" or \"RA\"")
-        if row.get("region", "NONE") not in REGIONS:
-            raise ProfileError(f"{at}.region: expected one of {list(REGIONS)}")
-        try:
-            thresholds = WcvThresholds(_distance(row, "dthr", at), _distance(row, "zthr", at),
-                                       _number(row["tthr_s"], f"{at}.tthr_s"), _number(row.get("tcoa_s", 0.0), f"{at}.tcoa_s"))
-            alerting = _number(row["alerting_time_s"], f"{at}.alerting_time_s")
-            early = _number(row.get("early_alerting_time_s", alerting), f"{at}.early_alerting_time_s")
-            levels.append(WcvLevelSpec(_text(row["name"], f"{at}.name"), row["advisory"], row.get("region", "NONE"),
-                                       thresholds, alerting, early))
-        except KeyError as exc:
-            raise ProfileError(f"{at}: missing key {exc}") from None
-    if not levels:
-        raise ProfileError(f"{where}: no [[alerter.levels]]")
-    if any(a.advisory == "RA" and b.advisory == "TA" for a, b in zip(levels, levels[1:])):
-        raise ProfileError(f"{where}: a level that raises an RA cannot be below one that raises a TA")
-    m, n = table.get("alerting_m", 1), table.get("alerting_n", 1)
-    if not (type(m) is int and type(n) is int and 1 <= m <= n <= 50):
-        raise ProfileError(f"{where}: need integers 1 <= alerting_m <= alerting_n <= 50")
     sum_z = None
     if "sum" in table:
         at = f"{where}.sum"
@@ -257,8 +219,43 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
             raise ProfileError(f"{at}: missing key {exc}") from None
         if sum_z.h_vel_distance_m <= 0.0:
             raise ProfileError(f"{at}.h_vel_z_distance: must be > 0")
+    lookahead = _number(table.get("lookahead_s", 180.0), f"{where}.lookahead_s")
+    levels = []
+    for i, row in enumerate(_tables(table.get("levels", []), f"{where}.levels")):
+        at = f"{where}.levels[{i}]"
+        unknown = set(row) - WCV_LEVEL_KEYS
+        if unknown:
+            raise ProfileError(f"{at}: unknown key(s) {sorted(unknown)}")
+        if row.get("advisory") not in ("TA", "RA"):
+            raise ProfileError(f"{at}.advisory: expected \"TA\" or \"RA\"")
+        if row.get("region", "NONE") not in REGIONS:
+            raise ProfileError(f"{at}.region: expected one of {list(REGIONS)}")
+        try:
+            thresholds = WcvThresholds(_distance(row, "dthr", at), _distance(row, "zthr", at),
+                                       _number(row["tthr_s"], f"{at}.tthr_s"), _number(row.get("tcoa_s", 0.0), f"{at}.tcoa_s"))
+            alerting = _number(row["alerting_time_s"], f"{at}.alerting_time_s")
+            early = _number(row.get("early_alerting_time_s", alerting), f"{at}.early_alerting_time_s")
+            name = _text(row["name"], f"{at}.name")
+        except KeyError as exc:
+            raise ProfileError(f"{at}: missing key {exc}") from None
+        # a level that raises an RA needs the intruder's altitude (the manoeuvre is vertical); the others show an
+        # intruder without altitude on range alone
+        ra = row["advisory"] == "RA"
+        detector = WCV_TAUMOD(altitude_required=ra) if sum_z is None else \
+            WCV_TAUMOD_SUM(altitude_required=ra, z_scores=sum_z, lookahead_s=lookahead)
+        advisory = int(AdvisoryLevel.RA if ra else AdvisoryLevel.TA)
+        levels.append(AlertLevel(i + 1, name, detector, thresholds, alerting_time_s=alerting,
+                                 early_alerting_time_s=early, advisory=advisory, region=row.get("region", "NONE")))
+    if not levels:
+        raise ProfileError(f"{where}: no [[alerter.levels]]")
+    ra = int(AdvisoryLevel.RA)
+    if any(a.advisory == ra and b.advisory != ra for a, b in zip(levels, levels[1:])):
+        raise ProfileError(f"{where}: a level that raises an RA cannot be below one that raises a TA")
+    m, n = table.get("alerting_m", 1), table.get("alerting_n", 1)
+    if not (type(m) is int and type(n) is int and 1 <= m <= n <= 50):
+        raise ProfileError(f"{where}: need integers 1 <= alerting_m <= alerting_n <= 50")
     return WcvAlerterSpec(
-        sum=sum_z, lookahead_s=_number(table.get("lookahead_s", 180.0), f"{where}.lookahead_s"),
+        sum=sum_z, lookahead_s=lookahead,
         source=_text(table.get("source", ""), f"{where}.source"), levels=tuple(levels),
         hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
         persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),

@@ -3,8 +3,9 @@ WCV_TAUMOD; vertical: time to co-altitude, WCV_TCOA), vectorised over any leadin
 
 Sources: Munoz, Narkawicz, Hagen, Upchurch, Dutle, Consiglio, Chamberlain, "DAIDALUS: Detect and Avoid Alerting
 Logic for Unmanned Systems", DASC 2015, and the DAIDALUS v2.0.4 Java classes (gov.nasa.larcfm.ACCoRD) named at
-each function. Thresholds (RTCA DO-365 / DO-365B, Phase I DWC): DTHR 4000 ft (0.66 nmi), ZTHR 450 ft, TTHR
-(modified tau) 35 s, TCOA 0 s.
+each function. Thresholds are data: a profile's [[alerter.levels]] (advisory/profiles/*.toml, read by
+advisory/tables.py), e.g. RTCA DO-365B Phase I DWC: DTHR 4000 ft (0.66 nmi), ZTHR 450 ft, TTHR (modified tau)
+35 s, TCOA 0 s (`daidalus-do365b-no-sum`, `do365`).
 
 With s the relative position and v the relative velocity (horizontal 2-vectors; sz, vz vertical), the volume
 is violated now when (WCV_tvar.violation)
@@ -30,8 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.core.almost import almost_equals, almost_less
-from avionics.core.units import FT, NM
-
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,8 +43,6 @@ class WcvThresholds:
     tcoa_s: float = 0.0
 
 
-DO365_PHASE_I = WcvThresholds(0.66 * NM, 450.0 * FT, 35.0, 0.0)  # DO_365B_no_SUM.conf DWC_Phase_I det_2, det_3
-DO365_NON_COOP = WcvThresholds(2200.0 * FT, 450.0 * FT, 0.0, 0.0)  # DWC_Non_Coop (DO-365B non-cooperative)
 
 
 def _dot(a, b):

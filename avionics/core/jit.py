@@ -76,6 +76,7 @@ def kernel(*signatures):
 KERNEL_MODULES: list[str] = [
     "avionics.conflict.kernels",
     "avionics.tracking.kernels",
+    "avionics.advisory.kernels",
 ]
 
 

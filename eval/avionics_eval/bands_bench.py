@@ -20,7 +20,8 @@ import time
 
 import numpy as np
 
-from avionics.advisory.bands import BandsEngine
+from avionics.advisory.bands import BandsEngine, BandsParams
+from avionics.advisory.tables import load_profile
 from avionics.core.units import KT
 
 
@@ -41,7 +42,7 @@ def run(n: int, calls: int, seed: int) -> dict:
     own_p, own_v = np.array([0.0, 0.0, 3000.0]), np.array([0.0, 150 * KT, 0.0])
     ids = [f"ac{i}" for i in range(n)]
     levels = np.full(n, 2)
-    engine = BandsEngine()
+    engine = BandsEngine(BandsParams(), load_profile("daidalus-do365b-no-sum").alerter.levels)  # DO_365B_no_SUM.conf
     per_kind: dict[str, float] = {}
     inner = engine._kind_bands
 

@@ -27,7 +27,7 @@ import numpy as np
 import pyarrow as pa
 
 from avionics.advisory.tables import load_profile
-from avionics.advisory.wcv import DO365_PHASE_I, wcv_violation
+from avionics.advisory.wcv import wcv_violation
 from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
@@ -338,13 +338,16 @@ def _record(encounter, profile, t, own, intruder, offsets, changes, delay, stand
     }
 
 
+DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
+
+
 def _lead(t_cpa: float, first: float | None) -> float | None:
     return None if first is None else t_cpa - first
 
 
 def _loss_of_well_clear(t, own, intruder, offsets) -> tuple[bool, bool]:
-    """Whether the DO-365 well-clear volume (Phase I: DTHR 4000 ft, ZTHR 450 ft, modified tau 35 s;
-    avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown offset (vertical,
+    """Whether the DO-365 well-clear volume (Phase I: DTHR 4000 ft, ZTHR 450 ft, modified tau 35 s, as the profile
+    daidalus-do365b-no-sum states them; avionics.advisory.wcv) is violated at any truth sample, without and with ownship's flown offset (vertical,
     or east, north and up: see _record)."""
     s_xy = intruder[:, 0:2] - own[:, 0:2]
     v_xy = intruder[:, 3:5] - own[:, 3:5]

@@ -211,7 +211,7 @@ def oracle(rows: list[Assessment], profile: str, draws: int, rng: np.random.Gene
     plain = WCV_TAUMOD()
     out = {}
     for lv in levels:
-        thr, at = lv.thresholds(None), lv.alerting_time_s
+        thr, at = lv.thresholds, lv.alerting_time_s
         per = {"sum": [], "plain": []}
         for a in rows:
             nominal = _encounter(a.mean, a.errors)
