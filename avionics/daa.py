@@ -30,7 +30,7 @@ from avionics.core.types import (
 from avionics.advisory.inhibits import RaInhibitWatch
 from avionics.core.units import FT
 from avionics.io.diagnostics import Diagnostic
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 
 STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
 _UNSET = object()

@@ -22,7 +22,7 @@ from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
     AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 
 PLANE = LocalTangentPlane(47.0, 8.0)
 ALT_M = 1500.0
