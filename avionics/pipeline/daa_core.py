@@ -12,7 +12,7 @@ intruder is re-assessed at assessment_hz so that coasting tracks and timeouts ar
 pass is spread over the steps after each tick in slices (`_slice`, advisory.assessment_slice), so that a fresh
 report never waits behind a whole pass. The advisory state is held in arrays (advisory/logic.py), and an
 `Advisory` is built at once only for an intruder that alerts, alerted or changed; the others' are built from
-the step's arrays when read (`_Rows`).
+the step's arrays when read (records.py).
 
 Fault containment (docs/architecture.md, "Failure states"): the stages are vectorised over intruders, so one
 intruder's bad numbers (a NaN state, a covariance that is not positive definite) can make a whole call raise.
@@ -33,25 +33,26 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 from operator import attrgetter
-from types import MappingProxyType, SimpleNamespace
+from types import SimpleNamespace
 from typing import Iterable
 
 import numpy as np
 
 from avionics.advisory.alerting import Encounter
-from avionics.advisory.logic import AdvisoryStates, lost_hold
+from avionics.advisory.logic import lost_hold
 from avionics.advisory.resolution import Threat
-from avionics.advisory.tables import SensitivityLevel
 from avionics.compose import Components, build_components
 from avionics.config import Config
 from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.frame import FrameChange, TrackingFrame
 from avionics.core.types import (
-    ASSESSMENT_FIELDS, LOST,
-    Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
+    LOST, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.core.uncertainty import errors_from_covariance
+from avionics.pipeline.records import (
+    NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, blank_advisory, with_level,
+)
 from avionics.tracking.interface import Tracker
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
@@ -72,64 +73,12 @@ class StepResult:
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance, once a second
 
 
-class _Rows:
-    """One assessment's arrays, from which the advisory of an intruder that is not alerting, and was not, is
-    built only when something asks for it (issue 13, item 2): most intruders are in that state at every step, and
-    building an `Advisory` costs more than assessing the intruder. An alerting or changed intruder's advisory is
-    built at once (`DaaCore._built`); both ways give the same record."""
-
-    __slots__ = ("now_s", "keys", "sl", "geometry", "mod_tau", "has_alt", "datums", "mismatch", "pc_ta", "pc_ra",
-                 "pc", "within_age", "integrity", "stale", "alerts", "alert_names", "own_levels")
-
-    def __init__(self, now_s, keys, level, ev, stale, alerts, alert_names, own_levels):
-        self.now_s, self.keys, self.sl = now_s, keys, level.sl
-        self.geometry, self.has_alt, self.mismatch = ev.geometry, ev.has_alt, ev.mismatch
-        self.mod_tau = {AdvisoryLevel.TA: ev.geometry.mod_tau(level.ta_dmod_m)}  # the RA's added when one is
-        self.datums = [t.datum for t in ev.tracks]  # a track's datum and integrity may change after this step
-        self.integrity = [t.integrity.label for t in ev.tracks]
-        self.pc_ta, self.pc_ra = ev.pc_ta, ev.pc_ra if level.ra_tau_s is not None else None
-        self.pc, self.within_age = ev.pc, ev.within_age
-        self.stale, self.alerts, self.alert_names, self.own_levels = stale, alerts, alert_names, own_levels
-
-    def assessment(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE) -> tuple:
-        """Row i's ASSESSMENT_FIELDS at level, in order: what `advisory` puts in the record, and what the 2 Hz
-        `traffic` publication reads for every track without building one."""
-        g, has_alt, pc = self.geometry, self.has_alt[i], self.pc
-        return (float(g.range_m[i]), float(g.t_cpa_s[i]), float(g.hmd_m[i]), float(g.vmd_m[i]) if has_alt else None,
-                float(g.range_tau_s[i]), float(self.mod_tau.get(level, self.mod_tau[AdvisoryLevel.TA])[i]),
-                float(self.pc_ta[i]), float(self.pc_ra[i]) if self.pc_ra is not None else None,
-                float(pc["pc_now"][i]), float(pc["pc_max"][i]), float(pc["t_pc_max_s"][i]),
-                _finite_or_none(pc["pc_within"][i]), _finite_or_none(self.within_age[i]))
-
-    def advisory(self, i: int, level: AdvisoryLevel = AdvisoryLevel.NONE, reason: str | None = None,
-                 ra: dict | None = None) -> Advisory:
-        """Row i's advisory at level; reason None: that of an intruder at NONE (stale, diverging or clear)."""
-        g, has_alt, alert = self.geometry, self.has_alt[i], int(self.alerts[i])
-        if reason is None:
-            reason = "stale" if self.stale[i] else "diverging" if g.s_dot_v[i] > 0.0 else "clear"
-        return Advisory(
-            intruder=self.keys[i], level=level, time_s=self.now_s, reason=reason, sensitivity_level=self.sl,
-            closure_rate_mps=float(g.closure_rate_mps[i]),
-            vertical_tau_s=float(g.vertical_tau_s[i]) if has_alt else math.inf,
-            altitude_datum=self.datums[i] if has_alt else None, datum_mismatch=bool(self.mismatch[i]),
-            integrity=self.integrity[i],
-            **dict(zip(ASSESSMENT_FIELDS, self.assessment(i, level))),
-            **(dict(alert_level=alert, alert_name=self.alert_names[alert]) if self.own_levels else {}),
-            **(ra or {}),
-        )
-
-
 def _no_advisory() -> None:
     return None
 
 
-def _advisory_of(entry) -> Advisory:
-    """An intruder's latest advisory: built already, or (rows, i) of a `_Rows` to build it from."""
-    return entry if type(entry) is Advisory else entry[0].advisory(entry[1])
-
-
 class Assessed(Sequence):
-    """The advisories of a step's assessed intruders, each built when read (`_Rows`)."""
+    """The advisories of a step's assessed intruders, each built when read (records.py)."""
 
     __slots__ = ("_entries",)
 
@@ -141,8 +90,8 @@ class Assessed(Sequence):
 
     def __getitem__(self, i):
         if isinstance(i, slice):
-            return [_advisory_of(e) for e in self._entries[i]]
-        return _advisory_of(self._entries[i])
+            return [advisory_of(e) for e in self._entries[i]]
+        return advisory_of(self._entries[i])
 
 
 @dataclass
@@ -166,7 +115,6 @@ class DaaCore:
         self.levels = parts.levels
         self.resolution = parts.resolution
         self.inhibits = parts.inhibits
-        self._ra_threats: dict[IntruderKey, Threat] = {}
         self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels; or a DO-365 alerter's three
         self._alert_names = self.alerter.names()
         self.bands = parts.bands  # a DO-365 alerter's guidance bands (advisory/bands.py); None: none
@@ -180,12 +128,8 @@ class DaaCore:
         self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
         self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
         self.identity = IdentityResolver(config.tracking, self.counters)  # one aircraft, one track (identity.py)
-        self.states = AdvisoryStates()  # every assessed intruder's advisory state, in arrays (advisory/logic.py)
-        self._latest: dict[IntruderKey, object] = {}  # its latest advisory: an Advisory or (_Rows, row)
-        self.active: dict[IntruderKey, Advisory] = {}  # the latest advisory of every intruder at TA or RA
-        self._active_view: MappingProxyType | None = None  # a read-only copy of it, made again after a change
+        self.records = AdvisoryRecords()  # the advisory state and latest advisory of every assessed intruder
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
-        self.level: SensitivityLevel | None = None
         self._last_tick_s = -math.inf  # the last assessment tick (assessment_hz): a re-assessment pass starts
         self._pass: deque[IntruderKey] = deque()  # the pass's intruders not re-assessed yet (_slice)
         self._pass_size = 0
@@ -199,6 +143,16 @@ class DaaCore:
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
         self._stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
         self._own_errors: tuple[float, float, float, float] | None = None
+
+    @property
+    def level(self):
+        """The sensitivity level of the last assessment (advisory/tables.py SensitivityLevel); None: none."""
+        return self.records.level
+
+    @property
+    def active(self) -> dict[IntruderKey, Advisory]:
+        """The latest advisory of every intruder at TA or RA."""
+        return self.records.active
 
     # -- ingest --------------------------------------------------------------------------------------------
     def _in_plane(self, reports: list[IntruderReport]):
@@ -324,10 +278,10 @@ class DaaCore:
         if tick:
             self._last_tick_s = now_s
             for key in self.tracker.prune(now_s):
-                gone = self._latest.get(key)
-                if gone is not None and self.states.level_of(key) is not AdvisoryLevel.NONE:
+                gone = self.records.latest.get(key)
+                if gone is not None and self.records.states.level_of(key) is not AdvisoryLevel.NONE:
                     # still alerting when deleted: a lost threat held until now (advisory/logic.py lost_hold)
-                    changes.append(_with_level(_advisory_of(gone), now_s, AdvisoryLevel.NONE, LOST))
+                    changes.append(with_level(advisory_of(gone), now_s, AdvisoryLevel.NONE, LOST))
                 self._forget(key)
             self._expire_faults(now_s)
         periodic = self._slice(now_s, period, tick)
@@ -382,7 +336,7 @@ class DaaCore:
                 pos[i] += vel[i] * (now_s - t)
                 if err is not None:
                     errors[i], stated = err, True
-            levels = [int(self.states.alert[r]) if (r := self.states.row(k)) is not None else NONE for k in keys]
+            levels = [int(self.records.states.alert[r]) if (r := self.records.states.row(k)) is not None else NONE for k in keys]
             bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels,
                                        errors if stated else None)
             return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
@@ -419,12 +373,12 @@ class DaaCore:
             own = None
         self._last_ownship = own
         if own is None:
-            self.level = None  # no ownship altitude: no sensitivity level either
-            return self._drop_all(now_s, keys, "no_ownship", changes)
+            self.records.level = None  # no ownship altitude: no sensitivity level either
+            return self.records.end(now_s, keys, "no_ownship", changes)
         cfg = self.config
         agl = self.agl_m(own)
         sl_altitude = own.pressure_altitude_m if own.pressure_altitude_m is not None else float(own.x[2])
-        self.level = level = self.levels.select(agl, sl_altitude)
+        self.records.level = level = self.levels.select(agl, sl_altitude)
         inhibits = self.inhibits.update(agl)
         ra_allowed = cfg.advisory.ra_enabled and not inhibits.ra
 
@@ -447,9 +401,9 @@ class DaaCore:
         candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
         live = np.array([i for i, k in enumerate(keys) if k not in failed], np.intp) if failed else \
             np.arange(len(keys))
-        rows = self.states.rows([keys[i] for i in live])
-        previous_level = self.states.level[rows].astype(int)
-        previous_alert = self.states.alert[rows].astype(int)
+        rows = self.records.states.rows([keys[i] for i in live])
+        previous_level = self.records.states.level[rows].astype(int)
+        previous_alert = self.records.states.alert[rows].astype(int)
         # a stale track ends its alert at once, unless it is a lost threat whose coasted track still calls for it:
         # that alert is held at its level (advisory/logic.py lost_hold), with the DMOD of that level
         ra_dmod = level.ra_dmod_m if level.ra_dmod_m is not None else level.ta_dmod_m
@@ -458,30 +412,30 @@ class DaaCore:
         alerts = np.where(stale, NONE, candidates)
         alerts[live[held]] = previous_alert[held]
         ta_hold_s = self.alerter.level(int(AdvisoryLevel.TA)).min_duration_s  # TCAS II: a TA stays 8 s
-        self.states.next(rows, now_s, self._advisory_level[alerts[live]], ta_hold_s, force=stale[live] & ~held)
-        levels = self.states.level[rows].astype(int)
+        self.records.states.next(rows, now_s, self._advisory_level[alerts[live]], ta_hold_s, force=stale[live] & ~held)
+        levels = self.records.states.level[rows].astype(int)
         own_levels = self.alerter.own_levels
-        self.states.alert[rows] = alerts[live] if own_levels else levels
-        self.states.mismatch[rows] = ev.mismatch[live]
+        self.records.states.alert[rows] = alerts[live] if own_levels else levels
+        self.records.states.mismatch[rows] = ev.mismatch[live]
         ra_rows = live[levels == int(AdvisoryLevel.RA)]
-        if self._ra_threats:  # an assessed intruder no longer at RA is no longer an RA threat
+        if self.records.ra_threats:  # an assessed intruder no longer at RA is no longer an RA threat
             assessed = set(keys)
-            for key in [k for k in self._ra_threats if k in assessed and self.states.level_of(k) is not
+            for key in [k for k in self.records.ra_threats if k in assessed and self.records.states.level_of(k) is not
                         AdvisoryLevel.RA]:
-                del self._ra_threats[key]
+                del self.records.ra_threats[key]
         for i in ra_rows:
-            self._ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]),
+            self.records.ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]),
                                                keys[i])
         try:
-            resolution = self.resolution.resolve(now_s, list(self._ra_threats.values()), float(own.x[5]),
+            resolution = self.resolution.resolve(now_s, list(self.records.ra_threats.values()), float(own.x[5]),
                                                  level.alim_m or 0.0, inhibits, float(own.x[2]),
                                                  self.inhibits.floors(float(own.x[2]), agl))
             blocked = self.resolution.blocked if resolution is None else ""
         except Exception as exc:  # noqa: BLE001  (one manoeuvre for every RA threat: they all fail with it)
-            for key in sorted(self._ra_threats):
+            for key in sorted(self.records.ra_threats):
                 self._fail(now_s, key, "resolution", exc, changes, failed)
             resolution, blocked = None, ""
-        step = _Rows(now_s, keys, level, ev, stale, alerts, self._alert_names, own_levels)
+        step = AssessmentRows(now_s, keys, level, ev, stale, alerts, self._alert_names, own_levels)
         if len(ra_rows):  # modified tau at the RA's DMOD only when an intruder is at RA (the others read the TA's)
             step.mod_tau[AdvisoryLevel.RA] = geometry.mod_tau(level.ra_dmod_m)
         # an intruder alerting now or before (or with a DO-365 alert level) gets its advisory built now; the
@@ -495,7 +449,7 @@ class DaaCore:
             if key in failed:  # the resolution failed for its RA
                 continue
             if not eager[j]:
-                self._latest[key] = entry = (step, i)
+                self.records.latest[key] = entry = (step, i)
                 out.append(entry)
                 continue
             try:
@@ -504,32 +458,32 @@ class DaaCore:
             except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory)
                 self._fail(now_s, key, "advisory", exc, changes, failed)
                 continue
-            previous = self._latest.get(key)
-            previous = _advisory_of(previous) if previous is not None else None
-            self._remember(key, advisory)
+            previous = self.records.latest.get(key)
+            previous = advisory_of(previous) if previous is not None else None
+            self.records.remember(key, advisory)
             if previous is None and advisory.level is not AdvisoryLevel.NONE or \
                     previous is not None and previous.ra_key() != advisory.ra_key():
                 changes.append(advisory)
             out.append(advisory)
         if self.faults:
-            for key in [k for k in keys if k in self.faults and k in self._latest]:
+            for key in [k for k in keys if k in self.faults and k in self.records.latest]:
                 fault = self.faults.pop(key)  # it failed before; its new track was assessed: it is back
                 self.counters["fault.recovered"] += 1
                 log.warning("t=%.2f intruder %s assessed again after its %s fault", now_s, key, fault.stage)
         return out
 
-    def _built(self, step: _Rows, i, key, level_number, candidate_alert, stale, continued, level, resolution,
+    def _built(self, step: AssessmentRows, i, key, level_number, candidate_alert, stale, continued, level, resolution,
                blocked, lost) -> Advisory:
         """Intruder i's advisory from the step's arrays, with its level's reason and its RA. lost: a lost threat
         (held, or ending): its reason is LOST whatever else holds."""
         state = AdvisoryLevel(int(level_number))
         if blocked and state is AdvisoryLevel.RA:  # no RA would help: the threat stays a TA
             state = AdvisoryLevel.TA
-            self.states.level[self.states.row(key)] = int(state)
-        threat = self._ra_threats.get(key) if state is AdvisoryLevel.RA else None
+            self.records.states.level[self.records.states.row(key)] = int(state)
+        threat = self.records.ra_threats.get(key) if state is AdvisoryLevel.RA else None
         if lost:
             reason = LOST
-        elif blocked and key in self._ra_threats:
+        elif blocked and key in self.records.ra_threats:
             reason = blocked
         elif threat is not None and resolution.reason:
             reason = resolution.reason
@@ -590,36 +544,6 @@ class DaaCore:
         if level is AdvisoryLevel.NONE:
             return "diverging" if s_dot_v > 0.0 else "clear"
         return "range" if range_m <= dmod_m else "tau"
-
-    def _drop_all(self, now_s: float, keys: list[IntruderKey], reason: str, changes: list[Advisory]) -> list:
-        """Without ownship there is no relative geometry: every advisory ends, with the reason. The latest
-        advisories of keys (`_latest` entries)."""
-        for key in keys:
-            self._ra_threats.pop(key, None)
-        keys = [k for k in keys if k in self._latest]
-        ended = self.states.end(self.states.rows(keys))
-        for i in np.flatnonzero(ended):
-            key = keys[i]
-            advisory = _with_level(_advisory_of(self._latest[key]), now_s, AdvisoryLevel.NONE, reason)
-            self._remember(key, advisory)
-            changes.append(advisory)
-        return [self._latest[k] for k in keys]
-
-    def _remember(self, key: IntruderKey, advisory: Advisory) -> None:
-        self._latest[key] = advisory
-        if advisory.level is AdvisoryLevel.NONE:
-            if self.active.pop(key, None) is not None:
-                self._active_view = None
-        else:
-            self.active[key] = advisory
-            self._active_view = None
-
-    def active_view(self) -> MappingProxyType:
-        """A read-only copy of `active`, shared by the results until it changes (a step's results are not
-        copied for every step when nothing changed)."""
-        if self._active_view is None:
-            self._active_view = MappingProxyType(dict(self.active))
-        return self._active_view
 
     # -- stage boundaries ------------------------------------------------------------------------------------
     def _contained(self, stage: str, now_s: float, keys: list[IntruderKey], changes: list[Advisory], run,
@@ -744,8 +668,8 @@ class DaaCore:
         def run(rows):
             ks = [keys[i] for i in rows]
             cands = self.gate.persist(ks, candidates[rows], ev.pc_ta[rows], ev.pc_ra[rows], updated)
-            states = self.states.rows(ks)  # before reading the arrays: allocating may grow them
-            previous = self.states.level[states].astype(int)
+            states = self.records.states.rows(ks)  # before reading the arrays: allocating may grow them
+            previous = self.records.states.level[states].astype(int)
             # the levels' continuations: RA threats kept although the RA tests no longer hold (alerting.py)
             encounter = ev.encounter if len(rows) == len(keys) else ev.encounter.take(rows)
             cands, continued = self.alerter.hold(encounter, level, previous, cands,
@@ -783,9 +707,9 @@ class DaaCore:
         fault = self.faults.get(key)
         error = f"{type(exc).__name__}: {exc}"
         if fault is None:
-            entry = self._latest.get(key)
-            advisory = (_with_level(_advisory_of(entry), now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
-                        else _blank_advisory(key, now_s, FAULT, self.level.sl if self.level else 0))
+            entry = self.records.latest.get(key)
+            advisory = (with_level(advisory_of(entry), now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
+                        else blank_advisory(key, now_s, FAULT, self.records.level.sl if self.records.level else 0))
             changes.append(advisory)
             self.faults[key] = Fault(stage, now_s, now_s, error)
             trace = (stage, type(exc).__name__) not in self._traced
@@ -803,15 +727,11 @@ class DaaCore:
 
     def _forget(self, key: IntruderKey) -> None:
         """Forget an intruder's assessments in every stage after tracking (its track is gone)."""
-        self._ra_threats.pop(key, None)
         self._stated_errors.pop(key, None)
         self.gate.forget(key)
         self.hysteresis.forget(key)
         self.conflict.forget(key)
-        self.states.forget(key)
-        self._latest.pop(key, None)
-        if self.active.pop(key, None) is not None:
-            self._active_view = None
+        self.records.forget(key)
         self._bands_traffic.pop(key, None)
 
     def _expire_faults(self, now_s: float) -> None:
@@ -833,7 +753,7 @@ class DaaCore:
         else:
             self.step_fault.last_s, self.step_fault.count = now_s, self.step_fault.count + 1
         try:
-            self._drop_all(now_s, sorted(self._latest), FAULT, changes)
+            self.records.end(now_s, sorted(self.records.latest), FAULT, changes)
         except Exception:  # noqa: BLE001
             log.exception("ending the advisories after a failed step failed too")
         return StepResult(now_s, changes, Assessed([]))
@@ -847,34 +767,34 @@ class DaaCore:
     def end_all(self, now_s: float, reason: str) -> list[Advisory]:
         """End every active advisory now with reason (e.g. "shutdown"); the ended ones, for announcing."""
         changes: list[Advisory] = []
-        self._drop_all(now_s, sorted(self._latest), reason, changes)
+        self.records.end(now_s, sorted(self.records.latest), reason, changes)
         return changes
 
     def advisory(self, key: IntruderKey) -> Advisory | None:
         """An intruder's latest advisory (built now if the step left it as arrays); None: never assessed."""
-        entry = self._latest.get(key)
-        return None if entry is None else _advisory_of(entry)
+        entry = self.records.latest.get(key)
+        return None if entry is None else advisory_of(entry)
 
     def advisory_reader(self, key: IntruderKey):
         """(level, a callable returning the intruder's latest advisory as of now, built when called, and its
         ASSESSMENT_FIELDS): for the track views, whose publications read the level and those fields of every
         track and the whole advisory of a few."""
-        entry = self._latest.get(key)
+        entry = self.records.latest.get(key)
         if entry is None:
             return AdvisoryLevel.NONE, _no_advisory, None
         assessment = entry.assessment() if type(entry) is Advisory else entry[0].assessment(entry[1])
-        return self.states.level_of(key), partial(_advisory_of, entry), assessment
+        return self.records.states.level_of(key), partial(advisory_of, entry), assessment
 
     def datum_mismatch_keys(self) -> list[IntruderKey]:
         """The intruders whose latest assessment compared altitudes across datums."""
-        states = self.states
-        return [k for k in self._latest if states.mismatch[states.row(k)]]
+        states = self.records.states
+        return [k for k in self.records.latest if states.mismatch[states.row(k)]]
+
+    def active_view(self):
+        return self.records.active_view()
 
     def ownship_state(self) -> OwnshipState | None:
         return self._last_ownship
-
-
-NONE, RA = int(AdvisoryLevel.NONE), int(AdvisoryLevel.RA)
 
 
 def _ra_fields(r, threat) -> dict:
@@ -899,24 +819,3 @@ def _finite_input(item) -> bool:
     if isinstance(item, OwnshipPressure):
         return isfinite(item.pressure_altitude_m)
     return True  # not a core input: _ingest says so
-
-
-def _blank_advisory(key: IntruderKey, now_s: float, reason: str, sensitivity_level: int) -> Advisory:
-    """The advisory of an intruder never assessed: level NONE, geometry unknown (NaN; null on zenoh)."""
-    nan = math.nan
-    return Advisory(intruder=key, level=AdvisoryLevel.NONE, time_s=now_s, reason=reason,
-                    sensitivity_level=sensitivity_level, range_m=nan, closure_rate_mps=nan, t_cpa_s=nan, hmd_m=nan,
-                    vmd_m=None, range_tau_s=math.inf, mod_tau_s=math.inf, vertical_tau_s=math.inf,
-                    altitude_datum=None, datum_mismatch=False)
-
-
-def _finite_or_none(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
-def _with_level(advisory: Advisory, now_s: float, level: AdvisoryLevel, reason: str) -> Advisory:
-    """The advisory moved to level (NONE: ended) without an RA; a DO-365 alert level ends with it."""
-    ended = level is AdvisoryLevel.NONE and advisory.alert_level is not None
-    return replace(advisory, level=level, time_s=now_s, reason=reason, ra_sense=None, ra_strength=None,
-                   ra_words=None, target_vertical_rate_mps=None, ra_reversed=False, ra_crossing=False,
-                   ra_separation_m=None, ra_composite=False, **(dict(alert_level=NONE, alert_name="NONE") if ended else {}))
