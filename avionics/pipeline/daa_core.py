@@ -14,19 +14,12 @@ report never waits behind a whole pass. The advisory state is held in arrays (ad
 `Advisory` is built at once only for an intruder that alerts, alerted or changed; the others' are built from
 the step's arrays when read (records.py).
 
-Fault containment (docs/architecture.md, "Failure states"): the stages are vectorised over intruders, so one
-intruder's bad numbers (a NaN state, a covariance that is not positive definite) can make a whole call raise.
-Each stage call (track update, prediction, conflict probabilities, advisory logic) is guarded: when it raises,
-it is run again for each intruder alone; an intruder that still raises (or whose predicted state or geometry is
-not finite) fails: counted `fault.<stage>`, logged once with its traceback, its track dropped, and its advisory
-ends in the failed state (level NONE, reason `fault`), announced like any change. The others go on. An
-exception outside these boundaries fails the step (`fault.step`): every active advisory ends with reason
-`fault` and the next step starts again.
+Fault containment (containment.py): each stage call is guarded, so that one intruder's bad numbers fail that
+intruder alone, and an exception outside those boundaries fails the step, not the process.
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from collections import Counter, deque
 from collections.abc import Sequence
@@ -50,9 +43,8 @@ from avionics.core.types import (
     LOST, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.core.uncertainty import errors_from_covariance
-from avionics.pipeline.records import (
-    NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, blank_advisory, with_level,
-)
+from avionics.pipeline.containment import FAULT, Containment
+from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, with_level
 from avionics.tracking.interface import Tracker
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
@@ -60,9 +52,6 @@ from avionics.tracking.ownship import OwnshipFilter, OwnshipState
 
 KEY_ORDER = attrgetter("address", "source")  # IntruderKey's own order, as one C-built tuple per key
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
-FAULT = "fault"  # the reason of an advisory whose intruder failed in a stage (docs/zenoh.md, Advisory reasons)
-
-log = logging.getLogger("avionics.pipeline")
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,17 +83,6 @@ class Assessed(Sequence):
         return advisory_of(self._entries[i])
 
 
-@dataclass
-class Fault:
-    """An intruder (or the whole step) that failed in a stage: no advisory can be computed for it."""
-
-    stage: str  # "track", "predict", "conflict", "advisory", "resolution"; "step" for the whole step
-    since_s: float
-    last_s: float
-    error: str  # "LinAlgError: matrix is not positive definite"
-    count: int = 1
-
-
 class DaaCore:
     def __init__(self, config: Config, counters: Counter | None = None, components: Components | None = None):
         """components: the parts (compose.py); by default built from config by the composition root."""
@@ -129,16 +107,12 @@ class DaaCore:
         self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
         self.identity = IdentityResolver(config.tracking, self.counters)  # one aircraft, one track (identity.py)
         self.records = AdvisoryRecords()  # the advisory state and latest advisory of every assessed intruder
+        self.containment = Containment(self.counters, self.records, self._drop_track)  # the fault boundaries
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
         self._last_tick_s = -math.inf  # the last assessment tick (assessment_hz): a re-assessment pass starts
         self._pass: deque[IntruderKey] = deque()  # the pass's intruders not re-assessed yet (_slice)
         self._pass_size = 0
         self._last_ownship: OwnshipState | None = None
-        self.faults: dict[IntruderKey, Fault] = {}  # intruders in the failed state (track dropped)
-        self.step_fault: Fault | None = None  # the last step failed outside the per-intruder boundaries
-        self._pending: list[Advisory] = []  # failed-state advisories found outside step(), announced by the next
-        self._traced: set[tuple[str, str]] = set()  # (stage, exception type) already logged with a traceback
-        self._ownship_faulted = False  # the ownship filter failed and no fix has gone in since
         # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
         self._stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
@@ -148,6 +122,16 @@ class DaaCore:
     def level(self):
         """The sensitivity level of the last assessment (advisory/tables.py SensitivityLevel); None: none."""
         return self.records.level
+
+    @property
+    def faults(self):
+        """Intruders in the failed state (containment.py Fault), their tracks dropped."""
+        return self.containment.faults
+
+    @property
+    def step_fault(self):
+        """The last step failed outside the per-intruder boundaries (containment.py Fault); None: it did not."""
+        return self.containment.step_fault
 
     @property
     def active(self) -> dict[IntruderKey, Advisory]:
@@ -200,7 +184,7 @@ class DaaCore:
                 dirty.update(r.key for r, ok in zip(resolved, took) if ok)
                 start = end
         except Exception as exc:  # noqa: BLE001  (stage boundary: isolate the intruder, below)
-            self._batch_failed("track", exc)
+            self.containment.batch_failed("track", exc)
             self._ingest_alone(now_s, items, easts, norths, dirty, changes)
 
     def _ingest_alone(self, now_s, items, easts, norths, dirty, changes) -> None:
@@ -215,7 +199,7 @@ class DaaCore:
                 if idx:
                     self.tracker.ingest_many([items[i] for i in idx], [easts[i] for i in idx], [norths[i] for i in idx])
             except Exception as exc:  # noqa: BLE001
-                self._fail(now_s, key, "track", exc, changes)
+                self.containment.fail(now_s, key, "track", exc, changes)
                 continue
             if key in self.tracker.tracks:
                 dirty.add(key)
@@ -234,7 +218,7 @@ class DaaCore:
             try:
                 if not self.ownship.update_fix(*self._follow_ownship(item)):
                     self.counters["ownship.out_of_order"] += 1
-                self._ownship_faulted = False
+                self.containment.ownship_works()
             except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
                 self._ownship_failed(item.time_s, exc)
         elif isinstance(item, OwnshipPressure):
@@ -249,23 +233,18 @@ class DaaCore:
     def _ownship_failed(self, now_s: float, exc: Exception) -> None:
         """The ownship filter raised: it restarts empty, so ownship is unknown (every advisory ends with reason
         no_ownship, DAA unavailable) until the next fix starts it again."""
-        self.counters["fault.ownship"] += 1
+        self.containment.ownship_failed(now_s, exc)
         self.ownship = OwnshipFilter(self.config.altitude, self.config.input, self.counters)
-        if self._ownship_faulted:  # logged once until a fix goes in again
-            return
-        self._ownship_faulted = True
-        trace = ("ownship", type(exc).__name__) not in self._traced
-        self._traced.add(("ownship", type(exc).__name__))
-        log.error("t=%.2f the ownship filter failed (%s: %s): restarted, ownship unknown until the next fix", now_s,
-                  type(exc).__name__, exc, exc_info=exc if trace else None)
 
     # -- step ------------------------------------------------------------------------------------------------
     def step(self, now_s: float, inputs: Iterable[Input] = ()) -> StepResult:
-        changes, self._pending = self._pending, []
+        changes, self.containment.pending = self.containment.pending, []
         try:
             return self._step(now_s, inputs, changes)
         except Exception as exc:  # noqa: BLE001  (the step's boundary: the process goes on, the next step retries)
-            return self._step_failed(now_s, exc, changes)
+            self.containment.step_failed(
+                now_s, exc, lambda: self.records.end(now_s, sorted(self.records.latest), FAULT, changes))
+            return StepResult(now_s, changes, Assessed([]))
 
     def _step(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> StepResult:
         dirty: set[IntruderKey] = set()
@@ -283,13 +262,12 @@ class DaaCore:
                     # still alerting when deleted: a lost threat held until now (advisory/logic.py lost_hold)
                     changes.append(with_level(advisory_of(gone), now_s, AdvisoryLevel.NONE, LOST))
                 self._forget(key)
-            self._expire_faults(now_s)
+            self.containment.expire(now_s, self.tracker.tracks, self.config.tracking.delete_after_s)
         periodic = self._slice(now_s, period, tick)
         keys = sorted((k for k in dirty.union(periodic) if k in self.tracker.tracks), key=KEY_ORDER)
         assessed = self._assess(now_s, keys, changes, dirty, periodic) if keys else []
-        if tick and self.step_fault is not None:  # an assessment went through again
-            log.warning("t=%.2f the DAA step works again after %d failed step(s)", now_s, self.step_fault.count)
-            self.step_fault = None
+        if tick:  # an assessment went through again
+            self.containment.step_works(now_s)
         return StepResult(now_s, changes, Assessed(assessed), self._guidance(now_s) if tick else None)
 
     def _slice(self, now_s: float, period_s: float, tick: bool) -> set[IntruderKey]:
@@ -341,11 +319,7 @@ class DaaCore:
                                        errors if stated else None)
             return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
         except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
-            self.counters["fault.bands"] += 1
-            trace = ("bands", type(exc).__name__) not in self._traced
-            self._traced.add(("bands", type(exc).__name__))
-            log.error("t=%.2f the guidance bands failed (%s: %s); the advisories go on", now_s,
-                      type(exc).__name__, exc, exc_info=exc if trace else None)
+            self.containment.bands_failed(now_s, exc)
             return None
 
     def agl_m(self, own: OwnshipState) -> float | None:
@@ -433,7 +407,7 @@ class DaaCore:
             blocked = self.resolution.blocked if resolution is None else ""
         except Exception as exc:  # noqa: BLE001  (one manoeuvre for every RA threat: they all fail with it)
             for key in sorted(self.records.ra_threats):
-                self._fail(now_s, key, "resolution", exc, changes, failed)
+                self.containment.fail(now_s, key, "resolution", exc, changes, failed)
             resolution, blocked = None, ""
         step = AssessmentRows(now_s, keys, level, ev, stale, alerts, self._alert_names, own_levels)
         if len(ra_rows):  # modified tau at the RA's DMOD only when an intruder is at RA (the others read the TA's)
@@ -456,7 +430,7 @@ class DaaCore:
                 advisory = self._built(step, i, key, levels[j], candidates[i], stale[i], continued[i], level,
                                        resolution, blocked, lost[j])
             except Exception as exc:  # noqa: BLE001  (stage boundary: this intruder's advisory)
-                self._fail(now_s, key, "advisory", exc, changes, failed)
+                self.containment.fail(now_s, key, "advisory", exc, changes, failed)
                 continue
             previous = self.records.latest.get(key)
             previous = advisory_of(previous) if previous is not None else None
@@ -465,11 +439,8 @@ class DaaCore:
                     previous is not None and previous.ra_key() != advisory.ra_key():
                 changes.append(advisory)
             out.append(advisory)
-        if self.faults:
-            for key in [k for k in keys if k in self.faults and k in self.records.latest]:
-                fault = self.faults.pop(key)  # it failed before; its new track was assessed: it is back
-                self.counters["fault.recovered"] += 1
-                log.warning("t=%.2f intruder %s assessed again after its %s fault", now_s, key, fault.stage)
+        if self.containment.faults:  # those that failed before and whose new tracks were assessed are back
+            self.containment.recovered(now_s, keys)
         return out
 
     def _built(self, step: AssessmentRows, i, key, level_number, candidate_alert, stale, continued, level, resolution,
@@ -545,36 +516,12 @@ class DaaCore:
             return "diverging" if s_dot_v > 0.0 else "clear"
         return "range" if range_m <= dmod_m else "tau"
 
-    # -- stage boundaries ------------------------------------------------------------------------------------
-    def _contained(self, stage: str, now_s: float, keys: list[IntruderKey], changes: list[Advisory], run,
-                   combine=None):
-        """run(idx) for the rows idx (an int array) of keys, vectorised. When it raises, each intruder is run
-        alone; those that raise alone fail. Returns (rows that went through, result for those rows): the
-        results of the lone runs joined by combine, or (without combine) one more vectorised run over them."""
-        rows = np.arange(len(keys))
-        try:
-            return rows, run(rows)
-        except Exception as exc:  # noqa: BLE001
-            self._batch_failed(stage, exc)
-        ok, parts = [], []
-        for i in rows:
-            try:
-                parts.append(run(np.array([i])))
-            except Exception as exc:  # noqa: BLE001
-                self._fail(now_s, keys[i], stage, exc, changes)
-            else:
-                ok.append(i)
-        ok = np.array(ok, int)
-        if not len(ok):
-            return ok, None
-        return ok, (combine(parts) if combine is not None else run(ok))
-
     def _predicted(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory]):
         """The prediction stage: keys that went through, states (N, 6), covariances (N, 6, 6), all finite."""
         def run(rows):
             return self.tracker.predict([keys[i] for i in rows], now_s)
 
-        rows, res = self._contained("predict", now_s, keys, changes, run,
+        rows, res = self.containment.contained("predict", now_s, keys, changes, run,
                                     combine=lambda parts: tuple(np.concatenate(a) for a in zip(*parts)))
         if res is None:
             return [], np.empty((0, 6)), np.empty((0, 6, 6))
@@ -582,7 +529,7 @@ class DaaCore:
         finite = np.isfinite(xs).all(axis=1) & np.isfinite(ps).all(axis=(1, 2))
         if not finite.all():
             for i in np.flatnonzero(~finite):
-                self._fail(now_s, keys[rows[i]], "predict", FloatingPointError("predicted state is not finite"),
+                self.containment.fail(now_s, keys[rows[i]], "predict", FloatingPointError("predicted state is not finite"),
                            changes)
             rows, xs, ps = rows[finite], xs[finite], ps[finite]
         return [keys[i] for i in rows], xs, ps
@@ -594,10 +541,10 @@ class DaaCore:
             return self._evaluate(now_s, [keys[i] for i in rows], xs[rows], ps[rows], own, level, ra_allowed,
                                   periodic)
 
-        rows, ev = self._contained("conflict", now_s, keys, changes, run)
+        rows, ev = self.containment.contained("conflict", now_s, keys, changes, run)
         if ev is not None and not ev.finite.all():
             for i in np.flatnonzero(~ev.finite):
-                self._fail(now_s, keys[rows[i]], "conflict", FloatingPointError("conflict geometry is not finite"),
+                self.containment.fail(now_s, keys[rows[i]], "conflict", FloatingPointError("conflict geometry is not finite"),
                            changes)
             rows = rows[ev.finite]
             ev = run(rows) if len(rows) else None  # raises again only if the rest fails together: the step fails
@@ -680,7 +627,7 @@ class DaaCore:
 
         # persistence keeps a history per intruder: after a failed vectorised call the lone runs are the result
         # (those intruders before the one that raised may have had this report counted twice, this once)
-        rows, res = self._contained("advisory", now_s, keys, changes, run,
+        rows, res = self.containment.contained("advisory", now_s, keys, changes, run,
                                     combine=lambda parts: tuple(np.concatenate(a) for a in zip(*parts)))
         n = len(keys)
         cands, continued, stale = np.zeros(n, int), np.zeros(n, bool), np.zeros(n, bool)
@@ -688,37 +635,6 @@ class DaaCore:
             cands[rows], continued[rows], stale[rows] = res
         failed.update(keys[i] for i in set(range(n)) - set(rows.tolist()))
         return cands, continued, stale
-
-    def _batch_failed(self, stage: str, exc: Exception) -> None:
-        """A vectorised stage call raised: it is retried per intruder (counted; traceback logged once)."""
-        self.counters[f"fault.{stage}.batch"] += 1
-        if (stage + ".batch", type(exc).__name__) not in self._traced:  # then counted only
-            self._traced.add((stage + ".batch", type(exc).__name__))
-            log.warning("%s stage raised for a batch of intruders (%s: %s): retried per intruder", stage,
-                        type(exc).__name__, exc, exc_info=exc)
-
-    def _fail(self, now_s: float, key: IntruderKey, stage: str, exc: Exception, changes: list[Advisory],
-              failed: set | None = None) -> None:
-        """Intruder key failed in stage: counted, logged once (with the traceback the first time this stage
-        raised this exception type), track dropped, advisory to the failed state (announced once per fault)."""
-        self.counters[f"fault.{stage}"] += 1
-        if failed is not None:
-            failed.add(key)
-        fault = self.faults.get(key)
-        error = f"{type(exc).__name__}: {exc}"
-        if fault is None:
-            entry = self.records.latest.get(key)
-            advisory = (with_level(advisory_of(entry), now_s, AdvisoryLevel.NONE, FAULT) if entry is not None
-                        else blank_advisory(key, now_s, FAULT, self.records.level.sl if self.records.level else 0))
-            changes.append(advisory)
-            self.faults[key] = Fault(stage, now_s, now_s, error)
-            trace = (stage, type(exc).__name__) not in self._traced
-            self._traced.add((stage, type(exc).__name__))
-            log.error("t=%.2f intruder %s failed in the %s stage (%s): no advisory for it; the others go on",
-                      now_s, key, stage, error, exc_info=exc if trace else None)
-        else:
-            fault.stage, fault.last_s, fault.error, fault.count = stage, now_s, error, fault.count + 1
-        self._drop_track(key)
 
     def _drop_track(self, key: IntruderKey) -> None:
         """Forget an intruder in every stage: its next report starts a new track."""
@@ -734,35 +650,11 @@ class DaaCore:
         self.records.forget(key)
         self._bands_traffic.pop(key, None)
 
-    def _expire_faults(self, now_s: float) -> None:
-        """A failed intruder not heard of again (no track) for tracking.delete_after_s is gone."""
-        horizon = self.config.tracking.delete_after_s
-        for key in [k for k, f in self.faults.items() if k not in self.tracker.tracks and now_s - f.last_s > horizon]:
-            del self.faults[key]
-
-    def _step_failed(self, now_s: float, exc: Exception, changes: list[Advisory]) -> StepResult:
-        """Outside the per-intruder boundaries: every active advisory ends with reason fault; DAA unavailable
-        until a whole assessment goes through again."""
-        self.counters["fault.step"] += 1
-        if self.step_fault is None:
-            self.step_fault = Fault("step", now_s, now_s, f"{type(exc).__name__}: {exc}")
-            trace = ("step", type(exc).__name__) not in self._traced
-            self._traced.add(("step", type(exc).__name__))
-            log.error("t=%.2f the DAA step failed (%s: %s): every advisory ends (reason fault)", now_s,
-                      type(exc).__name__, exc, exc_info=exc if trace else None)
-        else:
-            self.step_fault.last_s, self.step_fault.count = now_s, self.step_fault.count + 1
-        try:
-            self.records.end(now_s, sorted(self.records.latest), FAULT, changes)
-        except Exception:  # noqa: BLE001
-            log.exception("ending the advisories after a failed step failed too")
-        return StepResult(now_s, changes, Assessed([]))
-
     # -- views for the shell -------------------------------------------------------------------------------
     def predict_tracks(self, keys: list[IntruderKey], now_s: float):
         """Contained prediction for the shell (track publication): (keys that went through, xs, ps). An intruder
         that fails here fails as in step(); its failed-state advisory comes with the next step's changes."""
-        return self._predicted(now_s, keys, self._pending)
+        return self._predicted(now_s, keys, self.containment.pending)
 
     def end_all(self, now_s: float, reason: str) -> list[Advisory]:
         """End every active advisory now with reason (e.g. "shutdown"); the ended ones, for announcing."""
