@@ -9,7 +9,7 @@ the ownship, every filter carried along when it moves), so the geometry holds an
 The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
 Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
 intruder is re-assessed at assessment_hz so that coasting tracks and timeouts are seen too. That re-assessment
-pass is spread over the steps after each tick in slices (`_slice`, advisory.assessment_slice), so that a fresh
+pass is spread over the steps after each tick in slices (schedule.py), so that a fresh
 report never waits behind a whole pass. The advisory state is held in arrays (advisory/logic.py), and an
 `Advisory` is built at once only for an intruder that alerts, alerted or changed; the others' are built from
 the step's arrays when read (records.py).
@@ -21,11 +21,10 @@ intruder alone, and an exception outside those boundaries fails the step, not th
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import partial
-from operator import attrgetter
 from types import SimpleNamespace
 from typing import Iterable
 
@@ -45,13 +44,11 @@ from avionics.core.types import (
 from avionics.core.uncertainty import errors_from_covariance
 from avionics.pipeline.containment import FAULT, Containment
 from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, with_level
+from avionics.pipeline.schedule import KEY_ORDER, AssessmentSchedule
 from avionics.tracking.interface import Tracker
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
 
-
-KEY_ORDER = attrgetter("address", "source")  # IntruderKey's own order, as one C-built tuple per key
-TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,9 +106,7 @@ class DaaCore:
         self.records = AdvisoryRecords()  # the advisory state and latest advisory of every assessed intruder
         self.containment = Containment(self.counters, self.records, self._drop_track)  # the fault boundaries
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
-        self._last_tick_s = -math.inf  # the last assessment tick (assessment_hz): a re-assessment pass starts
-        self._pass: deque[IntruderKey] = deque()  # the pass's intruders not re-assessed yet (_slice)
-        self._pass_size = 0
+        self.schedule = AssessmentSchedule(config.advisory, self.counters)  # which intruders each step assesses
         self._last_ownship: OwnshipState | None = None
         # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
@@ -252,10 +247,8 @@ class DaaCore:
         for item in inputs:
             self._ingest(item, reports)
         self._ingest_reports(now_s, reports, dirty, changes)
-        period = 1.0 / self.config.advisory.assessment_hz
-        tick = now_s - self._last_tick_s >= period - TIME_EPSILON_S
+        tick = self.schedule.tick(now_s)
         if tick:
-            self._last_tick_s = now_s
             for key in self.tracker.prune(now_s):
                 gone = self.records.latest.get(key)
                 if gone is not None and self.records.states.level_of(key) is not AdvisoryLevel.NONE:
@@ -263,34 +256,12 @@ class DaaCore:
                     changes.append(with_level(advisory_of(gone), now_s, AdvisoryLevel.NONE, LOST))
                 self._forget(key)
             self.containment.expire(now_s, self.tracker.tracks, self.config.tracking.delete_after_s)
-        periodic = self._slice(now_s, period, tick)
+        periodic = self.schedule.due(now_s, tick, self.tracker.tracks)
         keys = sorted((k for k in dirty.union(periodic) if k in self.tracker.tracks), key=KEY_ORDER)
         assessed = self._assess(now_s, keys, changes, dirty, periodic) if keys else []
         if tick:  # an assessment went through again
             self.containment.step_works(now_s)
         return StepResult(now_s, changes, Assessed(assessed), self._guidance(now_s) if tick else None)
-
-    def _slice(self, now_s: float, period_s: float, tick: bool) -> set[IntruderKey]:
-        """The intruders to re-assess in this step (issue 13, item 3). Every assessment tick starts a pass over
-        every track; the pass is spread over the steps in slices of at most advisory.assessment_slice intruders,
-        more when that would not finish it within half a period (so a step never makes a fresh report wait
-        behind a whole pass, and every intruder is still re-assessed at assessment_hz). Intruders still left at
-        the next tick are re-assessed in that step (counted: `assessment.pass_overrun`). A step on the tick
-        with no more tracks than the slice re-assesses them all, as a full pass."""
-        take = set()
-        if tick:
-            if self._pass:
-                self.counters["assessment.pass_overrun"] += 1
-                take.update(self._pass)
-            self._pass = deque(sorted(self.tracker.tracks, key=KEY_ORDER))
-            self._pass_size = len(self._pass)
-        if not self._pass:
-            return take
-        spread_s = 0.5 * period_s
-        due = math.ceil(self._pass_size * min(1.0, (now_s - self._last_tick_s) / spread_s) - TIME_EPSILON_S)
-        n = max(due - (self._pass_size - len(self._pass)), min(self.config.advisory.assessment_slice, len(self._pass)))
-        take.update(self._pass.popleft() for _ in range(min(n, len(self._pass))))
-        return take
 
     def _guidance(self, now_s: float):
         """The guidance bands (a DO-365 alerter's) on the first assessment tick of each second, as DAIDALUS is
@@ -305,8 +276,7 @@ class DaaCore:
             own = self.ownship.state_at(now_s)
             if own is None:
                 return None
-            period = 1.0 / self.config.advisory.assessment_hz
-            keys = sorted(k for k, (t, *_) in self._bands_traffic.items() if now_s - t <= period - TIME_EPSILON_S)
+            keys = sorted(k for k, (t, *_) in self._bands_traffic.items() if self.schedule.recent(now_s, t))
             pos, vel, errors = np.empty((len(keys), 3)), np.empty((len(keys), 3)), np.zeros((len(keys), 4))
             stated = False
             for i, k in enumerate(keys):
