@@ -1,10 +1,7 @@
 """The functional core: step(now, inputs) -> StepResult, with no I/O, clocks or sockets inside.
 
-ingest (validated inputs) -> track (ownship filter, one track per intruder) -> assess (CPA, tau)
--> advise (sensitivity level, TA/RA tests, advisory state per intruder).
-
-Positions and velocities go into the tracking frame at ingest (core/frame.py: a tangent plane kept within 1 km of
-the ownship, every filter carried along when it moves), so the geometry holds anywhere the ownship flies.
+intake (validated inputs into the ownship filter and the tracker, in the tracking frame: intake.py) -> assess
+(CPA, tau, Pc) -> advise (sensitivity level, TA/RA tests, advisory state per intruder).
 
 The live runner and fast-time replay both drive this object, so what was evaluated is what flies.
 Intruders updated in a step are assessed in that step (report-to-advisory latency is one step); every
@@ -37,17 +34,14 @@ from avionics.compose import Components, build_components
 from avionics.config import Config
 from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
-from avionics.core.frame import FrameChange, TrackingFrame
-from avionics.core.types import (
-    LOST, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
-)
+from avionics.core.types import LOST, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey
 from avionics.core.uncertainty import errors_from_covariance
 from avionics.pipeline.containment import FAULT, Containment
+from avionics.pipeline.intake import Intake
 from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, with_level
 from avionics.pipeline.schedule import KEY_ORDER, AssessmentSchedule
 from avionics.tracking.interface import Tracker
-from avionics.tracking.identity import IdentityResolver
-from avionics.tracking.ownship import OwnshipFilter, OwnshipState
+from avionics.tracking.ownship import OwnshipState
 
 
 
@@ -99,24 +93,28 @@ class DaaCore:
         self.hysteresis = parts.hysteresis  # a DO-365 alerter's M of N and persistence (DAIDALUS HysteresisData)
         self.gate = parts.gate  # advisory.criterion and advisory.persistence
         self.conflict = parts.conflict  # conflict.prefilter and conflict.method
-        self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
-        self.ownship = OwnshipFilter(config.altitude, config.input, self.counters)
         self.tracker: Tracker = parts.tracker  # tracking.filter: cv or an IMM
-        self.identity = IdentityResolver(config.tracking, self.counters)  # one aircraft, one track (identity.py)
         self.records = AdvisoryRecords()  # the advisory state and latest advisory of every assessed intruder
         self.containment = Containment(self.counters, self.records, self._drop_track)  # the fault boundaries
+        self.intake = Intake(config, self.counters, self.tracker, self.containment)  # inputs into the filters
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
         self.schedule = AssessmentSchedule(config.advisory, self.counters)  # which intruders each step assesses
         self._last_ownship: OwnshipState | None = None
-        # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
-        # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
-        self._stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
-        self._own_errors: tuple[float, float, float, float] | None = None
 
     @property
     def level(self):
         """The sensitivity level of the last assessment (advisory/tables.py SensitivityLevel); None: none."""
         return self.records.level
+
+    @property
+    def ownship(self):
+        """The ownship filter (tracking/ownship.py): a new one after the old one failed."""
+        return self.intake.ownship
+
+    @property
+    def frame(self):
+        """The tracking frame (core/frame.py), kept at the ownship."""
+        return self.intake.frame
 
     @property
     def faults(self):
@@ -133,104 +131,6 @@ class DaaCore:
         """The latest advisory of every intruder at TA or RA."""
         return self.records.active
 
-    # -- ingest --------------------------------------------------------------------------------------------
-    def _in_plane(self, reports: list[IntruderReport]):
-        """Reports with their velocities in the frame's plane axes, and their plane positions."""
-        lats = np.fromiter((r.lat_deg for r in reports), float, len(reports))
-        lons = np.fromiter((r.lon_deg for r in reports), float, len(reports))
-        velocities = np.array([r.velocity_en_mps or (math.nan, math.nan) for r in reports], float)
-        easts, norths, velocities = self.frame.to_plane(lats, lons, velocities)
-        items = [r if r.velocity_en_mps is None else replace(r, velocity_en_mps=(float(v[0]), float(v[1])))
-                 for r, v in zip(reports, velocities)]
-        return items, easts.tolist(), norths.tolist()
-
-    def _follow_ownship(self, fix: OwnshipFix) -> tuple[OwnshipFix, float, float]:
-        """Move the plane to the ownship when it has flown RECENTRE_M from its origin (every filter carried
-        along); the fix's position in the plane and its velocity in the plane's axes."""
-        change = self.frame.follow(fix.lat_deg, fix.lon_deg)
-        if change is not None:
-            self._carry(change)
-        vn, ve, vd = fix.velocity_ned_mps
-        east, north, (ve, vn) = self.frame.to_plane(fix.lat_deg, fix.lon_deg, (ve, vn))
-        return replace(fix, velocity_ned_mps=(float(vn), float(ve), vd)), float(east), float(north)
-
-    def _carry(self, change: FrameChange) -> None:
-        self.tracker.reframe(change)
-        self.ownship.reframe(change)
-        self.counters["plane.recentred"] += 1
-
-    def _ingest_reports(self, now_s: float, reports: list[IntruderReport], dirty: set[IntruderKey],
-                        changes: list[Advisory]) -> None:
-        """A step's intruder reports in one vectorised tracker call: under load the live link hands over a
-        backlog at once, and the per-call cost is paid once per step instead of once per report. When that call
-        raises, each intruder's reports go in alone and an intruder whose update still raises fails. Reports
-        go into the plane here, after the step's ownship fixes may have moved it."""
-        if not reports:
-            return
-        items, easts, norths = self._in_plane(reports)
-        try:
-            start = 0
-            while start < len(items):  # one round, or more where identity.py must see a track first
-                end = self.identity.round_end(items, start, self.tracker)
-                e, n = easts[start:end], norths[start:end]
-                items[start:end] = resolved = self.identity.resolve(items[start:end], e, n, self.tracker)
-                took = self.tracker.ingest_many(resolved, e, n)
-                self.identity.count(resolved, took)
-                dirty.update(r.key for r, ok in zip(resolved, took) if ok)
-                start = end
-        except Exception as exc:  # noqa: BLE001  (stage boundary: isolate the intruder, below)
-            self.containment.batch_failed("track", exc)
-            self._ingest_alone(now_s, items, easts, norths, dirty, changes)
-
-    def _ingest_alone(self, now_s, items, easts, norths, dirty, changes) -> None:
-        by_key: dict[IntruderKey, list[int]] = {}
-        for i, r in enumerate(items):
-            by_key.setdefault(r.key, []).append(i)
-        for key, idx in by_key.items():
-            track = self.tracker.tracks.get(key)
-            # the failed batch call may have applied some reports already: they are not applied twice
-            idx = [i for i in idx if track is None or items[i].time_s > track.last_report_s + 1e-6]
-            try:
-                if idx:
-                    self.tracker.ingest_many([items[i] for i in idx], [easts[i] for i in idx], [norths[i] for i in idx])
-            except Exception as exc:  # noqa: BLE001
-                self.containment.fail(now_s, key, "track", exc, changes)
-                continue
-            if key in self.tracker.tracks:
-                dirty.add(key)
-
-    def _ingest(self, item: Input, reports: list[IntruderReport]) -> None:
-        if not _finite_input(item):  # no NaN or inf goes into a filter (the tangent plane included)
-            self.counters["input.non_finite"] += 1
-            return
-        if isinstance(item, IntruderReport):
-            reports.append(item)
-            if item.uncertainty is not None:
-                self._stated_errors[item.key] = item.uncertainty.errors()
-        elif isinstance(item, OwnshipFix):
-            if item.uncertainty is not None:
-                self._own_errors = item.uncertainty.errors()
-            try:
-                if not self.ownship.update_fix(*self._follow_ownship(item)):
-                    self.counters["ownship.out_of_order"] += 1
-                self.containment.ownship_works()
-            except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
-                self._ownship_failed(item.time_s, exc)
-        elif isinstance(item, OwnshipPressure):
-            try:
-                if not self.ownship.update_pressure(item):
-                    self.counters["ownship_pressure.before_first_fix"] += 1
-            except Exception as exc:  # noqa: BLE001
-                self._ownship_failed(item.time_s, exc)
-        else:
-            raise TypeError(f"not a core input: {item!r}")
-
-    def _ownship_failed(self, now_s: float, exc: Exception) -> None:
-        """The ownship filter raised: it restarts empty, so ownship is unknown (every advisory ends with reason
-        no_ownship, DAA unavailable) until the next fix starts it again."""
-        self.containment.ownship_failed(now_s, exc)
-        self.ownship = OwnshipFilter(self.config.altitude, self.config.input, self.counters)
-
     # -- step ------------------------------------------------------------------------------------------------
     def step(self, now_s: float, inputs: Iterable[Input] = ()) -> StepResult:
         changes, self.containment.pending = self.containment.pending, []
@@ -242,11 +142,7 @@ class DaaCore:
             return StepResult(now_s, changes, Assessed([]))
 
     def _step(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> StepResult:
-        dirty: set[IntruderKey] = set()
-        reports: list[IntruderReport] = []
-        for item in inputs:
-            self._ingest(item, reports)
-        self._ingest_reports(now_s, reports, dirty, changes)
+        dirty = self.intake.take(now_s, inputs, changes)
         tick = self.schedule.tick(now_s)
         if tick:
             for key in self.tracker.prune(now_s):
@@ -273,7 +169,7 @@ class DaaCore:
             return None
         self._bands_slot = slot
         try:
-            own = self.ownship.state_at(now_s)
+            own = self.intake.ownship.state_at(now_s)
             if own is None:
                 return None
             keys = sorted(k for k, (t, *_) in self._bands_traffic.items() if self.schedule.recent(now_s, t))
@@ -310,12 +206,7 @@ class DaaCore:
                 updated: set[IntruderKey] = frozenset(), periodic: set[IntruderKey] = frozenset()) -> list:
         """Assess keys (those updated by a report in this step, and this step's slice of the re-assessment pass,
         `periodic`); their latest advisories (`_latest` entries), the changes appended to changes."""
-        try:
-            own = self.ownship.state_at(now_s)
-        except Exception as exc:  # noqa: BLE001  (stage boundary: the ownship filter)
-            self._ownship_failed(now_s, exc)
-            own = None
-        self._last_ownship = own
+        self._last_ownship = own = self.intake.ownship_at(now_s)
         if own is None:
             self.records.level = None  # no ownship altitude: no sensitivity level either
             return self.records.end(now_s, keys, "no_ownship", changes)
@@ -565,14 +456,15 @@ class DaaCore:
         (a report's), and with advisory.sum_from_tracks the track's covariance (ps, own.p: predicted to now,
         the integrity monitor's widening included) for an aircraft that states none; None when there are none."""
         from_tracks = self.config.advisory.sum_from_tracks
-        if not from_tracks and self._own_errors is None and not self._stated_errors:
+        own_errors, stated_errors = self.intake.own_errors, self.intake.stated_errors
+        if not from_tracks and own_errors is None and not stated_errors:
             return None
-        if self._own_errors is not None:
-            own_e = np.asarray(self._own_errors, float)
+        if own_errors is not None:
+            own_e = np.asarray(own_errors, float)
         else:
             own_e = errors_from_covariance(own.p) if from_tracks else np.zeros(4)
         tracked = errors_from_covariance(ps) if from_tracks else np.zeros((len(keys), 4))
-        stated = [self._stated_errors.get(k) for k in keys]
+        stated = [stated_errors.get(k) for k in keys]
         intr = np.array([tracked[i] if s is None else s for i, s in enumerate(stated)], float).reshape(-1, 4)
         return own_e + intr
 
@@ -613,7 +505,7 @@ class DaaCore:
 
     def _forget(self, key: IntruderKey) -> None:
         """Forget an intruder's assessments in every stage after tracking (its track is gone)."""
-        self._stated_errors.pop(key, None)
+        self.intake.forget(key)
         self.gate.forget(key)
         self.hysteresis.forget(key)
         self.conflict.forget(key)
@@ -663,21 +555,3 @@ def _ra_fields(r, threat) -> dict:
     return dict(ra_sense=r.sense_against(threat).value, ra_strength=r.strength.value, ra_words=r.words(),
                 target_vertical_rate_mps=r.target_rate_mps, ra_reversed=r.reversed, ra_crossing=r.crossing,
                 ra_separation_m=r.separation_against(threat), ra_composite=r.composite)
-
-
-def _finite_input(item) -> bool:
-    """Every number of a core input is finite (the decoder guarantees it for MAVLink; other callers may not)."""
-    isfinite = math.isfinite
-    if not isfinite(item.time_s):
-        return False
-    if isinstance(item, IntruderReport):
-        return isfinite(item.lat_deg) and isfinite(item.lon_deg) and \
-            (item.altitude_m is None or isfinite(item.altitude_m)) and \
-            (item.vertical_rate_mps is None or isfinite(item.vertical_rate_mps)) and \
-            (item.velocity_en_mps is None or all(isfinite(v) for v in item.velocity_en_mps))
-    if isinstance(item, OwnshipFix):
-        return isfinite(item.lat_deg) and isfinite(item.lon_deg) and isfinite(item.alt_msl_m) and \
-            isfinite(item.height_above_home_m) and all(isfinite(v) for v in item.velocity_ned_mps)
-    if isinstance(item, OwnshipPressure):
-        return isfinite(item.pressure_altitude_m)
-    return True  # not a core input: _ingest says so
