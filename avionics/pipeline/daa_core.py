@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import partial
 from types import SimpleNamespace
 from typing import Iterable
@@ -36,6 +36,7 @@ from avionics.conflict.cpa import pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.core.types import LOST, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey
 from avionics.core.uncertainty import errors_from_covariance
+from avionics.pipeline.bands_traffic import BandsTraffic
 from avionics.pipeline.containment import FAULT, Containment
 from avionics.pipeline.intake import Intake
 from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of, with_level
@@ -86,10 +87,6 @@ class DaaCore:
         self.inhibits = parts.inhibits
         self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels; or a DO-365 alerter's three
         self._alert_names = self.alerter.names()
-        self.bands = parts.bands  # a DO-365 alerter's guidance bands (advisory/bands.py); None: none
-        self._bands_slot: int | None = None  # the second of the last bands computed
-        # key -> (time, position, velocity, SUM errors (4,) or None) for _guidance
-        self._bands_traffic: dict[IntruderKey, tuple] = {}
         self.hysteresis = parts.hysteresis  # a DO-365 alerter's M of N and persistence (DAIDALUS HysteresisData)
         self.gate = parts.gate  # advisory.criterion and advisory.persistence
         self.conflict = parts.conflict  # conflict.prefilter and conflict.method
@@ -99,6 +96,8 @@ class DaaCore:
         self.intake = Intake(config, self.counters, self.tracker, self.containment)  # inputs into the filters
         self._advisory_level = np.array([self.alerter.advisory_of(a) for a in range(self.alerter.most_severe + 1)])
         self.schedule = AssessmentSchedule(config.advisory, self.counters)  # which intruders each step assesses
+        # a DO-365 alerter's guidance bands (advisory/bands.py; parts.bands None: none) and their traffic
+        self.bands_traffic = BandsTraffic(parts.bands, self._alert_names, self.schedule, self.containment)
         self._last_ownship: OwnshipState | None = None
 
     @property
@@ -157,36 +156,8 @@ class DaaCore:
         assessed = self._assess(now_s, keys, changes, dirty, periodic) if keys else []
         if tick:  # an assessment went through again
             self.containment.step_works(now_s)
-        return StepResult(now_s, changes, Assessed(assessed), self._guidance(now_s) if tick else None)
-
-    def _guidance(self, now_s: float):
-        """The guidance bands (a DO-365 alerter's) on the first assessment tick of each second, as DAIDALUS is
-        run at 1 Hz: every intruder with an altitude re-assessed within the last period, at its datum-matched
-        altitude (carried to now along its velocity when its slice came before this step), with its alert
-        level. A fault here is counted and logged; it never stops the advisories."""
-        slot = math.floor(now_s + 1e-6)
-        if self.bands is None or slot == self._bands_slot:
-            return None
-        self._bands_slot = slot
-        try:
-            own = self.intake.ownship.state_at(now_s)
-            if own is None:
-                return None
-            keys = sorted(k for k, (t, *_) in self._bands_traffic.items() if self.schedule.recent(now_s, t))
-            pos, vel, errors = np.empty((len(keys), 3)), np.empty((len(keys), 3)), np.zeros((len(keys), 4))
-            stated = False
-            for i, k in enumerate(keys):
-                t, pos[i], vel[i], err = self._bands_traffic[k]
-                pos[i] += vel[i] * (now_s - t)
-                if err is not None:
-                    errors[i], stated = err, True
-            levels = [int(self.records.states.alert[r]) if (r := self.records.states.row(k)) is not None else NONE for k in keys]
-            bands = self.bands.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels,
-                                       errors if stated else None)
-            return replace(bands, intruders=tuple((str(k), lvl, self._alert_names[lvl]) for k, lvl in zip(keys, levels)))
-        except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
-            self.containment.bands_failed(now_s, exc)
-            return None
+        return StepResult(now_s, changes, Assessed(assessed),
+                          self.bands_traffic.compute(now_s, self.intake.ownship, self.records.states) if tick else None)
 
     def agl_m(self, own: OwnshipState) -> float | None:
         """Ownship's height above ground: MSL minus advisory.ground_elevation_m when that is configured, else the
@@ -223,14 +194,8 @@ class DaaCore:
         ev = self._evaluated(now_s, keys, xs, ps, own, level, ra_allowed, periodic, changes) if keys else None
         if ev is None:
             return []
-        keys, xs, has_alt, geometry = ev.keys, ev.xs, ev.has_alt, ev.geometry
-        if self.bands is not None:  # the traffic of the guidance bands (_guidance)
-            pos = np.column_stack([xs[:, :2], own.x[2] + geometry.sz_m])
-            errors = ev.encounter.uncertainty  # the SUM detector's inputs: the bands use them as the alerter does
-            for i in np.flatnonzero(has_alt):
-                self._bands_traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6], None if errors is None else errors[i])
-            for i in np.flatnonzero(~has_alt):
-                self._bands_traffic.pop(keys[i], None)
+        keys, xs, geometry = ev.keys, ev.xs, ev.geometry
+        self.bands_traffic.record(now_s, ev, own.x[2])
         self.counters["assessment.datum_mismatch"] += int(ev.mismatch.sum())
         failed: set[IntruderKey] = set()
         candidates, continued, stale = self._decided(now_s, keys, ev, level, ra_allowed, updated, failed, changes)
@@ -510,7 +475,7 @@ class DaaCore:
         self.hysteresis.forget(key)
         self.conflict.forget(key)
         self.records.forget(key)
-        self._bands_traffic.pop(key, None)
+        self.bands_traffic.forget(key)
 
     # -- views for the shell -------------------------------------------------------------------------------
     def predict_tracks(self, keys: list[IntruderKey], now_s: float):
