@@ -33,7 +33,7 @@ ABOVE_THE_STAGES = (  # the facade and what composes it, the shells, the I/O aro
 SHELLS = ("avionics.runner", "avionics.cli", "avionics.monitor")
 # The core's jobs (avionics/pipeline/), in the order data flows through them: each imports none of those after it.
 PIPELINE = tuple(f"avionics.pipeline.{m}" for m in (
-    "records", "containment", "schedule", "intake", "assessment", "advice", "bands_traffic", "daa_core"))
+    "records", "containment", "schedule", "intake", "assessment", "advice", "bands_traffic", "views", "daa_core"))
 SIMULATOR = ("avionics_sitl", "avionics_eval")
 
 # The layer rules, as data: (name, importers, kind, modules). An importer is every module named by, or inside, one

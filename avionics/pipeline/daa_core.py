@@ -15,12 +15,12 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
 from typing import Iterable
 
 from avionics.compose import Components, build_components
 from avionics.config import Config
 from avionics.core.types import LOST, Advisory, AdvisoryLevel, Input, IntruderKey
+from avionics.pipeline import views
 from avionics.pipeline.advice import Adviser
 from avionics.pipeline.assessment import Assessor
 from avionics.pipeline.bands_traffic import BandsTraffic
@@ -38,27 +38,6 @@ class StepResult:
     changes: list[Advisory]  # advisories whose level, RA sense or RA strength changed in this step
     assessed: Sequence[Advisory]  # the advisory of every intruder assessed in this step (built when read)
     bands: object | None = None  # advisory/bands.py Bands: a DO-365 alerter's guidance, once a second
-
-
-def _no_advisory() -> None:
-    return None
-
-
-class Assessed(Sequence):
-    """The advisories of a step's assessed intruders, each built when read (records.py)."""
-
-    __slots__ = ("_entries",)
-
-    def __init__(self, entries: list):
-        self._entries = entries
-
-    def __len__(self) -> int:
-        return len(self._entries)
-
-    def __getitem__(self, i):
-        if isinstance(i, slice):
-            return [advisory_of(e) for e in self._entries[i]]
-        return advisory_of(self._entries[i])
 
 
 class DaaCore:
@@ -123,7 +102,7 @@ class DaaCore:
         except Exception as exc:  # noqa: BLE001  (the step's boundary: the process goes on, the next step retries)
             self.containment.step_failed(
                 now_s, exc, lambda: self.records.end(now_s, sorted(self.records.latest), FAULT, changes))
-            return StepResult(now_s, changes, Assessed([]))
+            return StepResult(now_s, changes, views.Assessed([]))
 
     def _step(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> StepResult:
         dirty = self.intake.take(now_s, inputs, changes)
@@ -141,7 +120,7 @@ class DaaCore:
         assessed = self._assess(now_s, keys, changes, dirty, periodic) if keys else []
         if tick:  # an assessment went through again
             self.containment.step_works(now_s)
-        return StepResult(now_s, changes, Assessed(assessed),
+        return StepResult(now_s, changes, views.Assessed(assessed),
                           self.bands_traffic.compute(now_s, self.intake.ownship, self.records.states) if tick else None)
 
     def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
@@ -203,26 +182,19 @@ class DaaCore:
         return changes
 
     def advisory(self, key: IntruderKey) -> Advisory | None:
-        """An intruder's latest advisory (built now if the step left it as arrays); None: never assessed."""
-        entry = self.records.latest.get(key)
-        return None if entry is None else advisory_of(entry)
+        """An intruder's latest advisory; None: never assessed."""
+        return views.advisory(self.records, key)
 
     def advisory_reader(self, key: IntruderKey):
-        """(level, a callable returning the intruder's latest advisory as of now, built when called, and its
-        ASSESSMENT_FIELDS): for the track views, whose publications read the level and those fields of every
-        track and the whole advisory of a few."""
-        entry = self.records.latest.get(key)
-        if entry is None:
-            return AdvisoryLevel.NONE, _no_advisory, None
-        assessment = entry.assessment() if type(entry) is Advisory else entry[0].assessment(entry[1])
-        return self.records.states.level_of(key), partial(advisory_of, entry), assessment
+        """(level, its latest advisory built when called, its ASSESSMENT_FIELDS): for the track views."""
+        return views.advisory_reader(self.records, key)
 
     def datum_mismatch_keys(self) -> list[IntruderKey]:
         """The intruders whose latest assessment compared altitudes across datums."""
-        states = self.records.states
-        return [k for k in self.records.latest if states.mismatch[states.row(k)]]
+        return views.datum_mismatch_keys(self.records)
 
     def active_view(self):
+        """A read-only copy of `active`, shared by the results until it changes."""
         return self.records.active_view()
 
     def ownship_state(self) -> OwnshipState | None:
