@@ -5,19 +5,22 @@ threats and their one manoeuvre (advisory/resolution.py), and each intruder's ad
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
+
 import numpy as np
 
 from avionics.advisory.logic import lost_hold
 from avionics.advisory.resolution import Threat
+from avionics.compose import Components
 from avionics.config import Config
 from avionics.core.types import LOST, Advisory, AdvisoryLevel, IntruderKey
 from avionics.pipeline.assessment import Evaluation
 from avionics.pipeline.containment import Containment
-from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, advisory_of
+from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, Entry, advisory_of
 
 
 class Adviser:
-    def __init__(self, config: Config, parts, records: AdvisoryRecords, containment: Containment):
+    def __init__(self, config: Config, parts: Components, records: AdvisoryRecords, containment: Containment):
         """parts: compose.py Components (alerter, hysteresis, gate, resolution, inhibits)."""
         self.config = config
         self.alerter = parts.alerter  # TA and RA: the tcas2 alerter's levels; or a DO-365 alerter's three
@@ -31,7 +34,7 @@ class Adviser:
         self.containment = containment
 
     def advise(self, now_s: float, ev: Evaluation, level, ra_allowed: bool, inhibits, own, agl_m: float | None,
-               updated: set[IntruderKey], changes: list[Advisory]) -> list:
+               updated: AbstractSet[IntruderKey], changes: list[Advisory]) -> list:
         """The advisories of ev's intruders (`records.latest` entries), the changes appended to changes; updated:
         the intruders a report updated in this step (persistence counts their reports)."""
         keys, xs, geometry = ev.keys, ev.xs, ev.geometry
@@ -81,7 +84,7 @@ class Adviser:
         eager = (levels != NONE) | (previous_level != NONE)
         if own_levels:
             eager |= (alerts[live] != NONE) | (previous_alert != NONE)
-        out = []
+        out: list[Entry] = []
         for j, i in enumerate(live):
             key = keys[i]
             if key in failed:  # the resolution failed for its RA

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.advisory.alerting import Encounter
+from avionics.compose import Components
 from avionics.config import Config
 from avionics.conflict.cpa import PairGeometry, pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
@@ -43,7 +44,7 @@ class Evaluation:
 
 
 class Assessor:
-    def __init__(self, config: Config, parts, tracker: Tracker, intake: Intake, containment: Containment):
+    def __init__(self, config: Config, parts: Components, tracker: Tracker, intake: Intake, containment: Containment):
         """parts: compose.py Components (profile, alerter, hysteresis, gate, conflict)."""
         self.config = config
         self.profile = parts.profile

@@ -4,6 +4,7 @@ computed against, kept from each assessment, and their once-a-second computation
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -15,7 +16,7 @@ from avionics.pipeline.schedule import AssessmentSchedule
 
 
 class BandsTraffic:
-    def __init__(self, engine, alert_names: list[str], schedule: AssessmentSchedule, containment: Containment):
+    def __init__(self, engine, alert_names: Mapping[int, str], schedule: AssessmentSchedule, containment: Containment):
         """engine: advisory/bands.py BandsEngine, None: no bands (then nothing is kept)."""
         self.engine = engine
         self.alert_names = alert_names

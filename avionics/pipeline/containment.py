@@ -69,15 +69,15 @@ class Containment:
             return rows, run(rows)
         except Exception as exc:  # noqa: BLE001
             self.batch_failed(stage, exc)
-        ok, parts = [], []
+        went, parts = [], []
         for i in rows:
             try:
                 parts.append(run(np.array([i])))
             except Exception as exc:  # noqa: BLE001
                 self.fail(now_s, keys[i], stage, exc, changes)
             else:
-                ok.append(i)
-        ok = np.array(ok, int)
+                went.append(i)
+        ok = np.array(went, int)
         if not len(ok):
             return ok, None
         return ok, (combine(parts) if combine is not None else run(ok))
@@ -124,7 +124,7 @@ class Containment:
         for key in [k for k, f in self.faults.items() if k not in tracks and now_s - f.last_s > horizon_s]:
             del self.faults[key]
 
-    def step_failed(self, now_s: float, exc: Exception, end_all: Callable[[], None]) -> None:
+    def step_failed(self, now_s: float, exc: Exception, end_all: Callable[[], object]) -> None:
         """Outside the per-intruder boundaries: end_all() ends every active advisory with reason fault; DAA
         unavailable until a whole assessment goes through again (`step_works`)."""
         self.counters["fault.step"] += 1

@@ -13,7 +13,7 @@ The live runner and fast-time replay both drive this object, so what was evaluat
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Sequence, Set as AbstractSet
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -124,7 +124,7 @@ class DaaCore:
                           self.bands_traffic.compute(now_s, self.intake.ownship, self.records.states) if tick else None)
 
     def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
-                updated: set[IntruderKey] = frozenset(), periodic: set[IntruderKey] = frozenset()) -> list:
+                updated: AbstractSet[IntruderKey] = frozenset(), periodic: AbstractSet[IntruderKey] = frozenset()) -> list:
         """Assess keys (those updated by a report in this step, and this step's slice of the re-assessment pass,
         `periodic`); their latest advisories (`records.latest` entries), the changes appended to changes."""
         self._last_ownship = own = self.intake.ownship_at(now_s)

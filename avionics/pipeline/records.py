@@ -69,7 +69,10 @@ class AssessmentRows:
         )
 
 
-def advisory_of(entry) -> Advisory:
+Entry = Advisory | tuple[AssessmentRows, int]  # an intruder's latest advisory: built, or (rows, row) to build it
+
+
+def advisory_of(entry: Entry) -> Advisory:
     """An intruder's latest advisory: built already, or (rows, i) of an `AssessmentRows` to build it from."""
     return entry if type(entry) is Advisory else entry[0].advisory(entry[1])
 
@@ -101,7 +104,7 @@ class AdvisoryRecords:
     def __init__(self):
         self.states = AdvisoryStates()  # every assessed intruder's advisory state, in arrays (advisory/logic.py)
         self.ra_threats: dict[IntruderKey, Threat] = {}  # the intruders at RA, for the resolution's one manoeuvre
-        self.latest: dict[IntruderKey, object] = {}  # its latest advisory: an Advisory or (AssessmentRows, row)
+        self.latest: dict[IntruderKey, Entry] = {}  # its latest advisory, or the rows to build it from
         self.active: dict[IntruderKey, Advisory] = {}  # the latest advisory of every intruder at TA or RA
         self._active_view: MappingProxyType | None = None  # a read-only copy of it, made again after a change
         self.level: SensitivityLevel | None = None  # the sensitivity level of the last assessment

@@ -39,7 +39,7 @@ class AssessmentSchedule:
         re-assessed at assessment_hz). Intruders still left at the next tick are re-assessed in that step
         (counted: `assessment.pass_overrun`). A step on the tick with no more tracks than the slice re-assesses
         them all, as a full pass."""
-        take = set()
+        take: set[IntruderKey] = set()
         if tick:
             if self._pass:
                 self.counters["assessment.pass_overrun"] += 1
