@@ -124,7 +124,8 @@ class DaaCore:
                           self.bands_traffic.compute(now_s, self.intake.ownship, self.records.states) if tick else None)
 
     def _assess(self, now_s: float, keys: list[IntruderKey], changes: list[Advisory],
-                updated: AbstractSet[IntruderKey] = frozenset(), periodic: AbstractSet[IntruderKey] = frozenset()) -> list:
+                updated: AbstractSet[IntruderKey] = frozenset(),
+                periodic: AbstractSet[IntruderKey] = frozenset()) -> list:
         """Assess keys (those updated by a report in this step, and this step's slice of the re-assessment pass,
         `periodic`); their latest advisories (`records.latest` entries), the changes appended to changes."""
         self._last_ownship = own = self.intake.ownship_at(now_s)
