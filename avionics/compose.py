@@ -1,31 +1,52 @@
 """The composition root: every variant of the core (tracker, motion models, gating, persistence, prefilter,
 Pc method, alerter) is built here from the configuration, and nowhere else. The stages receive objects, never
-strings that name a variant. `build_components` is what the core (pipeline.py DaaCore) is made of; a shell
+strings that name a variant. `build_components` is what the core (pipeline/daa_core.py DaaCore) is made of; a shell
 or a test may hand the core other objects behind the same interfaces instead."""
 
 from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, replace
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the parts' types; the variants themselves are imported only when built (start-up, issue 13)
+    from avionics.advisory.alerting import Alerter
+    from avionics.advisory.bands import BandsEngine
+    from avionics.advisory.gating import AlertGate, Criterion
+    from avionics.advisory.inhibits import LowAltitudeInhibits
+    from avionics.advisory.params import AdvisoryConfig
+    from avionics.advisory.persistence import AlertingHysteresis, NoHysteresis, Persistence
+    from avionics.advisory.resolution import ResolutionLogic
+    from avionics.advisory.tables import AlertProfile, LevelSelector
+    from avionics.config import Config
+    from avionics.conflict.assess import ConflictAssessor
+    from avionics.conflict.params import ConflictConfig
+    from avionics.conflict.probability import PcMethod
+    from avionics.conflict.scheduling import Prefilter
+    from avionics.tracking.interface import Tracker
+    from avionics.tracking.params import TrackingConfig
 
 
 @dataclass(frozen=True)
 class Components:
-    """The core's parts: the alerting profile (data) and the objects built from it and from the configuration."""
+    """The core's parts: the alerting profile (data) and the objects built from it and from the configuration. The
+    variants sit behind the Protocols: the tracker's (Tracker, its MotionModels), the gate's (Criterion,
+    Persistence), the conflict stage's (Prefilter, PcMethod) and the alerter's levels' (Detector, Continuation)."""
 
-    profile: object  # advisory/tables.py Profile: sensitivity levels, inhibits, response model
-    levels: object  # LevelSelector: the sensitivity level from altitude
-    alerter: object  # advisory/alerting.py Alerter: the alert levels, each with its detector
-    hysteresis: object  # advisory/persistence.py AlertingHysteresis (a DO-365 alerter's) or NoHysteresis
-    bands: object | None  # advisory/bands.py BandsEngine (a DO-365 alerter's guidance); None: no bands
-    gate: object  # advisory/gating.py AlertGate: criterion and persistence
-    resolution: object  # advisory/resolution.py ResolutionLogic: RA sense and strength
-    inhibits: object  # advisory/inhibits.py LowAltitudeInhibits
-    conflict: object  # conflict/assess.py ConflictAssessor: prefilter and Pc method
-    tracker: object  # tracking/interface.py Tracker
+    profile: AlertProfile  # sensitivity levels, inhibits, response model
+    levels: LevelSelector  # the sensitivity level from altitude
+    alerter: Alerter  # the alert levels, each with its detector
+    hysteresis: AlertingHysteresis | NoHysteresis  # a DO-365 alerter's M of N and persistence; none for tcas2
+    bands: BandsEngine | None  # a DO-365 alerter's guidance; None: no bands
+    gate: AlertGate  # criterion and persistence
+    resolution: ResolutionLogic  # RA sense and strength
+    inhibits: LowAltitudeInhibits
+    conflict: ConflictAssessor  # prefilter and Pc method
+    tracker: Tracker
 
 
-def build_components(config, counters: Counter) -> Components:
+def build_components(config: Config, counters: Counter) -> Components:
     """Every part of the core from a validated configuration (avionics/config.py)."""
     from avionics.advisory.inhibits import LowAltitudeInhibits
     from avionics.advisory.resolution import ResolutionLogic
@@ -46,7 +67,7 @@ def build_components(config, counters: Counter) -> Components:
         conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
 
 
-def build_tracker(tracking_params, counters, capacity: int = 16):
+def build_tracker(tracking_params: TrackingConfig, counters: Counter, capacity: int = 16) -> Tracker:
     """The intruder tracker tracking.filter names (docs/tracking.md): cv, one CV Kalman filter per track
     (tracking/tracker.py); imm, rmimm (Hwang eqs 11-14's residual-mean likelihood), vb-imm, vb-rmimm (Dai eqs
     17-25's variational-Bayes measurement noise), the IMM tracker (tracking/imm_tracker.py) over the motion
@@ -76,7 +97,7 @@ def build_tracker(tracking_params, counters, capacity: int = 16):
                       capacity=capacity)
 
 
-def build_alerter(advisory_params, profile):
+def build_alerter(advisory_params: AdvisoryConfig, profile: AlertProfile) -> Alerter:
     """The alerter (advisory/alerting.py) of the profile: without an [alerter] table the `tcas2` alerter, levels
     1 "TA" and 2 "RA", both TCAS3D with the columns of the profile's sensitivity-level table ([B71] Table 3 for
     tcas2; the RA's HMD filter from advisory.hmd_filter, the TA's minimum duration from
@@ -91,7 +112,7 @@ def build_alerter(advisory_params, profile):
     return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)
 
 
-def build_hysteresis(profile):
+def build_hysteresis(profile: AlertProfile) -> AlertingHysteresis | NoHysteresis:
     """A DO-365 alerter's alerting hysteresis (advisory/persistence.py AlertingHysteresis: DAIDALUS HysteresisData
     with the profile's M of N, persistence and hysteresis times); none for the tcas2 alerter."""
     from avionics.advisory.persistence import AlertingHysteresis, NoHysteresis
@@ -103,7 +124,7 @@ def build_hysteresis(profile):
                               spec.period_s)
 
 
-def build_bands(profile):
+def build_bands(profile: AlertProfile) -> BandsEngine | None:
     """A DO-365 alerter's guidance bands (advisory/bands.py, DAIDALUS DaidalusRealBands): the profile's [bands]
     parameters and the alerter's levels, each painting its region; None for the tcas2 alerter."""
     spec = profile.alerter
@@ -114,27 +135,27 @@ def build_bands(profile):
     return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum)  # the alerter's levels; SUM: its tests too
 
 
-def build_gate(advisory_params):
+def build_gate(advisory_params: AdvisoryConfig) -> AlertGate:
     """The alert gate (advisory/gating.py): the criterion advisory.criterion names (tcas | tcas+pc | pc) and the
     persistence advisory.persistence names (none | m-of-n | binomial, advisory/persistence.py)."""
     from avionics.advisory import gating, persistence
 
     a = advisory_params
-    criterion = {
+    criterion: dict[str, Callable[[], Criterion]] = {
         "tcas": lambda: gating.TcasCriterion(),
         "tcas+pc": lambda: gating.TcasPcCriterion(a.pc_ta_threshold, a.pc_ra_threshold),
         "pc": lambda: gating.PcCriterion(a.pc_ta_threshold, a.pc_ra_threshold),
-    }[a.criterion]()
-    persist = {
+    }
+    persist: dict[str, Callable[[], Persistence]] = {
         "none": lambda: persistence.NoPersistence(),
         "m-of-n": lambda: persistence.MOfNPersistence(a.persistence_m, a.persistence_n),
         "binomial": lambda: persistence.BinomialPersistence(a.persistence_m, a.persistence_n,
                                                             a.persistence_confidence),
-    }[a.persistence]()
-    return gating.AlertGate(criterion, persist)
+    }
+    return gating.AlertGate(criterion[a.criterion](), persist[a.persistence]())
 
 
-def build_prefilter(conflict_params):
+def build_prefilter(conflict_params: ConflictConfig) -> Prefilter:
     """The pair pre-filter conflict.prefilter names (conflict/scheduling.py, Hwang condition 2): min_distance
     (2(b) widened by 3 sigma), hwang (2(a) as printed and 2(b)), none."""
     from avionics.conflict import scheduling
@@ -147,22 +168,23 @@ def build_prefilter(conflict_params):
                c.accel_sigma_h_mps2, c.accel_sigma_v_mps2)
 
 
-def build_pc_method(conflict_params):
+def build_pc_method(conflict_params: ConflictConfig) -> PcMethod:
     """The Pc method conflict.method names (conflict/probability.py): exact, one_block, blocks (n_blocks), pe,
     mc (mc_samples)."""
     from avionics.conflict import probability
 
     c = conflict_params
-    return {
+    methods: dict[str, Callable[[], PcMethod]] = {
         "exact": lambda: probability.ExactPc(),
         "one_block": lambda: probability.OneBlockPc(),
         "blocks": lambda: probability.BlocksPc(c.n_blocks),
         "pe": lambda: probability.PaielliErzbergerPc(),
         "mc": lambda: probability.MonteCarloPc(c.mc_samples),
-    }[c.method]()
+    }
+    return methods[c.method]()
 
 
-def build_conflict_assessor(conflict_params):
+def build_conflict_assessor(conflict_params: ConflictConfig) -> ConflictAssessor:
     """The conflict stage (conflict/assess.py) with its pre-filter and Pc method."""
     from avionics.conflict.assess import ConflictAssessor
 

@@ -8,7 +8,7 @@ published track states (geodetic and local) and the status with the counters.
 
 Availability (docs/architecture.md, "Failure states"): DAA is unavailable without ownship, while ownship fixes
 keep failing the jump check, without ownship pressure altitude while a pressure-altitude intruder is tracked,
-while an intruder or the step is in the failed state (pipeline.py), while an intruder is spoof-suspected (its
+while an intruder or the step is in the failed state (pipeline/containment.py), while an intruder is spoof-suspected (its
 real reports may be the ones dropped), while its only traffic source is down (`traffic_down`), and once the
 process stops. A change is reported once (`availability_changed`); start-up without ownship, and the first fix
 after it, are not changes (HEARTBEAT and status say it).
@@ -30,7 +30,7 @@ from avionics.core.types import (
 from avionics.advisory.inhibits import RaInhibitWatch
 from avionics.core.units import FT
 from avionics.io.diagnostics import Diagnostic
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 
 STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
 _UNSET = object()
@@ -187,7 +187,7 @@ class Daa:
             self._autopilot_inputs = [i for i in inputs if isinstance(i, AUTOPILOT_INPUTS)]
             if self._autopilot_inputs:
                 inputs = [i for i in inputs if not isinstance(i, AUTOPILOT_INPUTS)]
-        core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline.py)
+        core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline/containment.py)
         return self._result(now_s, tuple(core_result.changes), core_result.assessed, sources, tracks, status,
                             bands=core_result.bands)
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from avionics.config import load_config
 from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 from avionics_sitl.trajectory import plane_velocity_to_true
 
 PLANE = LocalTangentPlane(47.0, 8.0)

@@ -1,5 +1,6 @@
-"""The re-assessment pass in slices and the advisory state in arrays (issue 13, items 2 and 3; avionics/pipeline.py
-`_slice`, `_Rows`; avionics/advisory/logic.py `AdvisoryStates`).
+"""The re-assessment pass in slices and the advisory state in arrays (issue 13, items 2 and 3;
+avionics/pipeline/schedule.py `AssessmentSchedule.due`, pipeline/records.py `AssessmentRows`; avionics/advisory/logic.py
+`AdvisoryStates`).
 
 Oracles: the pass's contract stated as properties over random traffic sizes, slice sizes and step rates (every
 intruder re-assessed at assessment_hz; no step re-assesses more than its slice unless the pace needs it); the
@@ -22,7 +23,7 @@ from avionics.core.geodesy import LocalTangentPlane
 from avionics.core.types import (
     AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 
 PLANE = LocalTangentPlane(47.0, 8.0)
 ALT_M = 1500.0

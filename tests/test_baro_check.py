@@ -279,7 +279,7 @@ def test_implausible_pressure_altitude_through_the_core_api_is_counted_and_recov
 
 def test_counters_reach_the_core_counters():
     """The cross-check counts into the core's counters (status.counters on zenoh, `avionics run --counters`):
-    pipeline.py must build OwnshipFilter(config.altitude, config.input, self.counters)."""
+    pipeline/intake.py must build OwnshipFilter(config.altitude, config.input, counters)."""
     node = Harness(load_config())
     assert node.core.ownship.counters is node.core.counters
 

@@ -24,7 +24,7 @@ from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, Int
 from avionics.core.types import OwnshipPressure
 from avionics.core.units import FT, KT, NM
 from avionics.io.zenoh_bus import open_session
-from avionics.pipeline import DaaCore
+from avionics.pipeline.daa_core import DaaCore
 from avionics.runner import Runner
 from synthetic import PLANE, Mover
 from tests.conftest import DEADLINE_S, free_port, wait_for

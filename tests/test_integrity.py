@@ -176,7 +176,7 @@ def _core_with_degraded_intruder(stale_position_m):
     velocity says it flies away at 150 kt: the track dead-reckons away, the reported position stays close."""
     from avionics.core.geodesy import LocalTangentPlane
     from avionics.core.types import OwnshipFix, OwnshipPressure
-    from avionics.pipeline import DaaCore
+    from avionics.pipeline.daa_core import DaaCore
 
     core = DaaCore(load_config(overrides=["zenoh.enabled=false"]))
     plane = LocalTangentPlane(47.0, 8.0)

@@ -31,6 +31,9 @@ ABOVE_THE_STAGES = (  # the facade and what composes it, the shells, the I/O aro
     "avionics.io", "avionics.monitor",
 )
 SHELLS = ("avionics.runner", "avionics.cli", "avionics.monitor")
+# The core's jobs (avionics/pipeline/), in the order data flows through them: each imports none of those after it.
+PIPELINE = tuple(f"avionics.pipeline.{m}" for m in (
+    "records", "containment", "schedule", "intake", "assessment", "advice", "bands_traffic", "views", "daa_core"))
 SIMULATOR = ("avionics_sitl", "avionics_eval")
 
 # The layer rules, as data: (name, importers, kind, modules). An importer is every module named by, or inside, one
@@ -54,6 +57,8 @@ RULES = [
      ("avionics.pipeline", "avionics.daa", "avionics.ports", "avionics.loop") + SHELLS),
     ("the core never imports the facade or anything above it", ("avionics.pipeline",), "not",
      ("avionics.daa", "avionics.ports", "avionics.loop") + SHELLS),
+    *((f"{job} imports no job of the core after it", (job,), "not", PIPELINE[i + 1:])
+      for i, job in enumerate(PIPELINE)),
     ("the facade never imports the ports, the loop or the shells", ("avionics.daa",), "not",
      ("avionics.ports", "avionics.loop") + SHELLS),
     ("ports and the loop never import the shells", ("avionics.ports", "avionics.loop"), "not", SHELLS),
@@ -197,6 +202,12 @@ def test_the_graph_is_read_from_every_package():
     assert "avionics.cli" in GRAPH["avionics_eval.cli"]
     assert "avionics_sitl.builtin" in GRAPH["avionics_sitl.encounters"]  # a module named by `from avionics_sitl.builtin import BUILTIN`
     assert "avionics.io" in GRAPH["avionics_sitl.autopilot"]  # `import avionics.io`
+
+
+def test_every_job_of_the_core_is_a_module():
+    """The rules of PIPELINE hold for modules that exist: a job renamed or moved fails here, not silently."""
+    assert set(PIPELINE) <= GRAPH.keys()
+    assert {m for m in GRAPH if m.startswith("avionics.pipeline.")} == set(PIPELINE)
 
 
 def test_cycle_finder_reports_a_cycle():

@@ -151,7 +151,7 @@ def test_a_backlog_ingested_in_one_step_gives_what_one_step_per_report_gives():
 
     from avionics.config import load_config
     from avionics.core.types import OwnshipFix, OwnshipPressure
-    from avionics.pipeline import DaaCore
+    from avionics.pipeline.daa_core import DaaCore
 
     own = Mover((0, 0, ALT), (0, V, 0))
     intruders = {IntruderKey(0xA00001 + i, AddressSource.ES1090): m for i, m in enumerate([
@@ -200,7 +200,7 @@ def test_advisories_carry_the_conflict_stage_probabilities_and_their_age():
 
 def test_an_older_report_after_a_newer_one_in_the_same_step_is_out_of_order_as_in_separate_steps():
     from avionics.config import load_config
-    from avionics.pipeline import DaaCore
+    from avionics.pipeline.daa_core import DaaCore
 
     key = IntruderKey(0xABC123, AddressSource.ES1090)
     mover = Mover((0, R0, ALT), (0, -V, 0))

@@ -106,7 +106,7 @@ def lost_hold(previous_level: np.ndarray, stale: np.ndarray, closing: np.ndarray
     the held level's DMOD (TCAS II: an RA ends once the range increases, "Clear of Conflict" — FAA, Introduction
     to TCAS II v7.1; the horizontal test: range within DMOD, or closing within tau — DAIDALUS TCAS2D). Once the
     coasted track has passed its closest point of approach and left DMOD, the alert ends, as lost. The track's
-    deletion (tracking.delete_after_s) ends it sooner (pipeline.py)."""
+    deletion (tracking.delete_after_s) ends it sooner (pipeline/daa_core.py)."""
     lost = np.asarray(stale, bool) & (np.asarray(previous_level) != NONE)
     held = lost & (np.asarray(closing, bool) | (np.asarray(range_m) <= np.asarray(dmod_m)))
     return held, lost

@@ -665,7 +665,8 @@ class PcMethod(Protocol):
     """The horizontal Pc of N Gaussian relative positions over disks: probability(mean (N, 2), cov (N, 2, 2),
     radius scalar or (N,), rel_vel (N, 2), rng) -> (N,). rel_vel is read by 'pe' only, rng by 'mc' only."""
 
-    name: str
+    @property
+    def name(self) -> str: ...  # read-only: the methods are frozen dataclasses
 
     def probability(self, mean, cov, radius, rel_vel=None, rng=None) -> np.ndarray: ...
 

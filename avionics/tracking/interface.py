@@ -1,4 +1,4 @@
-"""What the core (avionics/pipeline.py) and the node read and call of an intruder tracker: the Tracker protocol.
+"""What the core (avionics/pipeline/) and the node read and call of an intruder tracker: the Tracker protocol.
 
 Implemented by the CV tracker (tracker.py) and the IMM tracker (imm_tracker.py), both under the shared lifecycle
 (lifecycle.py); the composition root (avionics/compose.py `build_tracker`) builds one from the configuration.

@@ -26,7 +26,7 @@ import time
 # (label, file suffix, function): the parts of sitl replay's loop whose cumulative time is reported
 PARTS = (
     ("loop step (Daa.step, all of it)", "avionics/daa.py", "step"),
-    ("  core pipeline (tracking, assessment, alerting, RAs)", "avionics/pipeline.py", "_step"),
+    ("  core pipeline (tracking, assessment, alerting, RAs)", "avionics/pipeline/daa_core.py", "_step"),
     ("  result and guidance (Daa._result)", "avionics/daa.py", "_result"),
     ("    guidance stage with ownship's velocity (Daa._guide)", "avionics/daa.py", "_guide"),
     ("scenario source: schedule, copter, framing and decoding (_ScheduleSource.__iter__)",

@@ -169,7 +169,7 @@ class _Observer:
 def assessments(geo: Geometry, profile: str, seed: int) -> list[Assessment]:
     """Fly one encounter with the default ADS-B impairments; the per-second assessments of its intruder."""
     from avionics.config import load_config
-    from avionics.pipeline import DaaCore
+    from avionics.pipeline.daa_core import DaaCore
     from avionics_sitl.impairments import DEFAULT
     from avionics_sitl.replay import replay
 
