@@ -105,6 +105,43 @@ def test_at_1050_ft_agl_a_threat_400_ft_above_gets_dont_climb_and_keeps_its_400_
     assert ra.sense is Sense.DESCEND and ra.strength is Strength.PREVENTIVE and "inhibited" in ra.reason
 
 
+def _descending_onto_a_dont_climb(descent_fpm: float, t_cpa_s: float):
+    """1050 ft AGL (descend inhibited), a level threat 400 ft above, CPA t_cpa_s away: DON'T CLIMB. From 2 s it
+    descends at descent_fpm; the first RA at or after that (0.5 s steps)."""
+    lg = logic()
+    assert lg.resolve(0.0, [Threat(400 * FT, 0.0, t_cpa_s)], 0.0, ALIM, LOW).words() == "DONT CLIMB"
+    for k in range(1, int(2 * t_cpa_s)):
+        t = k * 0.5
+        sz = 400 * FT - descent_fpm * FPM * max(0.0, t - 2.0)
+        ra = lg.resolve(t, [Threat(sz, -descent_fpm * FPM if t >= 2.0 else 0.0, t_cpa_s - t)], 0.0, ALIM, LOW)
+        if t >= 2.0:
+            return t, ra
+
+
+# The reversal (2.5 s, 0.35 g = 3.432 m/s^2 to 1500 fpm = 7.62 m/s) climbs 7.62^2 / (2 * 3.432) = 8.459 m while
+# accelerating (2.220 s) and 7.62 m/s after: by CPA T s away, 8.459 + 7.62 (T - 2.5 - 2.220) m.
+
+def test_a_dont_climb_below_the_descend_inhibit_reverses_as_soon_as_the_threat_descends_onto_it():
+    # 800 fpm from 2 s, CPA at 30 s: at CPA the threat is 400 - 800 * 28 / 60 = 26.7 ft above a level ownship,
+    # short of ALIM, and no descent may be given. The reversal: 8.459 + 7.62 * 23.28 = 185.9 m (609.9 ft), 583.2
+    # ft above it. Judged by the corrective descent it may not fly, the DON'T CLIMB used to wait until the
+    # descent's projection fell short too (13 s, 308 ft).
+    t, ra = _descending_onto_a_dont_climb(800.0, 30.0)
+    assert (t, ra.reversed, ra.sense, ra.words()) == (2.0, True, Sense.CLIMB, "CLIMB NOW")
+    assert ra.separation_m == pytest.approx(583.2 * FT, abs=0.3 * FT)
+
+
+def test_a_reversal_short_of_alim_is_given_when_it_leaves_more_than_the_ra_being_flown():
+    # 1900 fpm from 2 s, CPA at 14 s: the threat ends 400 - 1900 * 12 / 60 = 20 ft above a level ownship. The
+    # reversal climbs 8.459 + 7.62 * 7.280 = 63.93 m (209.7 ft) by CPA: 189.7 ft above it, short of ALIM 300 ft
+    # but 170 ft more than the DON'T CLIMB (the sense of most separation, v7.1 booklet); it used to be refused
+    # for missing ALIM and the DON'T CLIMB kept to 20 ft (Lincoln v2.1 encounter 1769: 39 ft at CPA, an NMAC
+    # the RA caused).
+    t, ra = _descending_onto_a_dont_climb(1900.0, 14.0)
+    assert (t, ra.reversed, ra.sense, ra.words()) == (2.0, True, Sense.CLIMB, "CLIMB NOW")
+    assert ra.separation_m == pytest.approx(189.7 * FT, abs=0.3 * FT)
+
+
 def test_below_1100_ft_no_corrective_descent_above_1200_ft_one():
     # 200 ft below a level intruder at SL 3 (RA tau 15 s). Above the inhibit: DESCEND (200 ft + ~211 ft of
     # descent by CPA > ALIM). Below it: DESCEND is inhibited and CLIMB would cross to ~11 ft above

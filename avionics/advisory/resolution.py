@@ -539,6 +539,18 @@ class ResolutionLogic:
             return None
         return self._resolution(None, strength, reason="composite: threats above and below", misses=misses)
 
+    def _strongest_flyable(self, sense: Sense, inhibits: Inhibits) -> Strength | None:
+        """The strongest strength this sense could still be given: allowed by the inhibits, not ruled out by a
+        floor, not a descent again after levelling off at one; None when only the RA being flown is left. A sense
+        is judged by what it may fly: a DON'T CLIMB below the descend inhibit cannot become a DESCEND, so when
+        the threat's descent overtakes it, reversing to a climb is the only help (TCAS II v7.1 booklet, "RA
+        inhibits" and "Sense reversal"; Lincoln v2.1 encounter 1769, docs/advisories.md)."""
+        for strength in (Strength.INCREASE, Strength.CORRECTIVE):
+            if self._allowed(sense, strength, inhibits) and not (self._floored and sense is Sense.DESCEND) and \
+                    not self._floor_stop(sense, strength):
+                return strength
+        return None
+
     def _update(self, now_s: float, alim: float, inhibits: Inhibits) -> Resolution:
         """Reverse, stop above a floor, turn composite, strengthen or weaken the RA being flown, or keep it (with
         its projections refreshed)."""
@@ -555,13 +567,16 @@ class ResolutionLogic:
         keep = [abs(m) for m in misses_now]
         dwell_over = now_s - self._changed_s >= DWELL_S
         t_min = min(th.t_cpa_s for th in self._threats)
-        strongest = Strength.INCREASE if self._allowed(sense, Strength.INCREASE, inhibits) else Strength.CORRECTIVE
-        # Reversal: this sense cannot reach ALIM even at its strongest, the other sense can.
+        strongest = self._strongest_flyable(sense, inhibits)
+        capable = now_sep if strongest is None else self._separation(sense, self._misses(sense, strongest))
+        # Reversal: this sense cannot reach ALIM even at its strongest, the other sense can, or, where it cannot
+        # either, leaves more (the sense "that provides the most vertical separation at CPA", as a first RA's).
         if (not current.reversed and t_min > MIN_REVERSAL_TIME_S and self._allowed(sense.opposite, Strength.CORRECTIVE, inhibits)
-                and self._separation(sense, self._misses(sense, strongest)) < alim):
+                and capable < alim):
             other = sense.opposite
             misses = self._misses(other, Strength.CORRECTIVE, reversal=True)
-            if self._separation(other, misses) >= alim and self._helps(misses, keep) and \
+            reversed_sep = self._separation(other, misses)
+            if (reversed_sep >= alim or reversed_sep > capable + TIE_M) and self._helps(misses, keep) and \
                     not self._floor_stop(other, Strength.CORRECTIVE, reversal=True) and \
                     not self._points_at_cleared_threat(other, misses_now):
                 self._changed_s = self._command_s = now_s
