@@ -34,7 +34,7 @@ from avionics.config import ConfigError, as_dict, load_config
 # class can only exist once its module is loaded). The shells above (avionics_sitl.cli, avionics_eval.cli) extend the
 # table with their own errors (a bad scenario, a demo's onboard process) and pass it to `call`.
 ERRORS = (  # (module, class, exit code, prefix of the line)
-    ("avionics.core.params", "ConfigError", 2, "configuration error: "),
+    ("avionics.base.params", "ConfigError", 2, "configuration error: "),
     ("avionics.advisory.tables", "ProfileError", 2, "configuration error: "),  # e.g. demo --profile nope
     ("avionics.io.link", "LinkError", 1, ""),
     ("avionics.io.link", "LogError", 2, ""),  # a .tlog given as the connection without usable timestamps
@@ -192,8 +192,8 @@ def _security(args, listening: bool) -> dict:
 
 
 def cmd_warmup(args) -> int:
-    """Compile every kernel (avionics.core.jit.KERNEL_MODULES) into the disk cache, or find it there."""
-    from avionics.core import jit
+    """Compile every kernel (avionics.base.jit.KERNEL_MODULES) into the disk cache, or find it there."""
+    from avionics.base import jit
 
     if not jit.ENABLED:
         print("avionics warmup: compiled kernels are off (AVIONICS_COMPILED=0, or numba missing): nothing to compile")

@@ -11,7 +11,7 @@ Each section is declared, with its units and its checks (`validate()`), next to 
     [traffic]                      avionics/io/feeds/params.py (receiver feeds: avionics run --traffic)
     [guidance]                     avionics/guidance/params.py (commanding the autopilot, issue 27)
 
-The generic TOML -> dataclass coercion and ConfigError are avionics/core/params.py. This module is the shells'
+The generic TOML -> dataclass coercion and ConfigError are avionics/base/params.py. This module is the shells'
 layer (the composition root and the command lines): no component imports it. It re-exports the section classes
 and ConfigError so that `from avionics.config import X` keeps working."""
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
-from avionics.core.params import ConfigError, _build
+from avionics.base.params import ConfigError, _build
 from avionics.guidance.params import GuidanceConfig
 from avionics.io.feeds.params import TrafficConfig
 from avionics.io.params import ROS_NAMESPACE, MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids

@@ -22,13 +22,13 @@ from types import MappingProxyType
 from typing import Iterable, Mapping, Sequence
 
 from avionics.config import Config
-from avionics.core.faults import FaultLog
-from avionics.core.schedule import Every
-from avionics.core.types import (
+from avionics.base.faults import FaultLog
+from avionics.base.schedule import Every
+from avionics.base.types import (
     AUTOPILOT_INPUTS, Advisory, AdvisoryLevel, AltitudeDatum, Input, IntruderKey, TrackView, UNAVAILABLE_REASONS,
 )
 from avionics.advisory.inhibits import RaInhibitWatch
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics.io.diagnostics import Diagnostic
 from avionics.pipeline.daa_core import DaaCore
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from avionics.core.params import ConfigError
+from avionics.base.params import ConfigError
 
 # module of ours -> (the extra it needs, the package of that extra)
 EXTRA_MODULES = {

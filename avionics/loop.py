@@ -18,8 +18,8 @@ from dataclasses import dataclass, replace
 from typing import Iterable, Iterator, Protocol
 
 from avionics.config import Config
-from avionics.core.faults import FaultLog
-from avionics.core.types import Input, IntruderReport
+from avionics.base.faults import FaultLog
+from avionics.base.types import Input, IntruderReport
 from avionics.daa import Daa, DaaResult, SourceStatus
 from avionics.io.decode import MessageDecoder
 from avionics.ports import NOTHING, OutputPort

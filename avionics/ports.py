@@ -17,8 +17,8 @@ from typing import IO, Protocol
 
 from avionics.config import Config
 from avionics.contract.advisory_csv import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS, GUIDANCE_ROW
-from avionics.core.schedule import Every
-from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
+from avionics.base.schedule import Every
+from avionics.base.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
 from avionics.io.diagnostics import Announcements

@@ -18,9 +18,9 @@ from avionics import __version__
 from avionics.advisory.inhibits import profile_banner
 from avionics.advisory.vehicle import response_banner
 from avionics.config import Config
-from avionics.core import jit
-from avionics.core.kernel_startup import KernelStartup
-from avionics.core.params import ConfigError
+from avionics.base import jit
+from avionics.base.kernel_startup import KernelStartup
+from avionics.base.params import ConfigError
 from avionics.daa import Daa
 from avionics.io.diagnostics import wiring_diagnostics
 from avionics.io.feeds.source import FeedSet, TrafficSource
@@ -86,7 +86,7 @@ class Runner:
         return self.loop.now_s  # the loop's last time (log time when replaying)
 
     def run(self) -> None:
-        # The loop never waits for the compiled kernels (avionics/core/kernel_startup.py): the numpy reference
+        # The loop never waits for the compiled kernels (avionics/base/kernel_startup.py): the numpy reference
         # until they are loaded (numba's import, ~27 kernels from a warm disk cache: ~0.3 s, on a thread started
         # once the first step is out, as the import holds the GIL; a cold cache compiles in a niced child process
         # first), then the kernels, switched between two steps. The first messages (ownship fixes, HEARTBEAT)

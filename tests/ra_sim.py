@@ -19,7 +19,7 @@ from avionics.advisory.alerting import Encounter as Pairs, tcas2_alerter
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat
 from avionics.advisory.tables import AlertProfile, select_level
 from avionics.conflict.cpa import pair_geometry
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 ALERTER = tcas2_alerter()  # TA and RA, TCAS3D with the HMD filter (advisory/alerting.py)
 
@@ -240,7 +240,7 @@ def corrective_separation(profile: AlertProfile, threats: list[Threat], sense: S
 def random_encounter(rng: np.random.Generator, t_cpa_s=(25.0, 60.0), duration_s: float = 65.0) -> Encounter:
     """The encounter model of tests/test_ra_properties.py, drawn from a numpy generator: each intruder reaches
     its horizontal CPA after t_cpa_s with a drawn HMD and unflown VMD; the start is traced back."""
-    from avionics.core.units import FPM, FT
+    from avionics.base.units import FPM, FT
 
     agl = rng.uniform(500 * FT, 12000 * FT)
     vz_own = 0.0 if rng.random() < 0.3 else rng.uniform(-3000 * FPM, 3000 * FPM)
@@ -259,7 +259,7 @@ def random_encounter(rng: np.random.Generator, t_cpa_s=(25.0, 60.0), duration_s:
 def to_scenario(enc: Encounter, name: str = "generated", own_speed_mps: float = 60.0):
     """The same encounter as a SITL scenario (ground at 0 ft MSL, ownship northbound at own_speed_mps), for
     `sitl replay --fly-ras`."""
-    from avionics.core.geodesy import LocalTangentPlane
+    from avionics.base.geodesy import LocalTangentPlane
     from avionics_sitl.aircraft import AircraftSpec
     from avionics_sitl.scenario import Scenario
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
 from avionics.pipeline.daa_core import DaaCore
 from avionics_sitl.trajectory import plane_velocity_to_true
 

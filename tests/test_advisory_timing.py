@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import pytest
 
 from avionics.advisory.tables import load_profile
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FPM, FT, KT, NM
 from synthetic import Encounter, Mover
 
 TCAS = load_profile("tcas2")

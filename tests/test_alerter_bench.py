@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 
-from avionics.core import jit
+from avionics.base import jit
 from avionics_eval.alerter_bench import main
 
 

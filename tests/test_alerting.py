@@ -19,8 +19,8 @@ from avionics.advisory.tables import load_profile
 from avionics.compose import build_alerter
 from avionics.config import AdvisoryConfig
 from avionics.conflict.cpa import PairGeometry, pair_geometry
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT, NM
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT, NM
 
 PROFILES = {name: load_profile(name) for name in ("tcas2", "small-uas", "do365", "daidalus-tcas3d")}
 

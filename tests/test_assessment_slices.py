@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 from avionics.advisory.logic import AdvisoryStates
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import (
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import (
     AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.pipeline.daa_core import DaaCore
@@ -147,7 +147,7 @@ def test_a_tracks_assessment_columns_are_its_advisorys_fields(seed, n):
     """The `traffic` publication reads each track's ASSESSMENT_FIELDS without building its advisory
     (`_Rows.assessment`): they equal the built advisory's fields, for quiet, alerting, altitude-less and stale
     intruders alike (random traffic around a hovering ownship, some converging, some without altitude)."""
-    from avionics.core.types import ASSESSMENT_FIELDS
+    from avionics.base.types import ASSESSMENT_FIELDS
     from avionics.daa import Daa
 
     rng = np.random.default_rng(seed)

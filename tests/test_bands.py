@@ -29,9 +29,9 @@ from avionics.advisory.bands import KINDS, BandInterval, Bands, BandsEngine, Ban
 from avionics.advisory.levels import AlertLevel
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import WCV_TAUMOD
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.units import FPM, FT, KT, NM
 from avionics_sitl.daa_file import EUCLIDEAN_ORIGIN, _parse_rows, _rows_by_aircraft, _text_of
-from avionics.core.geodesy import LocalTangentPlane
+from avionics.base.geodesy import LocalTangentPlane
 
 DO365B_LEVELS = load_profile("daidalus-do365b-no-sum").alerter.levels  # DO_365B_no_SUM.conf DWC_Phase_I, the data
 DO365_PHASE_I = DO365B_LEVELS[-1].thresholds  # its det_3
@@ -71,7 +71,7 @@ def _gc_destination(lat, lon, ve, vn, dt):
 class _SphereENU:
     """DAIDALUS ENUProjection (its default EuclideanProjection): the orthographic projection of the sphere of
     radius R_SPHERE onto the tangent plane at the ownship; velocities by projecting 10 s of great circle
-    (ENUProjection.projectVelocity). The ellipsoidal plane of avionics/core/geodesy differs by about 0.2 % in
+    (ENUProjection.projectVelocity). The ellipsoidal plane of avionics/base/geodesy differs by about 0.2 % in
     distance here, which moves recovery bands in the long geodetic encounters."""
 
     def __init__(self, lat, lon):

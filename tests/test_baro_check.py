@@ -19,11 +19,11 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as m2
 
 from avionics.config import AltitudeConfig, Config, load_config
-from avionics.core import atmosphere
-from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m, pressure_hpa_at
-from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
-from avionics.core.types import OwnshipPressure
-from avionics.core.units import KT, NM
+from avionics.base import atmosphere
+from avionics.base.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m, pressure_hpa_at
+from avionics.base.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
+from avionics.base.types import OwnshipPressure
+from avionics.base.units import KT, NM
 from avionics.io.decode import MessageDecoder
 from harness import Harness
 from avionics.tracking.baro_check import BaroCrossCheck

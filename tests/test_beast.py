@@ -15,8 +15,8 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from pyModeS.position import airborne_position_pair, cprNL
 
-from avionics.core.types import AltitudeDatum
-from avionics.core.units import FPM, FT, KT
+from avionics.base.types import AltitudeDatum
+from avionics.base.units import FPM, FT, KT
 from avionics.io.feeds.beast import (
     BeastDecoder, BeastDeframer, BeastFrame, CLOCK_HZ, EMITTER_TYPE, nic_of_type_code,
 )

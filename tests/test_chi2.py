@@ -1,11 +1,11 @@
-"""The gates' chi-square quantile (avionics/core/chi2.py) against scipy.stats, the reference it replaces."""
+"""The gates' chi-square quantile (avionics/base/chi2.py) against scipy.stats, the reference it replaces."""
 
 import math
 
 from hypothesis import given, strategies as st
 from scipy.stats import chi2
 
-from avionics.core.chi2 import chi2_quantile
+from avionics.base.chi2 import chi2_quantile
 
 
 @given(p=st.floats(1e-6, 1 - 1e-12), dof=st.integers(1, 12))

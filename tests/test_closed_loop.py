@@ -5,7 +5,7 @@ import pytest
 
 from avionics.advisory.tables import load_profile
 from avionics.config import load_config
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from avionics_sitl.encounters import load_encounter
@@ -44,7 +44,7 @@ def test_thirty_generated_encounters_flown_through_the_whole_stack_are_never_wor
     # horizontal CPA than not flying them, least over the intruders that got an RA.
     import numpy as np
 
-    from avionics.core.units import FT
+    from avionics.base.units import FT
     from ra_sim import random_encounter, to_scenario
 
     config = load_config(overrides=["zenoh.enabled=false"])

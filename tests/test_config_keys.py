@@ -28,7 +28,7 @@ from avionics.advisory.params import CRITERIA, PERSISTENCE
 from avionics.advisory.vehicle import builtin_vehicles
 from avionics.config import Config, ConfigError, load_config
 from avionics.conflict.params import CONFLICT_METHODS, PREFILTERS
-from avionics.core.units import FT, KT
+from avionics.base.units import FT, KT
 from avionics.guidance.params import GUIDANCE_MODES
 from avionics.io.params import ZENOH_MODES
 from avionics.tracking.params import IMM_HORIZONTAL_MODES, IMM_VERTICAL_MODES, TRACK_FILTERS
@@ -419,7 +419,7 @@ def test_validation_only_keys(tmp_path):
 def test_each_section_rejects_a_bad_value_naming_its_key(override):
     """The section's own validate() rejects the value alone (the component checks itself), and so does load_config."""
     from avionics.config import _parse_override
-    from avionics.core.params import _build
+    from avionics.base.params import _build
 
     section = override.split(".")[0]
     with pytest.raises(ConfigError, match=re.escape(section) + r"\."):

@@ -21,7 +21,7 @@ import avionics.io  # noqa: F401  (MAVLink 2)
 from avionics.config import load_config
 from avionics.contract import bands as contract_bands, mavlink as contract_mavlink, zenoh as contract
 from avionics.contract.fields import Field
-from avionics.core.types import Advisory, AddressSource, IntruderKey
+from avionics.base.types import Advisory, AddressSource, IntruderKey
 from avionics.io.dialect import daa as m2
 from avionics.io.traffic import TrafficBatch
 from avionics.ports import ZenohOut

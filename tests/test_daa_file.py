@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avionics.core.geodesy import LocalTangentPlane
+from avionics.base.geodesy import LocalTangentPlane
 from avionics_sitl.builtin import BUILTIN
 from avionics_sitl.daa_file import EUCLIDEAN_ORIGIN, format_daa, read_daa
 from avionics_sitl.aircraft import Leg
@@ -20,7 +20,7 @@ from avionics_sitl.trajectory import LegKinematics, SampledTrajectory
 DATA = Path(__file__).resolve().parent / "data"
 # NASA's public DAIDALUS / daa-displays files, read where they are (never copied into the project).
 CONFORMANCE = Path(__file__).resolve().parents[1].parent / "shared" / "conformance" / "daidalus"
-# Hand constants, deliberately not imported from avionics.core.units: the reader's unit table is under test.
+# Hand constants, deliberately not imported from avionics.base.units: the reader's unit table is under test.
 M_PER_NMI, M_PER_FT, MPS_PER_KT = 1852.0, 0.3048, 1852.0 / 3600.0
 FAST = settings(max_examples=30, deadline=None)
 

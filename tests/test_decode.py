@@ -15,12 +15,12 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as m2
 
 from avionics.config import Config, InputConfig, VehicleConfig
-from avionics.core.atmosphere import pressure_hpa_at
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import (
+from avionics.base.atmosphere import pressure_hpa_at
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import (
     AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
-from avionics.core.units import FT, INT16_MAX, INT32_MAX, KT, UINT16_MAX
+from avionics.base.units import FT, INT16_MAX, INT32_MAX, KT, UINT16_MAX
 from avionics.io.decode import MessageDecoder
 from avionics.io.framing import FrameScanner
 from harness import Harness

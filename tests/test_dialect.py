@@ -4,12 +4,12 @@ round-trips through real framing with every field."""
 import math
 from pathlib import Path
 
-from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
+from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
 from avionics.io import encode
 from avionics.io.dialect import daa
 from avionics.io.dialect.generate import generate
 from avionics.io.framing import FrameScanner
-from avionics.core.units import FPM
+from avionics.base.units import FPM
 
 HERE = Path(daa.__file__).parent
 

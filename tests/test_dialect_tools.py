@@ -18,8 +18,8 @@ from collections import Counter
 from importlib import resources
 from pathlib import Path
 
-from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
-from avionics.core.units import FPM
+from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
+from avionics.base.units import FPM
 from avionics.io import encode
 from avionics.io.dialect import daa
 from avionics.io.link import MavlinkLink

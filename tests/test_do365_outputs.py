@@ -18,7 +18,7 @@ import pytest
 from avionics.advisory.wcv import conflict, wcv_interval
 from avionics.advisory.tables import load_profile
 from avionics.config import ZenohConfig, load_config
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 from avionics.io import encode
 from avionics.io.dialect import daa as dialect
 from avionics.io.payloads import bands_payload
@@ -136,7 +136,7 @@ def test_bands_come_once_a_second_and_the_current_course_is_in_conflict_at_the_w
 
 def _truth_relative(t_s):
     """Intruder minus ownship from the scenario's truth, on the tangent plane at the ownship: s, v (2,), sz, vz."""
-    from avionics.core.geodesy import LocalTangentPlane
+    from avionics.base.geodesy import LocalTangentPlane
 
     own_traj, (intruder_traj,) = load_scenario("head-on").trajectories()
     o, i = own_traj.state_at(t_s), intruder_traj.state_at(t_s)

@@ -30,9 +30,9 @@ from avionics.advisory.wcv import WCV_TAUMOD
 from avionics.advisory.wcv_sum import (
     MIN_ERROR, WCV_TAUMOD_SUM, SumZScores, wcv_uncertain_interval, wcv_uncertain_intervals,
 )
-from avionics.core.uncertainty import SumData, horizontal_uncertainty
+from avionics.base.uncertainty import SumData, horizontal_uncertainty
 from avionics.conflict.cpa import pair_geometry
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.units import FPM, FT, KT, NM
 from tests.golden.generate import CONFORMANCE, replayed_csv
 
 DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
@@ -148,7 +148,7 @@ def test_errors_from_covariance_is_sumdata_of_the_covariance():
     """A track's covariance as DAIDALUS's inputs: sigma per axis and the signed E/N term whose square is the
     covariance, so the horizontal error is the ellipse's semi-major axis (eigenvalues of [[9, 4], [4, 9]]:
     13 and 5; of [[4, -1], [-1, 1]]: (5 +- sqrt(13)) / 2)."""
-    from avionics.core.uncertainty import errors_from_covariance
+    from avionics.base.uncertainty import errors_from_covariance
 
     p = np.zeros((2, 6, 6))
     p[0, :2, :2] = [[9.0, 4.0], [4.0, 9.0]]
@@ -171,7 +171,7 @@ class _Stating:
     def step(self, t, inputs):
         from dataclasses import replace
 
-        from avionics.core.types import IntruderReport
+        from avionics.base.types import IntruderReport
         return self.core.step(t, [replace(i, uncertainty=self.uncertainty) if isinstance(i, IntruderReport) else i
                                   for i in inputs])
 

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avionics.core.units import FT, KT
+from avionics.base.units import FT, KT
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation import generator as gen
 from avionics_eval.evaluation.metrics import (
@@ -185,7 +185,7 @@ def test_the_nuisance_study_truth_ra_volume_by_hand():
     0.57 nm). A level head-on passing 0 ft horizontally enters the RA volume when 500 ft apart vertically, not
     at 700 ft (> ZTHR) nor passing 0.6 nm (> RA HMD) apart."""
     from avionics.advisory.tables import load_profile
-    from avionics.core.units import NM
+    from avionics.base.units import NM
     from avionics_eval.reports import nuisance
 
     level = next(lvl for lvl in load_profile("tcas2").levels if lvl.sl == 4)

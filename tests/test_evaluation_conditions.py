@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from avionics.advisory.tables import load_profile
-from avionics.core.units import FT, KT
+from avionics.base.units import FT, KT
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation import generator as gen
 from avionics_sitl.impairments import DEFAULT, DO365_ADSB, _meters_to_degrees

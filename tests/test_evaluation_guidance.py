@@ -11,7 +11,7 @@ import json
 import pytest
 
 from avionics.advisory.vehicle import load_vehicle
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_eval import cli
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation.generator import grid

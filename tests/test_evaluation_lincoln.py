@@ -10,7 +10,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_eval import cli
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation.generator import DT_S, T_CPA_S

@@ -24,7 +24,7 @@ import zenoh
 
 import avionics.io  # noqa: F401
 from avionics.config import ZenohConfig, load_config
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 from avionics.io.dialect import daa as m2
 from avionics.io.link import MavlinkLink
 from avionics.io.zenoh_bus import open_session

@@ -20,9 +20,9 @@ import pytest
 
 import avionics.io  # noqa: F401
 from avionics.config import ZenohConfig, load_config
-from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
-from avionics.core.types import OwnshipPressure
-from avionics.core.units import FT, KT, NM
+from avionics.base.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
+from avionics.base.types import OwnshipPressure
+from avionics.base.units import FT, KT, NM
 from avionics.io.zenoh_bus import open_session
 from avionics.pipeline.daa_core import DaaCore
 from avionics.runner import Runner

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from avionics.config import ConfigError, load_config
-from avionics.core.types import AddressSource, AltitudeDatum
+from avionics.base.types import AddressSource, AltitudeDatum
 from avionics.io.feeds.aircraft import (
     NACP_EPU_M, AircraftMerge, Observation, emitter_type_of_category, nacp_sigma_m, nacv_sigma_mps,
 )

@@ -26,8 +26,8 @@ import pytest
 from pyModeS import Message
 
 from avionics.config import load_config
-from avionics.core.geodesy import WGS84_A
-from avionics.core.types import IntruderKey
+from avionics.base.geodesy import WGS84_A
+from avionics.base.types import IntruderKey
 from avionics.daa import Daa
 from avionics.io.feeds.sbs import SbsParser
 from avionics.io.framing import FrameScanner

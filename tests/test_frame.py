@@ -1,4 +1,4 @@
-"""The tracking frame (avionics/core/frame.py): the geometry an intruder gets does not depend on where on Earth
+"""The tracking frame (avionics/base/frame.py): the geometry an intruder gets does not depend on where on Earth
 the encounter is, how far the ownship has flown since the process started, or which aircraft was heard first.
 
 Oracles: the tangent plane at the ownship itself (what DAIDALUS projects around at every step), finite
@@ -13,9 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avionics.conflict.cpa import pair_geometry
-from avionics.core.frame import MAX_HOP_M, RECENTRE_M, FrameChange, TrackingFrame
-from avionics.core.geodesy import WGS84_A, WGS84_E2, LocalTangentPlane, geodetic_to_ecef
-from avionics.core.types import AddressSource, AdvisoryLevel, IntruderKey, IntruderReport
+from avionics.base.frame import MAX_HOP_M, RECENTRE_M, FrameChange, TrackingFrame
+from avionics.base.geodesy import WGS84_A, WGS84_E2, LocalTangentPlane, geodetic_to_ecef
+from avionics.base.types import AddressSource, AdvisoryLevel, IntruderKey, IntruderReport
 from synthetic import Encounter, Mover
 
 NM = 1852.0

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avionics.advisory.persistence import at_least_m_of_n
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT, KT, NM
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT, KT, NM
 from synthetic import Encounter, Mover
 
 ALT, V = 3000 * FT, 125 * KT  # SL 4

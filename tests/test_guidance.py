@@ -12,8 +12,8 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.vehicle import load_vehicle
 from avionics.config import load_config
-from avionics.core.types import Advisory, AdvisoryLevel, IntruderKey, AddressSource
-from avionics.core.units import FT
+from avionics.base.types import Advisory, AdvisoryLevel, IntruderKey, AddressSource
+from avionics.base.units import FT
 from avionics.guidance import ardupilot
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.stage import GuidanceStage, Ownship, VerticalLimits
@@ -159,7 +159,7 @@ def _ra(integrity="ok", target=2.5, sense="climb", strength="corrective"):
 
 
 def _stage(**config):
-    from avionics.core.types import AutopilotHeartbeat
+    from avionics.base.types import AutopilotHeartbeat
 
     stage = GuidanceStage(GuidanceConfig(mode="execute", **config), load_vehicle("multirotor"), 1)
     stage.update(0.0, {}, None, Ownship(10.0, 0.0, 0.0, 100.0), [AutopilotHeartbeat(0.0, 1, ardupilot.AUTO, 0)])
@@ -286,7 +286,7 @@ def test_the_simulated_px4_refuses_offboard_without_a_stream():
 
 
 def test_nothing_is_commanded_while_px4_is_in_offboard_for_someone_else():
-    from avionics.core.types import AutopilotHeartbeat
+    from avionics.base.types import AutopilotHeartbeat
     from avionics.guidance import px4
 
     stage = GuidanceStage(GuidanceConfig(mode="execute"), load_vehicle("multirotor"), 1)

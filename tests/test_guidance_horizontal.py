@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 from avionics.advisory.bands import BandInterval
 from avionics.config import load_config
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics.guidance import ardupilot
 from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution
 from avionics.guidance.stage import GuidanceDecision

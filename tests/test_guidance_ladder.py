@@ -8,7 +8,7 @@ import pytest
 
 from avionics.advisory.vehicle import load_vehicle
 from avionics.config import ConfigError, load_config
-from avionics.core.types import AutopilotHeartbeat
+from avionics.base.types import AutopilotHeartbeat
 from avionics.guidance import ardupilot, px4
 from avionics.guidance.ladder import ModeLadder
 from avionics.guidance.params import GuidanceConfig

@@ -14,7 +14,7 @@ import pytest
 
 from avionics.advisory.vehicle import load_vehicle
 from avionics.config import ZenohConfig
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics.guidance import ardupilot
 from avionics.io.zenoh_bus import open_session
 from avionics_sitl.encounters import load_encounter

@@ -17,8 +17,8 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.vehicle import load_vehicle
 from avionics.config import load_config
-from avionics.core.types import AutopilotHeartbeat, CommandAck
-from avionics.core.units import FT
+from avionics.base.types import AutopilotHeartbeat, CommandAck
+from avionics.base.units import FT
 from avionics.guidance import arduplane
 from avionics.guidance.params import GuidanceConfig
 from avionics.guidance.stage import GuidanceStage, Ownship

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from avionics.advisory.vehicle import load_vehicle
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics.guidance import arduplane
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.guided_plane import SimPlane

@@ -13,7 +13,7 @@ from dataclasses import replace
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.config import load_config
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix
 from avionics.pipeline.daa_core import DaaCore
 from avionics_sitl.trajectory import plane_velocity_to_true
 from synthetic import PLANE

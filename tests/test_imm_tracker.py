@@ -9,7 +9,7 @@ import pytest
 
 from avionics.compose import build_tracker
 from avionics.config import ConfigError, load_config
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, TrackView
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport, TrackView
 from avionics.io.payloads import track_payload
 from avionics_eval.reports.tracking import noisy_reports, track_reports
 from avionics.tracking.imm_tracker import ImmTracker
@@ -222,8 +222,8 @@ def test_track_payload_carries_the_imm_outputs():
 def test_pipeline_alerts_at_the_hand_computed_onsets_with_the_imm():
     from synthetic import Encounter, Mover
 
-    from avionics.core.types import AdvisoryLevel
-    from avionics.core.units import FT, KT, NM
+    from avionics.base.types import AdvisoryLevel
+    from avionics.base.units import FT, KT, NM
 
     alt, v, r0 = 3000 * FT, 125 * KT, 6 * NM
     enc = Encounter(Mover((0, 0, alt), (0, v, 0)), Mover((0, r0, alt), (0, -v, 0)), overrides=["tracking.filter=imm"])

@@ -12,9 +12,9 @@ from scipy.stats import chi2
 
 from avionics.compose import build_tracker
 from avionics.config import load_config
-from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, \
+from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, \
     TrackView
-from avionics.core.units import KT
+from avionics.base.units import KT
 from avionics.io import encode
 from avionics.io.dialect import daa
 from avionics.io.framing import FrameScanner
@@ -174,8 +174,8 @@ def test_the_flag_reaches_the_zenoh_payloads_and_the_monitor_accepts_them():
 def _core_with_degraded_intruder(stale_position_m):
     """An intruder whose reported position froze `stale_position_m` north of the ownship (co-altitude), while its
     velocity says it flies away at 150 kt: the track dead-reckons away, the reported position stays close."""
-    from avionics.core.geodesy import LocalTangentPlane
-    from avionics.core.types import OwnshipFix, OwnshipPressure
+    from avionics.base.geodesy import LocalTangentPlane
+    from avionics.base.types import OwnshipFix, OwnshipPressure
     from avionics.pipeline.daa_core import DaaCore
 
     core = DaaCore(load_config(overrides=["zenoh.enabled=false"]))
@@ -223,9 +223,9 @@ def test_the_report_runs_small():
 
 
 def test_a_recentred_plane_is_not_a_step():
-    """The trackers' reframe carries the monitor's last positions (avionics/core/frame.py): no false step."""
-    from avionics.core.frame import FrameChange
-    from avionics.core.geodesy import LocalTangentPlane
+    """The trackers' reframe carries the monitor's last positions (avionics/base/frame.py): no false step."""
+    from avionics.base.frame import FrameChange
+    from avionics.base.geodesy import LocalTangentPlane
 
     old, new = LocalTangentPlane(47.0, 8.0), LocalTangentPlane(47.0, 8.0133)  # ~1 km east
     mon = im.IntegrityMonitor(velocity_sigma_mps=2.0)

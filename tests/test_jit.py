@@ -1,4 +1,4 @@
-"""The compiled-kernel switch (avionics/core/jit.py): numba when on, the plain function when off; in a subprocess so
+"""The compiled-kernel switch (avionics/base/jit.py): numba when on, the plain function when off; in a subprocess so
 that the environment is read at import as in a real process."""
 
 import os
@@ -8,7 +8,7 @@ import sys
 import pytest
 
 PROBE = """
-from avionics.core import jit
+from avionics.base import jit
 
 @jit.kernel("float64(float64, float64)")
 def hyp(a, b):

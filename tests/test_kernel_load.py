@@ -1,4 +1,4 @@
-"""When the compiled kernels load (avionics/core/jit.py, issue 13 item 5): not on the path to the first processed
+"""When the compiled kernels load (avionics/base/jit.py, issue 13 item 5): not on the path to the first processed
 message, and never waited for (issue 26 item 1: the loop runs the numpy reference until they are loaded, then
 switches). `avionics run`'s parts are built and run in a fresh interpreter (this one has loaded everything already)
 on a loopback link fed as an autopilot would: ownship fixes until the first step is out, then an intruder's ADS-B
@@ -11,13 +11,13 @@ import sys
 
 import pytest
 
-from avionics.core import jit
+from avionics.base import jit
 
 RUN = r"""
 import json, socket, sys, threading, time
 import avionics.cli  # the console entry point's module, as `avionics run`
 from avionics.config import load_config
-from avionics.core import jit
+from avionics.base import jit
 from avionics.ports import NOTHING
 from avionics.runner import Runner
 from avionics_eval.bench import _traffic
@@ -111,7 +111,7 @@ def test_a_stand_in_loads_every_kernel_module_at_its_first_use_then_gives_way_to
     got = _python(
         "import sys, json\n"
         "import numpy as np\n"
-        "from avionics.core import jit\n"
+        "from avionics.base import jit\n"
         "from avionics.conflict import cpa, probability\n"
         "from avionics.tracking import imm\n"
         "before = ['numba' in sys.modules, jit.loaded(), type(cpa.kernels).__name__]\n"

@@ -1,4 +1,4 @@
-"""No stall on a cold kernel cache (issue 26 item 1; avionics/core/kernel_startup.py), through real sockets and a real
+"""No stall on a cold kernel cache (issue 26 item 1; avionics/base/kernel_startup.py), through real sockets and a real
 child process: `avionics run` (a child process, AVIONICS_CACHE_DIR an empty directory) against the simulated
 head-on over MAVLink UDP on 127.0.0.1, then again on the cache the first run's background compile filled. The
 issue's acceptance: TA and RA reach the autopilot side at the warm-cache times (±1 s) and HEARTBEAT from the DAA
@@ -19,7 +19,7 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from avionics import __version__
-from avionics.core import jit
+from avionics.base import jit
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import ScenarioClock, fly

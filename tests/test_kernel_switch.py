@@ -1,4 +1,4 @@
-"""The live loop's switch from the numpy reference to the compiled kernels (avionics/core/jit.py `deferred`, `switch`;
+"""The live loop's switch from the numpy reference to the compiled kernels (avionics/base/jit.py `deferred`, `switch`;
 issue 26 item 1): a replay that starts on the reference and switches in the middle of the encounter, with its
 tracks already in the IMM banks, decides as a replay on either path alone."""
 
@@ -7,7 +7,7 @@ import math
 import pytest
 
 from avionics.config import load_config
-from avionics.core import jit
+from avionics.base import jit
 from avionics.ports import NOTHING
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
@@ -18,7 +18,7 @@ SWITCH_S = 60.0  # head-on: TA ~55 s, RA ~65 s, clear ~93 s: tracks and a TA exi
 
 class SwitchAt:
     """An output port that switches to the compiled kernels after the first step at or after `at_s` (between two
-    steps, on the loop's thread, as avionics/core/kernel_startup.py does) and records the path of every step."""
+    steps, on the loop's thread, as avionics/base/kernel_startup.py does) and records the path of every step."""
 
     def __init__(self, at_s: float | None):
         self.at_s = at_s

@@ -1,7 +1,7 @@
 """The DO-365 alerter's compiled kernels (avionics/advisory/kernels.py) against their numpy references (advisory/
-wcv.py, wcv_sum.py, core/almost.py, alerting.py): every decision identical, every interval to 1e-9 s.
+wcv.py, wcv_sum.py, base/almost.py, alerting.py): every decision identical, every interval to 1e-9 s.
 
-Both paths run in one process: the public `Alerter.alert` takes the kernel when avionics.core.jit.ready(), the
+Both paths run in one process: the public `Alerter.alert` takes the kernel when avionics.base.jit.ready(), the
 numpy reference inside jit.reference(). Geometries are random and at the ties DAIDALUS decides with almost-equals:
 vertical separations on the 25 ft grid of ADS-B altitudes (450 and 700 ft among them), ranges exactly at DTHR, no
 relative motion, level flight; uncertainties none, zero, one axis or all. Under AVIONICS_COMPILED=0 there is
@@ -23,9 +23,9 @@ from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import _horizontal_interval, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, wcv_uncertain_intervals
 from avionics.conflict.cpa import pair_geometry
-from avionics.core import jit
-from avionics.core.almost import almost_equals
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base import jit
+from avionics.base.almost import almost_equals
+from avionics.base.units import FPM, FT, KT, NM
 
 pytestmark = pytest.mark.skipif(not jit.ENABLED, reason="compiled kernels are off (AVIONICS_COMPILED=0)")
 SETTINGS = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -95,7 +95,7 @@ def _same(got, want, tol=1e-9):
        st.sampled_from([0.0, 25.0, 55.0, 180.0]))
 def test_well_clear_intervals_and_ties(pairs, profile, b, t):
     """The kernels' WCV_TAUMOD intervals = wcv.py's to 1e-9 s, and their conflict decisions identical; almost_equals
-    is core/almost.py's on the same numbers."""
+    is base/almost.py's on the same numbers."""
     thr = load_profile(profile).alerter.levels[-1].thresholds
     d2 = thr.dthr_m**2
     for (sx, sy), (vx, vy), sz, vz, *_ in pairs:
@@ -153,7 +153,7 @@ def test_seeded_encounters_near_the_volume_every_profile():
 
 
 def test_almost_equals_edges():
-    """core/almost.py's zero special case, infinities, NaN, opposite signs and the 16348-ULP bound."""
+    """base/almost.py's zero special case, infinities, NaN, opposite signs and the 16348-ULP bound."""
     x = 450 * FT
     cases = [(0.0, 1e-14), (0.0, -1e-14), (1e-14, 2e-14), (math.inf, math.inf), (math.inf, -math.inf),
              (math.nan, math.nan), (-0.0, 0.0), (1.0, -1.0), (x, np.nextafter(x, 0.0)), (1e308, -1e308),

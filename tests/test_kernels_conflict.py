@@ -1,7 +1,7 @@
 """The conflict stage's compiled kernels (avionics/conflict/kernels.py) against their numpy references, on random
 inputs and on the edge cases: compiled = reference to 1e-9 (absolute for probabilities, relative for geometry).
 
-The public functions dispatch on avionics.core.jit.ready(); the references are called explicitly (the *_reference
+The public functions dispatch on avionics.base.jit.ready(); the references are called explicitly (the *_reference
 functions, or the public function inside jit.reference() for the stage's curve), so both run in one process.
 Under AVIONICS_COMPILED=0 there is nothing compiled to compare: the tests skip.
 """
@@ -21,7 +21,7 @@ from avionics.conflict import probability as prob
 from avionics.conflict.cpa import pair_geometry, pair_geometry_reference
 from avionics.conflict.params import ConflictConfig
 from avionics.conflict.pc_at_cpa import pc_at_cpa, pc_at_cpa_reference
-from avionics.core import jit
+from avionics.base import jit
 
 pytestmark = pytest.mark.skipif(not jit.ENABLED, reason="compiled kernels are off (AVIONICS_COMPILED=0)")
 TOL = 1e-9

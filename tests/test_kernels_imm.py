@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from avionics.compose import build_tracker
 from avionics.config import load_config
-from avionics.core import jit
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base import jit
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import imm, imm_tracker, kernels, models
 from avionics.tracking.imm import ImmBank, VbParams
 
@@ -149,7 +149,7 @@ def test_every_kernel_is_compiled_at_import_and_none_compiles_again_in_a_run():
     misses = {k: sum(getattr(kernels, k)._cache_misses.values()) for k in names}  # compilations, at import
     assert all(before.values())
     run_tracker(True, steps=5)
-    # the run called these dispatchers (the trackers' stand-ins gave way to this module, avionics/core/jit.py)
+    # the run called these dispatchers (the trackers' stand-ins gave way to this module, avionics/base/jit.py)
     assert imm.kernels is kernels and imm_tracker.kernels is kernels and jit.loaded()
     assert {k: len(getattr(kernels, k).signatures) for k in names} == before
     assert {k: sum(getattr(kernels, k)._cache_misses.values()) for k in names} == misses  # none compiled in it

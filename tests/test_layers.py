@@ -1,7 +1,7 @@
 """Layers that import downward only (issue 12): the import graph of `avionics`, `avionics_eval` and `avionics_sitl` has no
 cycle, and no module imports a layer above its own.
 
-Lowest first: `avionics.core` <- the output contract (`avionics.contract`) <- the stages (`avionics.tracking`, `avionics.conflict`, `avionics.advisory`) <-
+Lowest first: `avionics.base` <- the output contract (`avionics.contract`) <- the stages (`avionics.tracking`, `avionics.conflict`, `avionics.advisory`) <-
 configuration, composition and facade <- the flight shells and I/O <- `avionics_sitl` (may import `avionics`) <-
 `avionics_eval` (demo, benches, reports: the only code that composes flight code and the simulator). Flight
 code never imports the simulator.
@@ -40,9 +40,9 @@ SIMULATOR = ("avionics_sitl", "avionics_eval")
 # of `importers`. kind "only": it may import nothing of the project outside `modules`; kind "not": it imports
 # nothing named by, or inside, `modules`.
 RULES = [
-    ("core imports nothing above it", ("avionics.core",), "only", ("avionics.core",)),
-    # the output contract (issue 31): declarations over the core's types and units, read by stages, io and monitor
-    ("the contract imports only the core", ("avionics.contract",), "only", ("avionics.core", "avionics.contract")),
+    ("the base imports nothing above it", ("avionics.base",), "only", ("avionics.base",)),
+    # the output contract (issue 31): declarations over the base layer's types and units, read by stages, io and monitor
+    ("the contract imports only the base", ("avionics.contract",), "only", ("avionics.base", "avionics.contract")),
     *((f"{stage} never imports the configuration module", (stage,), "not", ("avionics.config",))
       for stage in STAGES),
     *((f"{stage} never imports the facade, the shells, io or monitor", (stage,), "not", ABOVE_THE_STAGES + SIMULATOR)
@@ -197,7 +197,7 @@ def find_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_the_graph_is_read_from_every_package():
-    assert {"avionics.cli", "avionics.core.units", "avionics_eval.cli", "avionics_eval.reports.tracking",
+    assert {"avionics.cli", "avionics.base.units", "avionics_eval.cli", "avionics_eval.reports.tracking",
             "avionics_sitl.encounters", "avionics_sitl.trajectory"} <= GRAPH.keys()
     assert "avionics.cli" in GRAPH["avionics_eval.cli"]
     assert "avionics_sitl.builtin" in GRAPH["avionics_sitl.encounters"]  # a module named by `from avionics_sitl.builtin import BUILTIN`
@@ -230,11 +230,11 @@ def violations(graph: dict[str, set[str]], importers, kind: str, modules) -> lis
 
 
 def test_rule_checker_reports_an_upward_import():
-    graph = {"avionics.core.units": {"avionics.core.geodesy"}, "avionics.core.geodesy": {"avionics.config"},
-             "avionics.config": set(), "avionics.tracking.imm": {"avionics.core.units", "avionics.io.link"},
+    graph = {"avionics.base.units": {"avionics.base.geodesy"}, "avionics.base.geodesy": {"avionics.config"},
+             "avionics.config": set(), "avionics.tracking.imm": {"avionics.base.units", "avionics.io.link"},
              "avionics.io.link": set(), "avionics_evaluation": set(), "avionics.runner": {"avionics_evaluation"}}
-    assert violations(graph, ("avionics.core",), "only", ("avionics.core",)) == [
-        ("avionics.core.geodesy", "avionics.config")]
+    assert violations(graph, ("avionics.base",), "only", ("avionics.base",)) == [
+        ("avionics.base.geodesy", "avionics.config")]
     assert violations(graph, ("avionics.tracking",), "not", ("avionics.io",)) == [
         ("avionics.tracking.imm", "avionics.io.link")]
     assert violations(graph, ("avionics",), "not", ("avionics_eval",)) == []  # a name prefix is not a package

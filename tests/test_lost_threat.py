@@ -18,8 +18,8 @@ import pytest
 import avionics.io  # noqa: F401
 from avionics.advisory.logic import lost_hold
 from avionics.config import load_config
-from avionics.core.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, OwnshipFix
-from avionics.core.units import NM
+from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, OwnshipFix
+from avionics.base.units import NM
 from avionics.daa import Daa, SourceStatus
 from avionics.io import encode
 from avionics.io.dialect import daa as m2

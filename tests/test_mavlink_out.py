@@ -10,7 +10,7 @@ from collections import Counter
 
 import avionics.io  # noqa: F401
 from avionics.config import load_config
-from avionics.core.types import IntruderKey, AddressSource
+from avionics.base.types import IntruderKey, AddressSource
 from avionics.io.decode import MessageDecoder
 from avionics.io.dialect import daa as m2
 from avionics.io.framing import FrameScanner

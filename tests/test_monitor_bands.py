@@ -21,7 +21,7 @@ import threading
 import pytest
 
 from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
-from avionics.core.units import FT, NM
+from avionics.base.units import FT, NM
 from avionics.monitor.state import FleetState
 from avionics.monitor.web import MonitorServer
 from tests.conftest import DEADLINE_S, free_port

@@ -19,7 +19,7 @@ from rich.console import Console
 
 from avionics.monitor.feed import ZenohFeed, monitor_zenoh_config, wait_for
 from avionics.monitor.schema import MAX_UNKNOWN_FIELDS, Rejected, check_id, clean_sample, clean_snapshot
-from avionics.core.units import NM
+from avionics.base.units import NM
 from avionics.monitor.state import FleetState
 from avionics.monitor.tui import TuiView, render_text, run_tui
 from avionics.monitor.web import MAX_CONNECTIONS, MonitorServer

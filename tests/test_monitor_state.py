@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from avionics.core.units import FT, NM
+from avionics.base.units import FT, NM
 from avionics.monitor.state import FleetState, alt_tag, derive_track, enu_offset, imm_mode, symbol_of
 from avionics.monitor.tui import render_text
 

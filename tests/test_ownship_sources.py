@@ -14,7 +14,7 @@ import pytest
 from pymavlink.dialects.v20 import common as m2
 
 from avionics.config import ConfigError, load_config
-from avionics.core.types import OwnshipFix
+from avionics.base.types import OwnshipFix
 from avionics.io.decode import MessageDecoder
 from forgery import DURATION_S, SCENARIO, fly, forged_ownship, over_the_wire as _wire
 

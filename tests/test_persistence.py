@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from avionics.advisory import persistence as ps
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 TA, RA, NONE = int(AdvisoryLevel.TA), int(AdvisoryLevel.RA), int(AdvisoryLevel.NONE)
 

@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from avionics.core.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport
-from avionics.core.units import FT, KT, NM
+from avionics.base.types import AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base.units import FT, KT, NM
 from synthetic import PLANE, Encounter, Mover, Reversal
 
 ALT = 3000 * FT  # SL 4: TA tau 30 s, DMOD 0.48 nm; RA tau 20 s, DMOD 0.35 nm, HMD 0.57 nm
@@ -150,7 +150,7 @@ def test_a_backlog_ingested_in_one_step_gives_what_one_step_per_report_gives():
     import numpy as np
 
     from avionics.config import load_config
-    from avionics.core.types import OwnshipFix, OwnshipPressure
+    from avionics.base.types import OwnshipFix, OwnshipPressure
     from avionics.pipeline.daa_core import DaaCore
 
     own = Mover((0, 0, ALT), (0, V, 0))

@@ -13,9 +13,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
-from avionics.core.units import NM
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base.units import NM
 from avionics.tracking import fusion, models
 from avionics.tracking.imm import ImmBank
 from avionics.tracking.imm_tracker import ImmTracker

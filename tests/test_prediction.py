@@ -10,7 +10,7 @@ from avionics.conflict import prediction as pr
 from avionics.compose import build_conflict_assessor
 from avionics.conflict.assess import conflict_probabilities
 from avionics.conflict.probability import pc_exact
-from avionics.core.units import KT, NM
+from avionics.base.units import KT, NM
 from avionics.tracking import models
 from avionics.tracking.kalman_cv import cv_process_noise, cv_transition
 

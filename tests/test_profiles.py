@@ -5,7 +5,7 @@ import pytest
 
 from avionics.advisory.tables import LevelSelector, ProfileError, load_profile, profile_text
 from avionics.config import ConfigError, load_config
-from avionics.core.units import FPM, FT, G0, NM
+from avionics.base.units import FPM, FT, G0, NM
 
 
 def test_builtin_profiles_load_with_their_documented_values():

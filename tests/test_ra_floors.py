@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.tables import load_profile
 from avionics.config import load_config
-from avionics.core.units import FPM, FT
+from avionics.base.units import FPM, FT
 from avionics_sitl.cli import main
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay

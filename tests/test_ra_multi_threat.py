@@ -30,7 +30,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat
 from avionics.advisory.tables import load_profile
-from avionics.core.units import FPM, FT
+from avionics.base.units import FPM, FT
 from ra_sim import Encounter, Intruder, fly, level_off_dz
 
 PROFILES = {name: load_profile(name) for name in ("tcas2", "f3442", "do365")}

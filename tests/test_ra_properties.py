@@ -20,7 +20,7 @@ import math
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from avionics.advisory.tables import load_profile
-from avionics.core.units import FPM, FT
+from avionics.base.units import FPM, FT
 from avionics.advisory.resolution import Threat
 from ra_sim import Encounter, Intruder, corrective_separation, fly, non_crossing_sense
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from avionics.config import load_config
-from avionics.core.units import KT, NM
+from avionics.base.units import KT, NM
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from avionics_sitl.encounters import load_encounter

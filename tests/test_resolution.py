@@ -13,8 +13,8 @@ from avionics.advisory.alerting import Encounter as Pairs, tcas2_alerter
 from avionics.advisory.resolution import ResolutionLogic, Sense, Strength, Threat, own_displacement
 from avionics.advisory.tables import load_profile, select_level
 from avionics.conflict.cpa import pair_geometry
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FPM, FT, G0, NM
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FPM, FT, G0, NM
 from ra_sim import Encounter, Intruder, fly
 
 TCAS = load_profile("tcas2")

@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 
 from avionics.config import load_config
 from avionics.contract.bands import BAND_KIND_NAMES, BAND_REGIONS
-from avionics.core.params import ConfigError
+from avionics.base.params import ConfigError
 from avionics.io import ros2
 from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import ZenohBus, open_session
@@ -43,7 +43,7 @@ def same(a, b) -> bool:
 
 
 def same_as_json(ros, want) -> bool:
-    """JSON has no inf or NaN (both null, avionics/core/jsonsafe.py); ROS float64 keeps an infinite tau."""
+    """JSON has no inf or NaN (both null, avionics/base/jsonsafe.py); ROS float64 keeps an infinite tau."""
     return same(ros, want) or (isinstance(want, float) and math.isnan(want) and not math.isfinite(ros))
 
 

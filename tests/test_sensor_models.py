@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from avionics.core.units import FT, NM
+from avionics.base.units import FT, NM
 from avionics_sitl.sensors import ACTIVE_MODE_C, RADAR, SimulatedSensor
 
 OWN = np.array([0.0, 0.0, 1000.0, 0.0, 40.0, 0.0])

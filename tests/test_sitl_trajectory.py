@@ -12,9 +12,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad, solve_ivp
 
-from avionics.core.geodesy import WGS84_A, WGS84_E2, LocalTangentPlane
-from avionics.core.types import AddressSource, AltitudeDatum
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.geodesy import WGS84_A, WGS84_E2, LocalTangentPlane
+from avionics.base.types import AddressSource, AltitudeDatum
+from avionics.base.units import FPM, FT, KT, NM
 from avionics_sitl.aircraft import AircraftSpec, Leg
 from avionics_sitl.builtin import BUILTIN, REFERENCE
 from avionics_sitl.encounters import load_encounter
@@ -87,7 +87,7 @@ def test_straight_flight_position_and_velocity(heading, speed, t):
     h = math.radians(heading)
     want = [speed * t * math.sin(h), speed * t * math.cos(h)]
     assert traj.enu_at(t)[:2] == pytest.approx(want, abs=1e-6)
-    # Through WGS-84 and back: bounded by avionics.core.geodesy's inverse (~1 mm at 80 km, 2 cm at 150 km).
+    # Through WGS-84 and back: bounded by avionics.base.geodesy's inverse (~1 mm at 80 km, 2 cm at 150 km).
     assert en(traj, t) == pytest.approx(want, abs=0.05)
     s = traj.state_at(t)
     ve, vn = true_velocity_to_plane(PLANE, s.lat_deg, s.lon_deg, s.vel_east_mps, s.vel_north_mps)
@@ -409,7 +409,7 @@ def test_minimal_toml_defaults():
 )
 def test_toml_units_convert_to_si(alt_m, speed_mps, vs_mps, heading, east_m, north_m, alt_in_ft, speed_in_kt,
                                   vs_in_fpm, offsets_in_nm):
-    ft, kt, nm = 0.3048, 1852.0 / 3600.0, 1852.0  # by hand, not from avionics.core.units
+    ft, kt, nm = 0.3048, 1852.0 / 3600.0, 1852.0  # by hand, not from avionics.base.units
     alt = f"alt_ft = {alt_m / ft!r}" if alt_in_ft else f"alt_m = {alt_m!r}"
     speed = f"speed_kt = {speed_mps / kt!r}" if speed_in_kt else f"speed_mps = {speed_mps!r}"
     vs = f"vs_fpm = {vs_mps / (ft / 60)!r}" if vs_in_fpm else f"vs_mps = {vs_mps!r}"

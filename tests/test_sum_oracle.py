@@ -13,7 +13,7 @@ import pytest
 from scipy import stats
 
 from avionics.advisory.tables import load_profile
-from avionics.core.units import NM
+from avionics.base.units import NM
 from avionics_eval.reports.sum_oracle import Geometry, assessments, implied_level, oracle
 
 PROFILE = "daidalus-do365b-sum"

@@ -1,7 +1,7 @@
 import pytest
 
 from avionics.advisory.tables import TCAS_II_V71, select_level
-from avionics.core.units import FT, NM
+from avionics.base.units import FT, NM
 
 
 @pytest.mark.parametrize("agl_ft, alt_ft, sl", [

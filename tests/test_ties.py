@@ -23,10 +23,10 @@ from avionics.advisory.bands import BandsEngine, BandsParams
 from avionics.advisory.bands_kinematics import Cylinder, cylinder_interval
 from avionics.advisory.wcv import WCV_TAUMOD, conflict, wcv_interval
 from avionics.advisory.tables import load_profile
-from avionics.core.almost import (
+from avionics.base.almost import (
     PRECISION5, almost_equals, almost_geq, almost_greater, almost_leq, almost_less,
 )
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.units import FPM, FT, KT, NM
 
 DO365B_LEVELS = load_profile("daidalus-do365b-no-sum").alerter.levels  # DO_365B_no_SUM.conf DWC_Phase_I, the data
 DO365_PHASE_I = DO365B_LEVELS[-1].thresholds  # its det_3

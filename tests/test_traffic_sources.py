@@ -15,7 +15,7 @@ import pytest
 from pymavlink.dialects.v20 import common as m2
 
 from avionics.config import ConfigError, load_config, traffic_source_ids
-from avionics.core.types import AddressSource, IntruderKey
+from avionics.base.types import AddressSource, IntruderKey
 from avionics.io.decode import MessageDecoder
 from avionics.io.zenoh_bus import to_json
 from forgery import DURATION_S, INTRUDER, fly, over_the_wire

@@ -14,7 +14,7 @@ from hypothesis import given, settings, strategies as st
 from avionics.advisory.tables import ProfileError, load_profile
 from avionics.advisory.vehicle import builtin_vehicles, load_vehicle
 from avionics.config import ConfigError, load_config
-from avionics.core.units import FT, G0
+from avionics.base.units import FT, G0
 from avionics_sitl.encounters import load_scenario
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay

@@ -1,11 +1,11 @@
-"""`avionics warmup`: every module of avionics.core.jit.KERNEL_MODULES imported, its kernels compiled into the disk
+"""`avionics warmup`: every module of avionics.base.jit.KERNEL_MODULES imported, its kernels compiled into the disk
 cache (AVIONICS_CACHE_DIR) the first time and loaded from it the next; nothing to do with AVIONICS_COMPILED=0."""
 
 import os
 import subprocess
 import sys
 
-from avionics.core import jit
+from avionics.base import jit
 
 
 def _warmup(tmp_path, **env):

@@ -12,7 +12,7 @@ from hypothesis import given, settings, strategies as st
 
 from avionics.advisory.wcv import WcvThresholds, conflict, wcv_interval, wcv_violation
 from avionics.advisory.tables import load_profile
-from avionics.core.units import FT, KT, NM
+from avionics.base.units import FT, KT, NM
 
 DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
 DO365_NON_COOP = load_profile("do365-non-coop").alerter.levels[-1].thresholds  # DWC_Non_Coop

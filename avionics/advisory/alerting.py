@@ -35,9 +35,9 @@ from avionics.advisory.levels import AlertLevel, Continuation, Detector  # noqa:
 from avionics.advisory.tables import SensitivityLevel
 from avionics.conflict.cpa import PairGeometry
 from avionics.conflict.probability import as_c
-from avionics.core import jit
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT, NM
+from avionics.base import jit
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT, NM
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 wcv_kernels = jit.lazy(__name__, "avionics.advisory.kernels", "wcv_kernels")
@@ -140,7 +140,7 @@ class TCAS3D:
 
     def conflict(self, encounter: Encounter, thresholds: TcasThresholds, time_s: float) -> np.ndarray:
         """The tests of every pair in one call of the compiled kernel (conflict/kernels.py tcas3d_conflict_pairs)
-        when the compiled kernels are ready (avionics.core.jit.ready), else `conflict_reference`."""
+        when the compiled kernels are ready (avionics.base.jit.ready), else `conflict_reference`."""
         if not jit.ready():
             return self.conflict_reference(encounter, thresholds, time_s)
         g = encounter.geometry

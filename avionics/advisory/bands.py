@@ -55,8 +55,8 @@ from avionics.advisory.levels import AlertLevel
 from avionics.advisory.wcv import WcvThresholds, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, SumZScores, relative_errors, wcv_uncertain_intervals
 from avionics.contract.bands import BAND_KIND_NAMES
-from avionics.core.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
-from avionics.core.units import FPM, FT, G0, KT, NM, ground_speed_mps, track_rad
+from avionics.base.almost import almost_equals as almost_equals_13, almost_less as almost_less_13
+from avionics.base.units import FPM, FT, G0, KT, NM, ground_speed_mps, track_rad
 
 KINDS = BAND_KIND_NAMES  # the outputs name them so (avionics/contract/bands.py)
 TWO_PI = 2.0 * math.pi

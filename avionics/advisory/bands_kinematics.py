@@ -20,10 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.core import almost as _almost
+from avionics.base import almost as _almost
 
 # DaidalusParameters.ALMOST_ = Util.PRECISION5: the bands compare at about 5 significant digits (2^40 ULPs; at
-# zero, below 1e-5), with Util's semantics (core/almost.py).
+# zero, below 1e-5), with Util's semantics (base/almost.py).
 
 
 def almost_equals(a, b):

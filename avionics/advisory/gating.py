@@ -24,7 +24,7 @@ import numpy as np
 from avionics.advisory.persistence import NoPersistence, Persistence
 from avionics.advisory.tables import SensitivityLevel
 from avionics.conflict.cpa import PairGeometry
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 TA, RA, NONE = int(AdvisoryLevel.TA), int(AdvisoryLevel.RA), int(AdvisoryLevel.NONE)
 

@@ -16,7 +16,7 @@ import math
 from dataclasses import dataclass
 
 from avionics.advisory.tables import AlertProfile
-from avionics.core.units import FT
+from avionics.base.units import FT
 
 
 class HysteresisInhibit:

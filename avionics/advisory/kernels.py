@@ -2,7 +2,7 @@
 
 The numpy code is the reference and stays beside: advisory/wcv.py (WCV_TAUMOD, WCV_tvar, WCV_TCOA), advisory/
 wcv_sum.py (WCV_TAUMOD_SUM: its scalar functions, line by line with DAIDALUS's, are what the SUM kernels follow),
-core/almost.py (Util.almost_equals) and advisory/alerting.py (Alerter.alert, AlertLevel.fires). Each kernel below
+base/almost.py (Util.almost_equals) and advisory/alerting.py (Alerter.alert, AlertLevel.fires). Each kernel below
 is one of those functions for one pair, with the same formulas in the same order, so that the decisions are the
 reference's and the numbers agree to the last bits (tests/test_kernels_alerting.py holds them to 1e-9 and every
 decision identical, compiled kernels on and off). The DAIDALUS v2.0.4 Java methods (gov.nasa.larcfm.ACCoRD, Util)
@@ -22,11 +22,11 @@ import math
 
 import numpy as np
 
-from avionics.core.jit import kernel
+from avionics.base.jit import kernel
 
-PRECISION13 = 16348  # = core/almost.py PRECISION13 (Util.PRECISION13)
-ZERO_13 = 1e-13  # = core/almost.py ZERO_COMPARISON[PRECISION13]
-SIGN_FLIP = -(2**63)  # = core/almost.py _SIGN_FLIP
+PRECISION13 = 16348  # = base/almost.py PRECISION13 (Util.PRECISION13)
+ZERO_13 = 1e-13  # = base/almost.py ZERO_COMPARISON[PRECISION13]
+SIGN_FLIP = -(2**63)  # = base/almost.py _SIGN_FLIP
 MIN_ERROR = 0.001  # = wcv_sum.MIN_ERROR (WCV_TAUMOD_SUM.MinError)
 
 # the columns of `wcv_alert_pairs`' per-level parameters and its SUM parameters
@@ -38,11 +38,11 @@ _F2 = "UniTuple(float64, 2)"
 _F4 = "UniTuple(float64, 4)"
 
 
-# --- Util.almost_equals (core/almost.py) ------------------------------------------------------------------------
+# --- Util.almost_equals (base/almost.py) ------------------------------------------------------------------------
 
 @kernel("int64(float64)")
 def _ordered(x):
-    """The bit pattern of x as an integer ordered like the doubles (core/almost.py _ordered)."""
+    """The bit pattern of x as an integer ordered like the doubles (base/almost.py _ordered)."""
     bits = np.float64(x).view(np.int64)
     return SIGN_FLIP - bits if bits < 0 else bits
 

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 NONE, TA = int(AdvisoryLevel.NONE), int(AdvisoryLevel.TA)
 

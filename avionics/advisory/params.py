@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from avionics.core.params import ConfigError, require_positive
+from avionics.base.params import ConfigError, require_positive
 
 CRITERIA = ("tcas", "tcas+pc", "pc")
 # The re-assessment rate: at least the 1 Hz of the TCAS II logic cycle (RTCA DO-185B: threats are assessed every
@@ -24,7 +24,7 @@ class AdvisoryConfig:
     guidance_bands: bool = True  # a DO-365 alerter's guidance bands; false: its alerts only (they never read them)
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
     # a SUM detector's uncertainties from the tracks' covariances where the surveillance states none
-    # (core/uncertainty.py errors_from_covariance); false: stated ones only (conformance runs)
+    # (base/uncertainty.py errors_from_covariance); false: stated ones only (conformance runs)
     sum_from_tracks: bool = False
     profile: str = "tcas2"  # built-in profile (tcas2, small-uas, do365) or a profile .toml path
     profile_overrides: tuple[str, ...] = ()  # e.g. ("sl4.ra_tau_s=25", "response.delay_s=3")

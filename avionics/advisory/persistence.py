@@ -24,7 +24,7 @@ from typing import Protocol
 
 import numpy as np
 
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 TA, RA, NONE = int(AdvisoryLevel.TA), int(AdvisoryLevel.RA), int(AdvisoryLevel.NONE)
 

@@ -46,7 +46,7 @@ from typing import Hashable
 
 from avionics.advisory.inhibits import NO_FLOORS, NO_INHIBITS, Floors, Inhibits
 from avionics.advisory.tables import AlertProfile
-from avionics.core.units import FT
+from avionics.base.units import FT
 
 DWELL_S = 2.0  # least time between strength changes, so an RA does not flicker with noise
 MIN_REVERSAL_TIME_S = 4.0  # no reversal this close to CPA: it could not take effect

@@ -19,9 +19,9 @@ from pathlib import Path
 from avionics.advisory.levels import AlertLevel
 from avionics.advisory.wcv import WCV_TAUMOD, WcvThresholds
 from avionics.advisory.wcv_sum import WCV_TAUMOD_SUM, SumZScores
-from avionics.core.params import ConfigError, _show, check_float, is_file
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT, FPM, G0, NM
+from avionics.base.params import ConfigError, _show, check_float, is_file
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT, FPM, G0, NM
 
 PROFILE_DIR = "profiles"
 DISTANCE_UNITS = {"_nm": NM, "_ft": FT, "_m": 1.0}
@@ -117,7 +117,7 @@ def _distance(table: dict, key: str, where: str, required: bool = True) -> float
 
 
 def _number(value, where: str, infinite: bool = False) -> float:
-    """A number >= 0 of the magnitudes a configuration can hold (avionics/core/params.py check_float); inf only
+    """A number >= 0 of the magnitudes a configuration can hold (avionics/base/params.py check_float); inf only
     where it means "no limit" (a last ceiling, no vertical-rate rule)."""
     if infinite and isinstance(value, float) and value == math.inf:
         return value

@@ -19,7 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from avionics.advisory.tables import ProfileError, ResponseModel
-from avionics.core.params import ConfigError, check_float, is_file
+from avionics.base.params import ConfigError, check_float, is_file
 
 VEHICLE_DIR = "vehicles"
 

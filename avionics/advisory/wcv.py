@@ -18,7 +18,7 @@ and the interval of its loss in [B, T] of straight-line motion is the vertical i
 .vertical_WCV_interval) intersected with the horizontal one from there (WCV_TAUMOD.horizontal_WCV_interval:
 the first root of |v|^2 t^2 + (2 s.v + TTHR |v|^2) t + |s|^2 + TTHR s.v - DTHR^2 = 0, the time at which taumod
 reaches TTHR, to the exit from the DTHR disk, Horizontal.Theta_D). A conflict is time_in < time_out, not
-almost equal (LossData.conflict). Ties are DAIDALUS's (Util.almost_equals and its zero special case, core/almost.py):
+almost equal (LossData.conflict). Ties are DAIDALUS's (Util.almost_equals and its zero special case, base/almost.py):
 "no motion" on an axis is almost_equals(v, 0), an instant of loss is almost_equals(low, up).
 The sign convention of s (intruder - ownship here, ownship - intruder in
 DAIDALUS) does not matter: every test is even in (s, v) and (sz, vz).
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.core.almost import almost_equals, almost_less
+from avionics.base.almost import almost_equals, almost_less
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,7 +137,7 @@ def wcv_interval(s_xy, v_xy, sz, vz, thr: WcvThresholds, b_s: float, t_s: float)
 
 def conflict(t_in, t_out) -> np.ndarray:
     """LossData.conflict: Util.almost_less(time_in, time_out), with the zero special case: a loss that ends within
-    1e-13 s of its start at 0 is none (core/almost.py)."""
+    1e-13 s of its start at 0 is none (base/almost.py)."""
     return np.asarray(almost_less(t_in, t_out), bool)
 
 

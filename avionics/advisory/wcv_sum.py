@@ -1,8 +1,8 @@
 """DO-365B sensor uncertainty mitigation (SUM): NASA DAIDALUS's WCV_TAUMOD_SUM detector and its inputs (SUMData).
 
 Sources: DAIDALUS v2.0.4 Java, package gov.nasa.larcfm.ACCoRD: SUMData (each aircraft's uncertainties,
-core/uncertainty.py), WCV_TAUMOD_SUM (the detector; method names below are its), TangentLine, WCV_TAUMOD /
-WCV_tvar / WCV_TCOA (the well-clear tests it widens, advisory/wcv.py), and Util (comparisons, core/almost.py).
+base/uncertainty.py), WCV_TAUMOD_SUM (the detector; method names below are its), TangentLine, WCV_TAUMOD /
+WCV_tvar / WCV_TCOA (the well-clear tests it widens, advisory/wcv.py), and Util (comparisons, base/almost.py).
 Parameters: Configurations/DO_365B_SUM.conf (the profile `daidalus-do365b-sum`).
 
 Each aircraft states 1-sigma standard deviations (SUMData.set*Uncertainty): horizontal position per axis
@@ -41,7 +41,7 @@ import numpy as np
 
 from avionics.advisory.wcv import WCV_TAUMOD, WcvThresholds, _horizontal_interval, _horizontal_wcv, \
     _vertical_interval, _vertical_wcv
-from avionics.core.almost import almost_equals, almost_less
+from avionics.base.almost import almost_equals, almost_less
 
 MIN_ERROR = 0.001  # WCV_TAUMOD_SUM.MinError (internal units: m, m/s): the floor of each relative error
 

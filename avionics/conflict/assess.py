@@ -50,7 +50,7 @@ from avionics.conflict.params import ConflictConfig
 from avionics.conflict.prediction import cv_relative_prediction, lookahead_times, max_over_lookahead, pc_within_cv_mc
 from avionics.conflict.probability import ExactPc, PcMethod, as_c, pc_paielli_erzberger, vertical_probability
 from avionics.conflict.scheduling import TIME_EPSILON_S, ConflictScheduler, Prefilter, min_distance_filter
-from avionics.core import jit
+from avionics.base import jit
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 

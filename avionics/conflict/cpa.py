@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.conflict.probability import as_c
-from avionics.core import jit
+from avionics.base import jit
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
@@ -80,7 +80,7 @@ class PairGeometry:
 
 def pair_geometry(s_xy, v_xy, sz, vz) -> PairGeometry:
     """The geometry of N pairs (the formulas in the module's docstring): the compiled kernel (conflict/kernels.py
-    pair_geometry_pairs, one call) when the compiled kernels are ready (avionics.core.jit.ready), else the numpy reference
+    pair_geometry_pairs, one call) when the compiled kernels are ready (avionics.base.jit.ready), else the numpy reference
     `pair_geometry_reference`."""
     if not jit.ready():
         return pair_geometry_reference(s_xy, v_xy, sz, vz)

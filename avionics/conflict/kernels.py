@@ -14,7 +14,7 @@ order (the equations cited are the reference's):
   pair_geometry_pairs   cpa.pair_geometry_reference: range, s.v, closure, t_cpa, hmd, vmd, taus, 3D CPA
   pc_within_paths       prediction.pc_within_cv_mc_reference's arithmetic on random numbers drawn by numpy
 
-`avionics.core.jit.kernel` compiles them with numba at import (explicit signatures, disk cache); with
+`avionics.base.jit.kernel` compiles them with numba at import (explicit signatures, disk cache); with
 AVIONICS_COMPILED=0 they stay plain Python and the public functions call the numpy references instead.
 
 Numerics: `ndtr` is cephes' (scipy.special.ndtr) structure on the C library's erf/erfc (1 ulp apart from scipy's);
@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from avionics.core.jit import kernel
+from avionics.base.jit import kernel
 
 SQRT1_2 = math.sqrt(0.5)
 SQRT_2PI = math.sqrt(2.0 * math.pi)

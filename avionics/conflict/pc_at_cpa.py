@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from avionics.conflict.probability import as_c, pc_exact_reference, vertical_probability
-from avionics.core import jit
+from avionics.base import jit
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
@@ -30,7 +30,7 @@ def pc_at_cpa(rel_x: np.ndarray, rel_p: np.ndarray, t_s: np.ndarray, volumes, ac
               accel_sigma_v_mps2: float, has_altitude: np.ndarray) -> np.ndarray:
     """As `pc_at_cpa_reference` (the arguments and the result are described there), in one call of the compiled
     kernel (conflict/kernels.py pc_at_cpa_pairs: propagation, disk and slab of every volume) when the compiled
-    kernels are ready (avionics.core.jit.ready), else the numpy reference."""
+    kernels are ready (avionics.base.jit.ready), else the numpy reference."""
     if not jit.ready():
         return pc_at_cpa_reference(rel_x, rel_p, t_s, volumes, accel_sigma_h_mps2, accel_sigma_v_mps2, has_altitude)
     t = as_c(np.asarray(t_s, float).reshape(-1))

@@ -37,8 +37,8 @@ from typing import Sequence
 import numpy as np
 
 from avionics.conflict.probability import conflict_probability, vertical_probability
-from avionics.core import jit
-from avionics.core.units import KT, NM
+from avionics.base import jit
+from avionics.base.units import KT, NM
 from avionics.tracking.imm import combine, interact, mode_matched_predict
 from avionics.tracking.models import MotionModel
 
@@ -294,7 +294,7 @@ def _sqrt_psd(p: np.ndarray) -> np.ndarray:
 def pc_within_cv_mc(rel_x, rel_p, radius, lookahead_s: float, step_s: float, sigma_h_mps2: float,
                     sigma_v_mps2: float, half_height=None, samples: int = 1000, rng=None) -> np.ndarray:
     """`pc_within_cv_mc_reference` (the method is described there) with each step's arithmetic in the compiled
-    kernel (conflict/kernels.py within_step) when the compiled kernels are ready (avionics.core.jit.ready). The random numbers
+    kernel (conflict/kernels.py within_step) when the compiled kernels are ready (avionics.base.jit.ready). The random numbers
     are the reference's, drawn by numpy from the same Generator in the same order and sizes, so the result is
     the reference's, sample for sample."""
     if not jit.ready():

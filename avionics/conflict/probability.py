@@ -47,7 +47,7 @@ from typing import Protocol
 import numpy as np
 from scipy import special
 
-from avionics.core import jit
+from avionics.base import jit
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
@@ -188,7 +188,7 @@ def _tau_of_u(u, r):
 def pc_exact(mean, cov, radius) -> np.ndarray:
     """Exact Pc over the disk |x| <= R for N pairs: mean (N, 2), cov (N, 2, 2), radius scalar or (N,): the
     compiled kernel (conflict/kernels.py pc_exact_pairs, every pair in one call) when the compiled kernels
-    are ready (avionics.core.jit.ready), else the numpy reference `pc_exact_reference` (the method is described there)."""
+    are ready (avionics.base.jit.ready), else the numpy reference `pc_exact_reference` (the method is described there)."""
     if not jit.ready():
         return pc_exact_reference(mean, cov, radius)
     mean, cov, radius = _as_pairs(mean, cov, radius)

@@ -9,5 +9,5 @@
 - `advisory_csv`: the advisory CSV's columns (avionics/ports.py CsvOut).
 - `fields`: what a field is, and the physical limits the fields use.
 
-It imports only avionics.core: the stages may read it (advisory/bands.py takes its band kinds from here).
+It imports only avionics.base: the stages may read it (advisory/bands.py takes its band kinds from here).
 """

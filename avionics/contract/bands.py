@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from avionics.core.units import FPM, FT, KT
+from avionics.base.units import FPM, FT, KT
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from avionics.contract.bands import BAND_KINDS, BAND_REGION_UNKNOWN, BAND_REGIONS  # noqa: F401  (DAA_BANDS)
-from avionics.core.types import AdvisoryLevel
+from avionics.base.types import AdvisoryLevel
 
 
 @dataclass(frozen=True, slots=True)

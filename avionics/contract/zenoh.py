@@ -40,7 +40,7 @@ _IDENTITY = (
     ident("address_source", "`1090es` or `uat`"),
     ident("callsign", "the last valid callsign known; null if none"),
 )
-# The assessment of one intruder, as a track carries it (core/types.py ASSESSMENT_FIELDS, in that order)
+# The assessment of one intruder, as a track carries it (base/types.py ASSESSMENT_FIELDS, in that order)
 ASSESSMENT = (
     number("range_m", "m", DISTANCE, "current horizontal range"),
     number("t_cpa_s", "s", DURATION, "time to horizontal CPA (straight-line relative motion)"),

@@ -28,7 +28,7 @@ HEADING_TYPE. Mode changes are MAV_CMD_DO_SET_MODE as for ArduCopter (GCS_Common
 from __future__ import annotations
 
 import avionics.io  # noqa: F401  (MAVLink 2)
-from avionics.core.units import track_deg
+from avionics.base.units import track_deg
 from avionics.guidance.ardupilot import set_mode
 from avionics.io.dialect import daa as mavlink2
 

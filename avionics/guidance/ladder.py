@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from typing import Iterable, Mapping
 
-from avionics.core.types import AdvisoryLevel, AutopilotHeartbeat, CommandAck
+from avionics.base.types import AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot, arduplane, px4
 from avionics.guidance.ardupilot import ARDUCOPTER
 from avionics.guidance.params import LADDER_ACTIONS, GuidanceConfig

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from avionics.core.params import ConfigError, require_positive
+from avionics.base.params import ConfigError, require_positive
 
 GUIDANCE_MODES = ("passive", "advise", "execute")
 # The mode ladder's actions, in PX4's DAA order of severity (docs/en/advanced_features/detect_and_avoid.md:

@@ -40,7 +40,7 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Mapping
 
-from avionics.core.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
+from avionics.base.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
 from avionics.guidance.horizontal import closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_to

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from avionics.core.types import Advisory
+from avionics.base.types import Advisory
 
 LEVEL_MPS = 0.05  # below this a target rate is "level"
 PLAN_ACCEL_FRACTION = 0.5  # of the vehicle's vertical acceleration, for the stopping distance to the floor

@@ -27,12 +27,12 @@ from avionics.io.checks import (
 from avionics.io.ownship_check import OwnshipJumpCheck
 from avionics.io.params import DecoderConfig as Config
 from avionics.io.senders import Senders
-from avionics.core.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
-from avionics.core.types import (
+from avionics.base.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
+from avionics.base.types import (
     AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, OwnshipFix,
     OwnshipPressure,
 )
-from avionics.core.units import INT16_MAX, INT32_MAX, UINT16_MAX
+from avionics.base.units import INT16_MAX, INT32_MAX, UINT16_MAX
 
 # ADSB_FLAGS (MAVLink common.xml)
 VALID_COORDS = 1
@@ -285,7 +285,7 @@ class MessageDecoder:
 
     def _scaled_pressure(self, msg, now_s: float) -> OwnshipPressure | None:
         """press_abs -> pressure altitude, only within the range the ISA model inverts correctly
-        (core/atmosphere.py); outside it the reading is rejected and counted, never extrapolated."""
+        (base/atmosphere.py); outside it the reading is rejected and counted, never extrapolated."""
         if not self._from_own_vehicle(msg, "pressure", now_s):
             return None
         press_abs = float(msg.press_abs)

@@ -9,8 +9,8 @@ from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DA
 
 from avionics.contract import mavlink as contract
 from avionics.contract.bands import BAND_KINDS, BAND_REGION_UNKNOWN, BAND_REGIONS
-from avionics.core.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel, AltitudeDatum, AddressSource
-from avionics.core.units import FPM, FT, ground_speed_mps, track_deg
+from avionics.base.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel, AltitudeDatum, AddressSource
+from avionics.base.units import FPM, FT, ground_speed_mps, track_deg
 
 
 def _values(names: dict) -> dict:
@@ -193,7 +193,7 @@ REBROADCAST_FLAGS = (mavlink2.ADSB_FLAGS_VALID_COORDS | mavlink2.ADSB_FLAGS_VALI
 
 
 def adsb_vehicle(track, now_s: float):
-    """A fused track (core.types.TrackView, predicted to now_s) as ADSB_VEHICLE for a ground station's traffic
+    """A fused track (base.types.TrackView, predicted to now_s) as ADSB_VEHICLE for a ground station's traffic
     display (docs/mavlink.md, "ADSB_VEHICLE re-broadcast"): flagged ADSB_FLAGS_DAA_REBROADCAST so that no DAA
     process takes it as a report; the altitude (type as received: 0 pressure, 1 geometric) only while the track
     has one; tslc the age of its last report."""

@@ -23,7 +23,7 @@ import avionics.io  # noqa: F401  (sets MAVLINK20 before pymavlink is imported)
 from pymavlink import mavutil
 from avionics.io.dialect import daa as mavlink2  # ardupilotmega.xml plus our DAA_ADVISORY, DAA_BANDS
 
-from avionics.core.params import ConfigError
+from avionics.base.params import ConfigError
 from avionics.io.framing import FrameScanner
 from avionics.io.signing import Signing, SigningKeyError, load_key
 from avionics.io.sinks import FileSink, SinkHealth

@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from avionics.core.geodesy import geodetic_to_ecef, horizontal_axes
-from avionics.core.types import OwnshipFix
+from avionics.base.geodesy import geodetic_to_ecef, horizontal_axes
+from avionics.base.types import OwnshipFix
 
 if TYPE_CHECKING:
     from avionics.tracking.params import InputConfig

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from avionics.core.params import ConfigError, _show, is_file, require_positive
+from avionics.base.params import ConfigError, _show, is_file, require_positive
 
 if TYPE_CHECKING:
     from avionics.tracking.params import InputConfig, TrackingConfig

@@ -8,8 +8,8 @@ import math
 from avionics import __version__
 from avionics.contract.bands import BAND_KIND_NAMES
 from avionics.contract.zenoh import ADVISORY, SCHEMA_VERSION, TRACK_MODEL_CV
-from avionics.core.types import ASSESSMENT_FIELDS, Advisory, TrackView
-from avionics.core.units import ground_speed_mps, track_deg
+from avionics.base.types import ASSESSMENT_FIELDS, Advisory, TrackView
+from avionics.base.units import ground_speed_mps, track_deg
 
 # The advisory fields that are not an Advisory attribute of the same name, each from (vehicle, advisory, callsign)
 _ADVISORY_MADE = {
@@ -36,7 +36,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
 
 
 def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
-    """One track as the facade publishes it (core/types.py TrackView). Its `modes` (IMM filters; None for the CV
+    """One track as the facade publishes it (base/types.py TrackView). Its `modes` (IMM filters; None for the CV
     filter): filter name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s,
     positive right), vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink
     sender also reported this intruder (its reports are dropped; docs/mavlink.md, "Trusted sources")."""

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.contract.zenoh import KEYED_COLUMNS, SCHEMA_VERSION, TRACK_MODEL_CV, TRAFFIC_LAYOUT
-from avionics.core.types import ASSESSMENT_FIELDS
-from avionics.core.units import ground_speed_mps, track_deg
+from avionics.base.types import ASSESSMENT_FIELDS
+from avionics.base.units import ground_speed_mps, track_deg
 from avionics.io.payloads import track_payload
 
 def _finite(values) -> list:

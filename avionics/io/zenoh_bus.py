@@ -24,7 +24,7 @@ from collections import Counter, deque
 import zenoh
 
 from avionics.contract.zenoh import ADVISORY_STATE_FIELDS, ARROW_STREAM, SNAPSHOT_SCHEMA
-from avionics.core.jsonsafe import dumps
+from avionics.base.jsonsafe import dumps
 from avionics.io.params import ZenohConfig, read_password, zenoh_error_text
 from avionics.io.ros2 import Ros2Publisher
 from avionics.io.sinks import SinkHealth

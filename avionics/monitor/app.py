@@ -7,7 +7,7 @@ import signal
 import sys
 import threading
 
-from avionics.core.params import ConfigError
+from avionics.base.params import ConfigError
 from avionics.extras import import_extra
 from avionics.io.params import ZenohConfig
 from avionics.io.zenoh_bus import ZenohBusError

@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 from avionics.contract.bands import BAND_KIND_NAMES
 from avionics.contract.zenoh import SCHEMA_VERSION
-from avionics.core.geodesy import WGS84_A, WGS84_E2
-from avionics.core.units import FPM, FT, NM
+from avionics.base.geodesy import WGS84_A, WGS84_E2
+from avionics.base.units import FPM, FT, NM
 from avionics.io.zenoh_bus import advisory_state
 
 PROXIMATE_RANGE_M = 6 * NM  # TCAS II proximate traffic: within 6 NM ...

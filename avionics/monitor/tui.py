@@ -30,7 +30,7 @@ from rich.table import Table
 from rich.text import Text
 
 from avionics.contract.bands import BAND_KINDS
-from avionics.core.units import FPM, FT, NM
+from avionics.base.units import FPM, FT, NM
 from avionics.monitor.state import FleetState
 
 # Band regions in the page's colours (NASA daa-displays, src/daa-displays/daa-utils.ts bandColors: FAR dashed

@@ -39,8 +39,8 @@ from importlib import resources
 from urllib.parse import parse_qs, unquote, urlparse
 
 from avionics.contract.bands import BAND_KINDS
-from avionics.core.jsonsafe import dumps  # inf/NaN as null
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.jsonsafe import dumps  # inf/NaN as null
+from avionics.base.units import FPM, FT, KT, NM
 from avionics.monitor.state import Cursor, FleetState
 
 MIN_PUSH_PERIOD_S = 0.1  # track updates are batched to at most 10 pushes per second
@@ -58,7 +58,7 @@ CONTRACT_MARK = b"/*contract*/null"  # where the page gets what it shares with t
 
 
 def page_contract() -> dict:
-    """What the page takes from the output contract: the band kinds and the display units (core/units.py)."""
+    """What the page takes from the output contract: the band kinds and the display units (base/units.py)."""
     return {"units": {"FT": FT, "NM": NM, "KT": KT, "FPM": FPM},
             "band_kinds": [{"name": k.name, "label": k.label, "display_unit": k.display_unit,
                             "per_display_unit": k.per_display_unit} for k in BAND_KINDS]}

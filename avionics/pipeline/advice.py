@@ -13,7 +13,7 @@ from avionics.advisory.logic import lost_hold
 from avionics.advisory.resolution import Threat
 from avionics.compose import Components
 from avionics.config import Config
-from avionics.core.types import LOST, Advisory, AdvisoryLevel, IntruderKey
+from avionics.base.types import LOST, Advisory, AdvisoryLevel, IntruderKey
 from avionics.pipeline.assessment import Evaluation
 from avionics.pipeline.containment import Containment
 from avionics.pipeline.records import NONE, RA, AdvisoryRecords, AssessmentRows, Entry, advisory_of

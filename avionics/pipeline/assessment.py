@@ -15,8 +15,8 @@ from avionics.compose import Components
 from avionics.config import Config
 from avionics.conflict.cpa import PairGeometry, pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
-from avionics.core.types import Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
-from avionics.core.uncertainty import errors_from_covariance
+from avionics.base.types import Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
+from avionics.base.uncertainty import errors_from_covariance
 from avionics.pipeline.containment import Containment
 from avionics.pipeline.intake import Intake
 from avionics.tracking.interface import Tracker

@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from avionics.core.types import IntruderKey
+from avionics.base.types import IntruderKey
 from avionics.pipeline.containment import Containment
 from avionics.pipeline.records import NONE
 from avionics.pipeline.schedule import AssessmentSchedule

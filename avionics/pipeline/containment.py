@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.core.types import Advisory, AdvisoryLevel, IntruderKey
+from avionics.base.types import Advisory, AdvisoryLevel, IntruderKey
 from avionics.pipeline.records import AdvisoryRecords, advisory_of, blank_advisory, with_level
 
 FAULT = "fault"  # the reason of an advisory whose intruder failed in a stage (docs/zenoh.md, Advisory reasons)

@@ -19,7 +19,7 @@ from typing import Iterable
 
 from avionics.compose import Components, build_components
 from avionics.config import Config
-from avionics.core.types import LOST, Advisory, AdvisoryLevel, Input, IntruderKey
+from avionics.base.types import LOST, Advisory, AdvisoryLevel, Input, IntruderKey
 from avionics.pipeline import views
 from avionics.pipeline.advice import Adviser
 from avionics.pipeline.assessment import Assessor
@@ -71,7 +71,7 @@ class DaaCore:
 
     @property
     def frame(self):
-        """The tracking frame (core/frame.py), kept at the ownship."""
+        """The tracking frame (base/frame.py), kept at the ownship."""
         return self.intake.frame
 
     @property

@@ -1,6 +1,6 @@
 """The intake: a step's decoded inputs into the filters, in the tracking frame.
 
-Positions and velocities go into the tracking frame here (core/frame.py: a tangent plane kept within 1 km of the
+Positions and velocities go into the tracking frame here (base/frame.py: a tangent plane kept within 1 km of the
 ownship, every filter carried along when it moves), so the geometry holds anywhere the ownship flies. Ownship
 fixes and pressure go into the ownship filter one by one; intruder reports go to the tracker in one vectorised
 call per step, through the identity resolver (one aircraft, one track). No NaN or inf goes into a filter. The
@@ -17,8 +17,8 @@ from typing import Iterable
 import numpy as np
 
 from avionics.config import Config
-from avionics.core.frame import FrameChange, TrackingFrame
-from avionics.core.types import Advisory, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
+from avionics.base.frame import FrameChange, TrackingFrame
+from avionics.base.types import Advisory, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
 from avionics.pipeline.containment import Containment
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.interface import Tracker
@@ -34,7 +34,7 @@ class Intake:
         self.frame = TrackingFrame()  # the tangent plane of every filter, kept at the ownship
         self.ownship = OwnshipFilter(config.altitude, config.input, counters)
         self.identity = IdentityResolver(config.tracking, counters)  # one aircraft, one track (identity.py)
-        # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) as errors before z-scores,
+        # The surveillance's stated uncertainties (DAIDALUS SUMData, base/uncertainty.py) as errors before z-scores,
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
         self.stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
         self.own_errors: tuple[float, float, float, float] | None = None

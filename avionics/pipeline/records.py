@@ -17,7 +17,7 @@ import numpy as np
 from avionics.advisory.logic import AdvisoryStates
 from avionics.advisory.resolution import Threat
 from avionics.advisory.tables import SensitivityLevel
-from avionics.core.types import ASSESSMENT_FIELDS, Advisory, AdvisoryLevel, IntruderKey
+from avionics.base.types import ASSESSMENT_FIELDS, Advisory, AdvisoryLevel, IntruderKey
 
 NONE, RA = int(AdvisoryLevel.NONE), int(AdvisoryLevel.RA)
 

@@ -9,7 +9,7 @@ import math
 from collections import Counter, deque
 from operator import attrgetter
 
-from avionics.core.types import IntruderKey
+from avionics.base.types import IntruderKey
 
 KEY_ORDER = attrgetter("address", "source")  # IntruderKey's own order, as one C-built tuple per key
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import partial
 
-from avionics.core.types import Advisory, AdvisoryLevel, IntruderKey
+from avionics.base.types import Advisory, AdvisoryLevel, IntruderKey
 from avionics.pipeline.records import AdvisoryRecords, advisory_of
 
 

@@ -1,6 +1,6 @@
 """What an ImmBank needs of the compiled IMM kernels (tracking/kernels.py) before any kernel runs: the mode codes,
 BankSpec (a configuration as the kernels' arrays, and whether they cover it) and `arr`. Kept apart from the
-kernels so that building a tracker imports neither numba nor the kernels (avionics.core.jit loads them later,
+kernels so that building a tracker imports neither numba nor the kernels (avionics.base.jit loads them later,
 issue 13 item 5)."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 The offset b = h_pressure - h_geometric is learned from SCALED_PRESSURE (a first-order low-pass, rate-limited to
 what the atmosphere can do). Each sample is checked before it may touch b, and a faulty pressure is withheld:
 
-- implausible: outside the ISA range core/atmosphere.py inverts, or an offset beyond any real atmosphere's;
+- implausible: outside the ISA range base/atmosphere.py inverts, or an offset beyond any real atmosphere's;
 - stuck: the pressure has not moved since the GNSS altitude was within the noise of where it is now;
 - jump: the sample's residual against b is beyond a gate of the GNSS and barometer noise plus the drift b can
   physically have had since it was last updated.
@@ -21,7 +21,7 @@ from collections import Counter
 from dataclasses import dataclass
 
 from avionics.tracking.params import AltitudeConfig
-from avionics.core.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M
+from avionics.base.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M
 
 log = logging.getLogger("avionics.baro")
 

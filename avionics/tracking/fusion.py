@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from avionics.core.chi2 import chi2_quantile
+from avionics.base.chi2 import chi2_quantile
 from avionics.tracking.association import gnn, normalised_distances
 from avionics.tracking.imm import spd_inverse
 

@@ -1,6 +1,6 @@
 """One aircraft, one track: which track a report belongs to, whatever path it came by.
 
-Tracks are keyed by (address, address source) (core/types.py IntruderKey). Two cases reach the same aircraft under
+Tracks are keyed by (address, address source) (base/types.py IntruderKey). Two cases reach the same aircraft under
 two keys or through two paths:
 
 - **Several paths, one key.** The autopilot's receiver (ADSB_VEHICLE over MAVLink) and a ground feed (SBS, Beast,
@@ -28,8 +28,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from avionics.core.chi2 import chi2_quantile
-from avionics.core.types import AddressSource, IntruderKey, IntruderReport
+from avionics.base.chi2 import chi2_quantile
+from avionics.base.types import AddressSource, IntruderKey, IntruderReport
 
 OTHER_SOURCE = {AddressSource.ES1090: AddressSource.UAT, AddressSource.UAT: AddressSource.ES1090}
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avionics.core import jit
+from avionics.base import jit
 from avionics.tracking import bank_spec, models
 
 kernels = jit.lazy(__name__, "avionics.tracking.kernels")  # the module, once jit.load() ran (jit.py)
@@ -179,7 +179,7 @@ class ImmBank:
             self.vb_hist[slots] = 1.0
 
     def reframe(self, change, slots) -> None:
-        """Carry the horizontal states of these slots into a new tangent plane (avionics/core/frame.py): every
+        """Carry the horizontal states of these slots into a new tangent plane (avionics/base/frame.py): every
         mode's [x, y, vx, vy, ax, ay] and covariance, and the RMIMM residual means. Mode probabilities, the yaw
         rate and the VB noise variances are frame-free (the planes differ by a fraction of a degree)."""
         if not self.horizontal or not len(slots):

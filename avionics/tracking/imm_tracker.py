@@ -32,10 +32,10 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
-from avionics.core import jit
-from avionics.core.chi2 import chi2_quantile
+from avionics.base import jit
+from avionics.base.chi2 import chi2_quantile
 
-from avionics.core.types import IntruderKey, IntruderReport
+from avionics.base.types import IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank, VbParams
 from avionics.tracking.lifecycle import TrackLifecycle
@@ -268,7 +268,7 @@ class ImmTracker(TrackLifecycle):
         return False
 
     def reframe(self, change) -> None:
-        """The tangent plane moved (avionics/core/frame.py): carry every track and competitor into it."""
+        """The tangent plane moved (avionics/base/frame.py): carry every track and competitor into it."""
         slots = np.array([t.slot for t in (*self.tracks.values(), *self.competitors.values())], int)
         self.bank_h.reframe(change, slots)
         self.integrity.reframe(change)

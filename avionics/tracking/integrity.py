@@ -38,7 +38,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from avionics.core.chi2 import chi2_quantile
+from avionics.base.chi2 import chi2_quantile
 
 RC_NIC7_M = 370.4  # DO-260B NIC 7 containment radius (0.2 NM): the least integrity 14 CFR 91.227 accepts
 ALPHA = 1e-7  # false-alarm probability per window test per report (8 windows x 3600 reports/h -> ~3e-3 per hour)
@@ -298,7 +298,7 @@ class IntegrityMonitor:
             self._dir[row] = unit
 
     def reframe(self, change) -> None:
-        """The tangent plane moved (avionics/core/frame.py FrameChange): carry each key's last position into it.
+        """The tangent plane moved (avionics/base/frame.py FrameChange): carry each key's last position into it.
         D_k and the stored velocities are differences and vectors: the planes differ by a fraction of a degree,
         which over a window is well inside C. Called from the trackers' reframe."""
         if not self._rows:

@@ -2,7 +2,7 @@
 
 Implemented by the CV tracker (tracker.py) and the IMM tracker (imm_tracker.py), both under the shared lifecycle
 (lifecycle.py); the composition root (avionics/compose.py `build_tracker`) builds one from the configuration.
-States are the pipeline's [east, north, alt, v_east, v_north, v_up] in the tracking frame (avionics/core/frame.py).
+States are the pipeline's [east, north, alt, v_east, v_north, v_up] in the tracking frame (avionics/base/frame.py).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Mapping, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-from avionics.core.types import IntruderKey, IntruderReport
+from avionics.base.types import IntruderKey, IntruderReport
 from avionics.tracking.record import TrackRecord
 
 
@@ -33,7 +33,7 @@ class Tracker(Protocol):
         ...
 
     def reframe(self, change) -> None:
-        """The tangent plane moved (a core.frame.FrameChange): carry every filter into it."""
+        """The tangent plane moved (a base.frame.FrameChange): carry every filter into it."""
         ...
 
     def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[dict | None]:

@@ -2,7 +2,7 @@
 for a whole batch.
 
 The numpy code of imm.py and models.py is the reference and stays the path when the compiled kernels are not ready
-(`avionics.core.jit.ready()` false: `AVIONICS_COMPILED=0`, or the live loop while they compile) or when a bank's
+(`avionics.base.jit.ready()` false: `AVIONICS_COMPILED=0`, or the live loop while they compile) or when a bank's
 configuration is not covered here.
 Each kernel below follows the reference equation by equation, in the same order of operations where it matters
 (the mixing and the combination about mode 0's state, the Cholesky inverse of S written out entry by entry, the
@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from avionics.core.jit import kernel
+from avionics.base.jit import kernel
 from avionics.tracking import models
 from avionics.tracking.bank_spec import CA, CA_ISO, CAD, CH, CT, CV, BankSpec, arr, mode_code  # noqa: F401
 

@@ -24,7 +24,7 @@ from collections import Counter
 
 import numpy as np
 
-from avionics.core.types import AddressSource, IntruderKey, IntruderReport
+from avionics.base.types import AddressSource, IntruderKey, IntruderReport
 from avionics.tracking.integrity import IntegrityMonitor
 from avionics.tracking.record import DUPLICATE_WINDOW_S, TrackRecord
 

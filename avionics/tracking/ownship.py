@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.tracking.params import AltitudeConfig, InputConfig
-from avionics.core.types import OwnshipFix, OwnshipPressure
+from avionics.base.types import OwnshipFix, OwnshipPressure
 from avionics.tracking.baro_check import BaroCrossCheck
 from avionics.tracking.kalman_cv import CvKalman, Measurement
 
@@ -74,7 +74,7 @@ class OwnshipFilter:
         return self.baro.fault
 
     def reframe(self, change) -> None:
-        """The tangent plane moved (avionics/core/frame.py): carry the filter's state into it."""
+        """The tangent plane moved (avionics/base/frame.py): carry the filter's state into it."""
         if self.kf is not None:
             x, p, _ = change.carry(self.kf.x[None], self.kf.p[None], vectors=(3,))
             self.kf.x, self.kf.p = x[0], p[0]

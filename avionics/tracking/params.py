@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from avionics.core.params import ConfigError, require_non_negative, require_positive
+from avionics.base.params import ConfigError, require_non_negative, require_positive
 
 
 @dataclass(frozen=True)

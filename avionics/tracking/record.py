@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from avionics.core.types import AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base.types import AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking.integrity import OK, IntegrityStatus
 
 UNKNOWN_SPEED_SIGMA_MPS = 150.0  # prior on an unreported horizontal velocity: any aircraft we protect against

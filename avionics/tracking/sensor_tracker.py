@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avionics.core.chi2 import chi2_quantile
+from avionics.base.chi2 import chi2_quantile
 from avionics.tracking import models
 from avionics.tracking.association import gnn
 from avionics.tracking.imm import ImmBank, spd_inverse

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avionics.core.types import IntruderKey, IntruderReport
+from avionics.base.types import IntruderKey, IntruderReport
 from avionics.tracking.kalman_cv import CvKalman, Measurement
 from avionics.tracking.lifecycle import TrackLifecycle
 from avionics.tracking.record import (REJECTS_BEFORE_RESTART, UNKNOWN_ALT_SIGMA_M, UNKNOWN_SPEED_SIGMA_MPS,
@@ -66,7 +66,7 @@ class IntruderTracker(TrackLifecycle):
         track.kf.reset_vertical(None, UNKNOWN_ALT_SIGMA_M, None, UNKNOWN_VRATE_SIGMA_MPS)
 
     def reframe(self, change) -> None:
-        """The tangent plane moved (avionics/core/frame.py): carry every track's state into it."""
+        """The tangent plane moved (avionics/base/frame.py): carry every track's state into it."""
         self.integrity.reframe(change)
         tracks = list(self.tracks.values())
         if not tracks:

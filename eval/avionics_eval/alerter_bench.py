@@ -30,7 +30,7 @@ import numpy as np
 from avionics.advisory.alerting import Encounter, wcv_alerter
 from avionics.advisory.tables import load_profile
 from avionics.conflict.cpa import pair_geometry
-from avionics.core import jit
+from avionics.base import jit
 from avionics_eval.kernel_bench import _best_us, _traffic
 
 DAIDALUS_STEP_US = 33.0  # issue 29: DAIDALUS v2.0.4's whole step for one intruder, outside harness, this machine

@@ -22,7 +22,7 @@ import numpy as np
 
 from avionics.advisory.bands import BandsEngine, BandsParams
 from avionics.advisory.tables import load_profile
-from avionics.core.units import KT
+from avionics.base.units import KT
 
 
 def _traffic(rng, n):

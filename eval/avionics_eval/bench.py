@@ -33,8 +33,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from avionics import __version__
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.units import KT
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.units import KT
 from avionics.io.framing import FrameScanner
 from avionics.io.link import MAX_DATAGRAMS_PER_RECEIVE
 from avionics.io.zenoh_bus import ZenohBus

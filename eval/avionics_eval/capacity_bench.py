@@ -58,7 +58,7 @@ import time
 import numpy as np
 
 from avionics import __version__
-from avionics.core import jit
+from avionics.base import jit
 from avionics_eval import bench as b
 from avionics_eval import tracking_bench
 

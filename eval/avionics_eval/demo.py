@@ -23,7 +23,7 @@ import time
 
 from avionics.config import ZenohConfig
 from avionics.contract.bands import BAND_KINDS
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_sitl.encounters import ScenarioError, load_scenario  # noqa: F401  (ScenarioError: exit 2, avionics_eval.cli)
 
 DEMO_START_S = {"head-on": 40.0}  # skip the quiet minute of the head-on: TA ~15 s into the demo

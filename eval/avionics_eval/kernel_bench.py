@@ -44,7 +44,7 @@ from avionics.conflict.params import ConflictConfig
 from avionics.conflict.pc_at_cpa import pc_at_cpa, pc_at_cpa_reference
 from avionics.conflict.prediction import (cv_relative_prediction, lookahead_times, pc_within_cv_mc,
                                          pc_within_cv_mc_reference)
-from avionics.core import jit
+from avionics.base import jit
 
 
 def _best_us(fn, repeats: int, min_s: float = 0.02) -> float:

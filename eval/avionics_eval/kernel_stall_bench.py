@@ -8,7 +8,7 @@ Each way runs in a fresh interpreter with its own empty kernel cache (AVIONICS_C
 its link: sleep --tick-ms, then a little numpy; the gaps between ticks are the loop's stalls. Meanwhile:
 
   thread  `jit.load()` on a thread of the same process: numba compiles there (the GIL is the loop's only rival)
-  child   avionics/core/kernel_startup.py, as `avionics run` does it: a cache-only load on a thread, then
+  child   avionics/base/kernel_startup.py, as `avionics run` does it: a cache-only load on a thread, then
           `avionics warmup` in a child process at nice COMPILE_NICE, then the load from the now warm cache
   warm    the same on the warm cache: the load only
 
@@ -33,8 +33,8 @@ WAYS = ("thread", "child", "warm")
 _PROBE = r"""
 import json, sys, threading, time
 import numpy as np
-from avionics.core import jit
-from avionics.core.kernel_startup import KernelStartup
+from avionics.base import jit
+from avionics.base.kernel_startup import KernelStartup
 
 way, tick_s = sys.argv[1], float(sys.argv[2])
 a = np.random.default_rng(0).standard_normal((6, 6))

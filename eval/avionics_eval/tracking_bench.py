@@ -29,8 +29,8 @@ import numpy as np
 
 from avionics.compose import build_tracker
 from avionics.config import load_config
-from avionics.core import jit
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base import jit
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank
 

@@ -31,13 +31,13 @@ import numpy as np
 import zenoh
 
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import (
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import (
     ASSESSMENT_FIELDS, AddressSource, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.daa import Daa
 from avionics.io.payloads import track_payload
-from avionics.core.units import KT
+from avionics.base.units import KT
 from avionics.io.traffic import decode_traffic, encode_traffic
 from avionics.io.zenoh_bus import open_session, to_json
 

@@ -10,7 +10,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from avionics.core.types import AddressSource, AltitudeDatum
+from avionics.base.types import AddressSource, AltitudeDatum
 
 # Plausibility bounds. They catch unit mix-ups (knots given as m/s, feet as metres) rather than describe any
 # airframe: a 311 m/s jet (Radosavljević et al.) and a hovering multirotor must both pass.

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import avionics.io  # noqa: F401  (MAVLink 2)
 from pymavlink.dialects.v20 import common as mavlink2
 
-from avionics.core.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M, pressure_hpa_at
-from avionics.core.types import AddressSource, AltitudeDatum
+from avionics.base.atmosphere import MAX_PRESSURE_ALTITUDE_M, MIN_PRESSURE_ALTITUDE_M, pressure_hpa_at
+from avionics.base.types import AddressSource, AltitudeDatum
 from avionics.io import decode as flags
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.scenario import Scenario

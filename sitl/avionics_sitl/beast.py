@@ -29,8 +29,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from avionics.core.types import AddressSource, AltitudeDatum
-from avionics.core.units import FPM, FT, KT
+from avionics.base.types import AddressSource, AltitudeDatum
+from avionics.base.units import FPM, FT, KT
 from avionics_sitl.feed_server import FeedServer
 from avionics_sitl.impairments import AdsbImpairments
 from avionics_sitl.scenario import Scenario

@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.units import FPM, FT, G0, KT, NM
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.units import FPM, FT, G0, KT, NM
 from avionics_sitl.aircraft import AircraftSpec, Leg
 from avionics_sitl.scenario import Scenario
 from avionics_sitl.trajectory import LegKinematics, plane_velocity_to_true

@@ -113,7 +113,7 @@ def cmd_live(args) -> int:
     if args.fly_guidance:  # the simulated ArduCopter obeys the guidance's commands (sitl/avionics_sitl/guided.py)
         from avionics.advisory.vehicle import load_vehicle
         from avionics.advisory.tables import ProfileError
-        from avionics.core.params import ConfigError
+        from avionics.base.params import ConfigError
         from avionics_sitl.guided_plane import default_firmware, simulated_autopilot
         from avionics_sitl.live import fly_guided
 

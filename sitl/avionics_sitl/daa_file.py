@@ -12,7 +12,7 @@ an optional next line of units in brackets; then one row per aircraft and time. 
     s_EW_std s_NS_std s_EN_std sz_std v_EW_std v_NS_std v_EN_std vz_std
                              the aircraft's stated 1-sigma uncertainties (optional; SI without a units line, as
                              DAIDALUS's "unspecified"): each row's become the aircraft's SumData
-                             (core/uncertainty.py), as DaidalusFileWalker passes them to setHorizontalPosition-
+                             (base/uncertainty.py), as DaidalusFileWalker passes them to setHorizontalPosition-
                              Uncertainty(s_EW_std, s_NS_std, s_EN_std), setVerticalPositionUncertainty(sz_std),
                              setHorizontalVelocityUncertainty(v_EW_std, v_NS_std, v_EN_std) and
                              setVerticalSpeedUncertainty(vz_std); a column left out is 0. Positions take length
@@ -38,10 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AltitudeDatum
-from avionics.core.uncertainty import SumData
-from avionics.core.units import FPM, FT, KT, NM, ground_speed_mps, track_deg
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AltitudeDatum
+from avionics.base.uncertainty import SumData
+from avionics.base.units import FPM, FT, KT, NM, ground_speed_mps, track_deg
 from avionics_sitl.aircraft import AircraftSpec
 from avionics_sitl.scenario import DEFAULT_ADDRESS_BASE, Scenario
 from avionics_sitl.trajectory import SampledTrajectory, Trajectory, plane_velocity_to_true
@@ -83,7 +83,7 @@ _COLUMNS: dict[str, tuple[str, str]] = {
     "v_ew_std": ("speed", "m/s"), "v_ns_std": ("speed", "m/s"), "v_en_std": ("speed", "m/s"),
     "vz_std": ("speed", "m/s"),
 }
-# the uncertainty columns in SumData's field order (core/uncertainty.py UNCERTAINTY_FIELDS)
+# the uncertainty columns in SumData's field order (base/uncertainty.py UNCERTAINTY_FIELDS)
 _STD_COLUMNS = ("s_ew_std", "s_ns_std", "s_en_std", "sz_std", "v_ew_std", "v_ns_std", "v_en_std", "vz_std")
 _IGNORED_COLUMNS = {"alerter", "heading", "airspeed"}
 _GROUND_RE = re.compile(r"#+\s*ground_ft\s*=\s*(\S+)\s*$", re.IGNORECASE)

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from avionics.core.geodesy import WGS84_A, WGS84_E2
-from avionics.core.units import FPM, FT, KT
+from avionics.base.geodesy import WGS84_A, WGS84_E2
+from avionics.base.units import FPM, FT, KT
 from avionics_sitl.trajectory import KinematicState
 
 # A circular 2-D Gaussian with per-axis sigma holds 95 % of its mass within RAYLEIGH_95 * sigma: this is

@@ -17,7 +17,7 @@ import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
-from avionics.core.types import Advisory, IntruderKey, IntruderReport, OwnshipFix
+from avionics.base.types import Advisory, IntruderKey, IntruderReport, OwnshipFix
 from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch, Loop, MavlinkInput

@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 
-from avionics.core.units import FPM, FT, KT
+from avionics.base.units import FPM, FT, KT
 from avionics_sitl.autopilot import AutopilotConfig, schedule
 from avionics_sitl.feed_server import FeedServer
 from avionics_sitl.impairments import AdsbImpairments

@@ -16,9 +16,9 @@ from pathlib import Path
 from contextlib import contextmanager
 from typing import Any, Iterator
 
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AddressSource, AltitudeDatum
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AddressSource, AltitudeDatum
+from avionics.base.units import FPM, FT, KT, NM
 from avionics_sitl.aircraft import (
     GROUND_RANGE_M, MAX_ABS_LAT_DEG, MAX_DURATION_S, MAX_PLANE_OFFSET_M, AircraftSpec, Leg, check_finite, check_range,
 )

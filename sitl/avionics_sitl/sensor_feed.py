@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.core.jsonsafe import dumps
+from avionics.base.jsonsafe import dumps
 from avionics.io.sensor_input import sensor_key, sensor_message, sensor_payload
 from avionics_sitl.autopilot import Event
 from avionics_sitl.scenario import Scenario

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from avionics.core.units import FT, NM
+from avionics.base.units import FT, NM
 from avionics.tracking.measurement import PolarMeasurement, SensorMount
 
 DEG = math.pi / 180.0

@@ -37,9 +37,9 @@ import numpy as np
 
 from avionics_sitl.progress import progress_bar
 
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AltitudeDatum
-from avionics.core.units import FPM, FT, KT
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AltitudeDatum
+from avionics.base.units import FPM, FT, KT
 from avionics_sitl.aircraft import (ALT_RANGE_M, MAX_ABS_LAT_DEG, MAX_PLANE_OFFSET_M, MAX_SPEED_MPS,
                                     MAX_VERTICAL_RATE_MPS, AircraftSpec)
 from avionics_sitl.scenario import Scenario

@@ -9,7 +9,7 @@ Two kinds, both answering `state_at(t_s)` deterministically:
 - `SampledTrajectory`: time-stamped samples (a DAIDALUS .daa file), cubic Hermite in position using the
   sample velocities, linear in velocity, straight-line extrapolation outside the samples.
 
-Altitude is never projected: it stays an altitude in the aircraft's own datum (see avionics.core.geodesy).
+Altitude is never projected: it stays an altitude in the aircraft's own datum (see avionics.base.geodesy).
 
 Velocities in a KinematicState (and headings in an AircraftSpec) are true: east/north at the aircraft, as
 ADS-B and MAVLink report them. Inside, the plane's east/north axes drift from true ones by the meridian
@@ -27,8 +27,8 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
-from avionics.core import units
-from avionics.core.geodesy import LocalTangentPlane
+from avionics.base import units
+from avionics.base.geodesy import LocalTangentPlane
 from avionics_sitl.aircraft import AircraftSpec, Leg
 
 

@@ -24,7 +24,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass
 
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.io.checks import (
     address_problem, altitude_problem, position_problem, speed_problem, squawk_valid, vertical_rate_problem,
 )

@@ -70,9 +70,9 @@ from dataclasses import dataclass
 from pyModeS import Message
 from pyModeS.position import airborne_position_pair, airborne_position_with_ref
 
-from avionics.core.geodesy import WGS84_A
-from avionics.core.types import AltitudeDatum
-from avionics.core.units import FT, FPM, KT
+from avionics.base.geodesy import WGS84_A
+from avionics.base.types import AltitudeDatum
+from avionics.base.units import FT, FPM, KT
 from avionics.io.feeds.aircraft import FORGET_AFTER_S, MAX_AIRCRAFT, AircraftMerge, Observation
 from avionics.io.feeds.clock import ReceiverClock
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from avionics.core.params import ConfigError, require_positive
+from avionics.base.params import ConfigError, require_positive
 
 SCHEMES = ("sbs", "readsb-json", "beast")
 

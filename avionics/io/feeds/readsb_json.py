@@ -26,8 +26,8 @@ import logging
 import math
 from collections import Counter
 
-from avionics.core.types import AltitudeDatum, IntruderReport
-from avionics.core.units import FPM, FT, KT
+from avionics.base.types import AltitudeDatum, IntruderReport
+from avionics.base.units import FPM, FT, KT
 from avionics.io.feeds.aircraft import AircraftMerge, Observation, emitter_type_of_category
 from avionics.io.feeds.clock import ReceiverClock
 from avionics.io.feeds.transport import DocumentTooLarge, read_document

@@ -23,8 +23,8 @@ import math
 from collections import Counter
 from datetime import datetime, timezone
 
-from avionics.core.types import AltitudeDatum, IntruderReport
-from avionics.core.units import FPM, FT, KT
+from avionics.base.types import AltitudeDatum, IntruderReport
+from avionics.base.units import FPM, FT, KT
 from avionics.io.feeds.aircraft import AircraftMerge, Observation
 from avionics.io.feeds.clock import ReceiverClock
 from avionics.io.feeds.source import parse_host_port

@@ -28,8 +28,8 @@ from collections import Counter, deque
 from dataclasses import dataclass, replace
 from typing import Callable, Iterator
 
-from avionics.core.params import ConfigError
-from avionics.core.types import IntruderReport
+from avionics.base.params import ConfigError
+from avionics.base.types import IntruderReport
 from avionics.extras import import_extra
 from avionics.io.diagnostics import feed_diagnostics
 

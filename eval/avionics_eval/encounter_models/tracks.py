@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_eval.encounter_models.model import EncounterModel, ModelFileError
 from avionics_eval.encounter_models.sampler import sample
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from avionics.advisory.vehicle import load_vehicle
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_eval.encounter_models.tracks import KT_TO_FTPS, Tracks
 
 _VEHICLE = load_vehicle("multirotor")

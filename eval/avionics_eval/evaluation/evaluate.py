@@ -29,8 +29,8 @@ import pyarrow as pa
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import wcv_violation
 from avionics.config import load_config
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import (
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import (
     AddressSource,
     AdvisoryLevel,
     AltitudeDatum,
@@ -39,7 +39,7 @@ from avionics.core.types import (
     OwnshipFix,
     OwnshipPressure,
 )
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics.daa import Daa
 from avionics.io.encode import daa_advisory
 from avionics_eval.evaluation.generator import DT_S, DURATION_S, T_CPA_S, Encounter

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from avionics.core.units import FPM, FT, KT
+from avionics.base.units import FPM, FT, KT
 
 DT_S = 0.1  # truth sampling step: NMAC and CPA are evaluated on this grid
 T_CPA_S = 80.0  # time of CPA from the start: longer than DO-365's 75 s early alerting time plus track start-up

@@ -27,8 +27,8 @@ import numpy as np
 import pyarrow as pa
 
 from avionics.advisory.vehicle import load_vehicle
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT
 from avionics_eval.evaluation.generator import DT_S, DURATION_S
 from avionics_sitl.aircraft import AircraftSpec
 from avionics_sitl.autopilot import AutopilotConfig

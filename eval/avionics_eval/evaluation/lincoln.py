@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from avionics.core.units import FPM, FT, KT
+from avionics.base.units import FPM, FT, KT
 from avionics_eval.encounter_models.model import ModelFileError, read_model
 from avionics_eval.encounter_models.pairing import PairingError, generate
 from avionics_eval.encounter_models.tracks import Tracks, sample_tracks

@@ -9,8 +9,8 @@ import json
 
 from avionics.advisory.tables import load_profile
 from avionics.config import load_config
-from avionics.core.types import AdvisoryLevel
-from avionics.core.units import FT
+from avionics.base.types import AdvisoryLevel
+from avionics.base.units import FT
 
 ENCOUNTERS = ("head-on", "crossing-90", "overtaking", "climbing-intruder", "baek-bang-1", "baek-bang-2",
               "hwang-tracking", "radosavljevic-1", "radosavljevic-2")

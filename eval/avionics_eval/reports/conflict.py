@@ -31,7 +31,7 @@ from scipy import integrate
 
 from avionics.conflict import probability as prob
 from avionics.conflict.prediction import ModeSet, combine, imm_predict, model_predict
-from avionics.core.units import KT, NM
+from avionics.base.units import KT, NM
 from avionics.tracking import models
 from avionics_eval.reports import save_figure
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from avionics.advisory.tables import load_profile
 from avionics.config import load_config
-from avionics.core.units import FT
+from avionics.base.units import FT
 from avionics_eval.evaluation.evaluate import evaluate
 from avionics_eval.evaluation.generator import Model, generate
 

@@ -9,7 +9,7 @@ and climbing) are flown by `sitl replay` with the simulator's default ADS-B impa
 altitude, latency, dropouts) through the real MAVLink path, IMM tracker and core, with advisory.sum_from_tracks
 on. Once a second, for every tracked intruder and every alert level, the level's detector (WCV_TAUMOD_SUM with
 the track's and the ownship filter's covariances as DAIDALUS's inputs, exactly as the core forms them:
-core/uncertainty.py errors_from_covariance) is asked for a conflict within the level's alerting time. Where it
+base/uncertainty.py errors_from_covariance) is asked for a conflict within the level's alerting time. Where it
 says none, `draws` true relative states are drawn from N(estimate, P_intruder + P_ownship) (the same 1-sigma
 covariances SUM was given; the two filters are independent) and the fraction of draws in conflict with the
 plain WCV_TAUMOD volume of the level within its alerting time is counted.
@@ -51,10 +51,10 @@ from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import WCV_TAUMOD
 from avionics.advisory.wcv_sum import SumZScores, relative_errors
 from avionics.conflict.cpa import pair_geometry
-from avionics.core.geodesy import LocalTangentPlane
-from avionics.core.types import AltitudeDatum
-from avionics.core.uncertainty import errors_from_covariance
-from avionics.core.units import FPM, FT, KT, NM
+from avionics.base.geodesy import LocalTangentPlane
+from avionics.base.types import AltitudeDatum
+from avionics.base.uncertainty import errors_from_covariance
+from avionics.base.units import FPM, FT, KT, NM
 
 REFERENCE = (47.4, 8.5)
 OWNSHIP_ICAO = 0xC0FFEE

@@ -33,7 +33,7 @@ import numpy as np
 
 from avionics.config import load_config
 from avionics_eval.reports import save_figure
-from avionics.core.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
+from avionics.base.types import AddressSource, AltitudeDatum, IntruderKey, IntruderReport
 from avionics.tracking import models
 from avionics.tracking.imm import ImmBank
 
@@ -455,7 +455,7 @@ def _encounter_reports(rng, key, duration_s: float, fault: str | None, onset_s: 
     1 kt velocity LSB, 25 ft altitude, 0.2-0.5 s latency, 5 % dropouts), with `fault` from onset_s.
     Returns [(received_s, report, east, north)] and the fault's description (its reference time: when the
     reported position error first exceeds Rc(NIC 7); onset for loss and frozen)."""
-    from avionics.core.units import FT, KT
+    from avionics.base.units import FT, KT
     from avionics_sitl.impairments import DEFAULT
     from avionics_sitl.trajectory import LegKinematics
 
@@ -509,7 +509,7 @@ def _encounter_reports(rng, key, duration_s: float, fault: str | None, onset_s: 
 def _run_integrity(fault: str | None, n: int, seed: int, duration_s: float, filter_name: str = "imm") -> dict:
     """n intruders in one tracker (vectorised), reports applied in receipt order on a 0.1 s assessment grid (as
     the pipeline's 10 Hz assessments); per key: first time degraded at or after the onset, labels seen, restarts."""
-    from avionics.core.geodesy import LocalTangentPlane
+    from avionics.base.geodesy import LocalTangentPlane
     from avionics.compose import build_tracker
 
     plane = LocalTangentPlane(47.4, 8.5)
@@ -625,7 +625,7 @@ def _poisson_upper_95(k: int) -> float:
 
 def frozen_case(filter_name: str = "imm", seed: int = 5) -> dict:
     """The measured OpenSky case: position frozen for 300 s while the velocity says 150 kt (after 60 s clean)."""
-    from avionics.core.units import KT
+    from avionics.base.units import KT
     from avionics.compose import build_tracker
 
     rng = np.random.default_rng(seed)

@@ -20,7 +20,7 @@ attribute.
 Which path a call site takes (issue 26 item 1, "no stall, ever"): every call site asks `ready()` and runs the numpy
 reference when it is False. Outside `deferred()` (a test, a replay, a benchmark, `avionics warmup`) the first
 `ready()` loads the kernels, waiting for them (or compiling them on a cold cache), as before. Inside it (the live
-loop, avionics/runner.py with avionics/core/kernel_startup.py) `ready()` never waits: it is False until the loop's
+loop, avionics/runner.py with avionics/base/kernel_startup.py) `ready()` never waits: it is False until the loop's
 own thread calls `switch()` between two steps, once a background `load(cache_only=True)` found every kernel in the
 disk cache. `load(cache_only=True)` never compiles: it raises ColdCache at the first kernel the cache lacks (numba's
 "numba:compile" event, which numba sends only after its cache missed), so that the compile can run elsewhere (a

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.core.geodesy import WGS84_A, LocalTangentPlane, geodetic_to_ecef
+from avionics.base.geodesy import WGS84_A, LocalTangentPlane, geodetic_to_ecef
 
 RECENTRE_M = 1000.0  # the ownship's largest distance from the plane's origin (error budget: docs/architecture.md)
 MAX_HOP_M = 10_000.0  # the largest move of the plane at one fix (HMD error < 1 m at 30 nm even 10 km off)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 from functools import partial
 
-from avionics.core.uncertainty import SumData
+from avionics.base.uncertainty import SumData
 
 
 class AltitudeDatum(str, Enum):
@@ -73,7 +73,7 @@ class IntruderReport:
     position_sigma_m: float | None = None
     velocity_sigma_mps: float | None = None
     path: str = "mavlink"  # the traffic source that delivered it: "mavlink", "sbs:HOST:PORT", "beast:...", ...
-    # The surveillance's stated uncertainties (DAIDALUS SUMData, core/uncertainty.py) for a SUM detector; None: none
+    # The surveillance's stated uncertainties (DAIDALUS SUMData, base/uncertainty.py) for a SUM detector; None: none
     # stated (ADSB_VEHICLE has no field for them; a replayed .daa file's *_std columns are attached by the replay).
     uncertainty: SumData | None = None
 

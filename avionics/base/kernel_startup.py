@@ -1,7 +1,7 @@
 """The live loop's compiled kernels, without a stall (issue 26 item 1): the loop never waits for a compile.
 
 `avionics run` (avionics/runner.py) runs its loop inside `jit.deferred()`, where every call site takes the numpy
-reference until the loop switches (avionics/core/jit.py `ready`, `switch`); the reference and the kernels agree to
+reference until the loop switches (avionics/base/jit.py `ready`, `switch`); the reference and the kernels agree to
 1e-9 (tests/test_kernels_conflict.py, tests/test_kernels_imm.py), so the decisions are the same on either path.
 After the first step, a daemon thread:
 
@@ -31,7 +31,7 @@ import tempfile
 import threading
 import time
 
-from avionics.core import jit
+from avionics.base import jit
 
 log = logging.getLogger("avionics")
 
