@@ -2,9 +2,8 @@
 sensors on NASA's published scenarios, beside DAIDALUS v2.0.4's on the true states.
 
 Three runs per file (`sitl replay FILE --sensor ...`, no ADSB_VEHICLE):
-- `radar exact`: the radar measuring exactly, all round (`--noise none`), profile daidalus-do365b-no-sum (its
-  per-intruder alerter judges a sensor-only track by DWC_Non_Coop), against `first_alerts_noncoop.csv` (every
-  intruder on DO-365B's DWC_Non_Coop): levels 1-3 within 1 s;
+- `radar exact`: the radar measuring exactly, all round (`--noise none`), profile do365-non-coop, against
+  `first_alerts_noncoop.csv` (every intruder on DO-365B's DWC_Non_Coop): levels 1-3 within 1 s;
 - `radar`: the DO-365 Appendix Q radar with its errors, missed detections and false returns, its field of regard
   (110 deg either side of the nose, +-15 deg elevation) and range limits (sitl/avionics_sitl/sensors.py RADAR), the
   same references and profile: within 3 s, counted only for intruders the radar sees from 10 s before DAIDALUS's
@@ -27,9 +26,9 @@ from pathlib import Path
 
 CONFORMANCE = Path(__file__).resolve().parents[3].parent / "shared" / "conformance" / "daidalus"
 RUNS = {  # name -> (sensor, exact, profile, reference table, reference config, levels compared, tolerance s)
-    "radar exact": ("radar", True, "daidalus-do365b-no-sum", "first_alerts_noncoop.csv", "DO_365B_no_SUM_non_coop",
+    "radar exact": ("radar", True, "do365-non-coop", "first_alerts_noncoop.csv", "DO_365B_no_SUM_non_coop",
                     (1, 2, 3), 1.0),
-    "radar": ("radar", False, "daidalus-do365b-no-sum", "first_alerts_noncoop.csv", "DO_365B_no_SUM_non_coop",
+    "radar": ("radar", False, "do365-non-coop", "first_alerts_noncoop.csv", "DO_365B_no_SUM_non_coop",
               (1, 2, 3), 3.0),
     "active": ("active", False, "daidalus-tcas3d", "first_alerts.csv", "TCAS3D", (1, 2), 3.0),
 }
