@@ -123,33 +123,8 @@ def build_alerter(advisory_params: AdvisoryConfig, profile: AlertProfile) -> Ale
     from avionics.advisory.alerting import tcas2_alerter, wcv_alerter
 
     if profile.alerter is not None:
-        other = profile.alerter.non_cooperative
-        return wcv_alerter(profile.alerter, profile.name,
-                           None if other is None else non_cooperative_alerter(profile, other))
+        return wcv_alerter(profile.alerter, profile.name)
     return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)
-
-
-def non_cooperative_alerter(profile: AlertProfile, name: str) -> Alerter:
-    """The alerter of profile `name` for the intruders seen only by the ownship's sensors ([alerter]
-    non_cooperative): a well-clear alerter with the same levels and the same alerting hysteresis (one
-    AlertingHysteresis serves both), else a ProfileError naming the difference."""
-    from avionics.advisory.alerting import wcv_alerter
-    from avionics.advisory.tables import ProfileError, load_profile
-
-    spec, other = profile.alerter, load_profile(name).alerter
-    if other is None or other.non_cooperative is not None:
-        raise ProfileError(f"profile {profile.name}: [alerter] non_cooperative = {name!r} needs a well-clear "
-                           "[alerter] of its own and none further")
-    same = ("hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s")
-    if any(getattr(spec, k) != getattr(other, k) for k in same):
-        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must share its alerting "
-                           f"hysteresis ({', '.join(same)})")
-    if (spec.sum is None) != (other.sum is None):
-        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must use SUM as it does")
-    try:
-        return wcv_alerter(other, name)
-    except ValueError as exc:
-        raise ProfileError(str(exc)) from None
 
 
 def build_hysteresis(profile: AlertProfile) -> AlertingHysteresis | NoHysteresis:

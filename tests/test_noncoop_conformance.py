@@ -4,11 +4,9 @@ DO-365B's `DWC_Non_Coop` alerter (issue 30's acceptance).
 `../shared/conformance/daidalus/first_alerts_noncoop.csv` holds DAIDALUS's first level 1, 2 and 3 times for every
 intruder of the published scenarios on their true states, every 1 s (its README says how they were made). Here no
 intruder broadcasts: each file is flown through `sitl replay FILE --sensor radar --noise none --set
-advisory.profile=daidalus-do365b-no-sum`, so the radar measures range, azimuth and elevation exactly, all round, at
-its 10 Hz; the detections go over MAVLink (DAA_SENSOR_MEASUREMENT) into the sensor tracks (M-of-N, GNN, the IMM
-banks: tracking/sensor_tracker.py, tracking/surveillance.py) with no identity, and the profile's per-intruder
-alerter judges those tracks with its non-cooperative alerter (DO_365B_no_SUM.conf's DWC_Non_Coop, the profile
-do365-non-coop; advisory/alerting.py Alerter.non_cooperative), as DAIDALUS with the aircraft on alerter 3. Every
+advisory.profile=do365-non-coop`, so the radar measures range, azimuth and elevation exactly, all round, at its
+10 Hz; the detections go over MAVLink (DAA_SENSOR_MEASUREMENT) into the sensor tracks (M-of-N, GNN, the IMM banks:
+tracking/sensor_tracker.py, tracking/surveillance.py) with no identity, and the alerting reads those tracks. Every
 first level must fall within 1 s of DAIDALUS's, none missed, none extra. The replay names each sensor track after
 the aircraft whose true range is nearest at its first alert (sitl/avionics_sitl/replay.py).
 
@@ -28,7 +26,7 @@ from tests.golden.generate import CONFORMANCE, replayed_csv
 pytestmark = pytest.mark.xdist_group("replays-do365")
 LEVELS = {1: "level 1", 2: "level 2", 3: "level 3"}
 GOLDEN = golden("DO_365B_no_SUM_non_coop", "first_alerts_noncoop.csv")
-ARGS = ("--sensor", "radar", "--noise", "none", "--set", "advisory.profile=daidalus-do365b-no-sum")
+ARGS = ("--sensor", "radar", "--noise", "none", "--set", "advisory.profile=do365-non-coop")
 
 
 def test_the_noncoop_data_is_there_under_ci():

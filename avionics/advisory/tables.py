@@ -82,9 +82,6 @@ class WcvAlerterSpec:
     period_s: float
     sum: SumZScores | None = None  # [alerter.sum]: the levels' detector is WCV_TAUMOD_SUM with these z-scores
     lookahead_s: float = 180.0  # DAIDALUS lookahead_time: the SUM detector's detection interval [0, lookahead]
-    # the profile whose [alerter] judges the intruders seen only by the ownship's sensors (DAIDALUS's per-intruder
-    # alerter; DO-365B: DWC_Non_Coop beside the Phase I volume); None: this one judges every intruder
-    non_cooperative: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,7 +184,7 @@ def _level(table: dict, where: str) -> SensitivityLevel:
 
 
 ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s",
-                "levels", "sum", "lookahead_s", "non_cooperative"}
+                "levels", "sum", "lookahead_s"}
 # [alerter.sum]: DAIDALUS's SUM parameters (DaidalusParameters h_pos_z_score ... v_vel_z_score), advisory/wcv_sum.py
 SUM_KEYS = {"h_pos_z_score", "h_vel_z_score_min", "h_vel_z_score_max", "v_pos_z_score", "v_vel_z_score"} | {
     f"h_vel_z_distance{suffix}" for suffix in DISTANCE_UNITS}
@@ -262,9 +259,7 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
         source=_text(table.get("source", ""), f"{where}.source"), levels=tuple(levels),
         hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
         persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),
-        alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"),
-        non_cooperative=_text(table["non_cooperative"], f"{where}.non_cooperative")
-        if "non_cooperative" in table else None)
+        alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"))
 
 
 def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):

@@ -82,8 +82,6 @@ ADVISORY = (
     number("ra_separation_m", "m", SIGNED_DISTANCE, "projected vertical separation at CPA with the RA flown"),
     flag("ra_composite", "a composite RA against threats above and below"),
     ident("integrity", "ADS-B integrity: `ok` or `degraded:<mode>`"),
-    ident("surveillance", "`cooperative` (ADS-B, alone or fused with a sensor's track) or `non_cooperative` (seen "
-                          "only by the ownship's sensors; judged by the profile's non-cooperative alerter if any)"),
 )
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed", "ra_composite")
