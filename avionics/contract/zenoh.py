@@ -35,9 +35,9 @@ COMMON = (
     number("time_s", "s", TIME, "time of the assessment or the publication"),
 )
 _IDENTITY = (
-    ident("intruder", "`<source>-<ICAO hex>`, e.g. 1090es-A1B2C3; a sensor's track: sensor-<track id>"),
-    integer("address", (0, 0xFFFFFF), "24-bit ICAO address; a sensor's track: its track id"),
-    ident("address_source", "`1090es`, `uat` or `sensor` (a range/bearing sensor's track: no address)"),
+    ident("intruder", "`<source>-<ICAO hex>`, e.g. 1090es-A1B2C3"),
+    integer("address", (0, 0xFFFFFF), "24-bit ICAO address"),
+    ident("address_source", "`1090es` or `uat`"),
     ident("callsign", "the last valid callsign known; null if none"),
 )
 # The assessment of one intruder, as a track carries it (base/types.py ASSESSMENT_FIELDS, in that order)
