@@ -64,7 +64,32 @@ def build_components(config: Config, counters: Counter) -> Components:
         hysteresis=build_hysteresis(profile),
         bands=build_bands(profile) if config.advisory.guidance_bands else None,
         gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
-        conflict=build_conflict_assessor(config.conflict), tracker=build_tracker(config.tracking, counters))
+        conflict=build_conflict_assessor(config.conflict), tracker=build_surveillance(config.tracking, counters))
+
+
+def build_surveillance(tracking_params: TrackingConfig, counters: Counter) -> Tracker:
+    """Every surveillance source as one tracker (tracking/surveillance.py): the ADS-B tracker (build_tracker)
+    and, from the first scan on, the range/bearing sensors' tracks over the IMM motion models of [tracking]."""
+    from avionics.tracking.surveillance import SurveillanceTracker
+
+    return SurveillanceTracker(build_tracker(tracking_params, counters), lambda: motion_models(tracking_params),
+                               tracking_params, counters)
+
+
+def motion_models(t: TrackingConfig) -> tuple[list, list]:
+    """The IMM's horizontal and vertical mode filters (tracking/models.py) of tracking.imm_horizontal_modes and
+    imm_vertical_modes, their noise from [tracking]."""
+    from avionics.tracking import models  # only when an IMM is configured: start-up (issue 13)
+
+    motion = {
+        "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2),  # Baek & Bang eq 5
+        "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2, heading_noise=True),  # eq 6 with eq 31
+        "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2),  # Hwang eq 18
+        "cs": lambda: models.CurrentStatistical(t.imm_cs_alpha_per_s, t.imm_cs_max_accel_mps2),  # Dai eqs 8-12
+        "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps),  # Baek & Bang eq 7
+        "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2),  # Baek & Bang eq 8
+    }
+    return [motion[k]() for k in t.imm_horizontal_modes], [motion[k]() for k in t.imm_vertical_modes]
 
 
 def build_tracker(tracking_params: TrackingConfig, counters: Counter, capacity: int = 16) -> Tracker:
@@ -78,23 +103,13 @@ def build_tracker(tracking_params: TrackingConfig, counters: Counter, capacity: 
         from avionics.tracking.tracker import IntruderTracker
 
         return IntruderTracker(t, counters)
-    from avionics.tracking import models  # only the variant configured is imported: start-up (issue 13)
     from avionics.tracking.imm import VbParams
     from avionics.tracking.imm_tracker import ImmTracker
 
-    motion = {  # the mode filters by name, their noise from [tracking]
-        "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2),  # Baek & Bang eq 5
-        "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2, heading_noise=True),  # eq 6 with eq 31
-        "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2),  # Hwang eq 18
-        "cs": lambda: models.CurrentStatistical(t.imm_cs_alpha_per_s, t.imm_cs_max_accel_mps2),  # Dai eqs 8-12
-        "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps),  # Baek & Bang eq 7
-        "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2),  # Baek & Bang eq 8
-    }
     vb = VbParams(t.vb_iterations, t.vb_c1, t.vb_c2, t.vb_c3) if t.filter.startswith("vb-") else None
-    return ImmTracker(t, counters, [motion[k]() for k in t.imm_horizontal_modes],
-                      [motion[k]() for k in t.imm_vertical_modes],
-                      likelihood="rmimm" if "rmimm" in t.filter else "standard", vb=vb, name=t.filter,
-                      capacity=capacity)
+    h_modes, v_modes = motion_models(t)
+    return ImmTracker(t, counters, h_modes, v_modes, likelihood="rmimm" if "rmimm" in t.filter else "standard",
+                      vb=vb, name=t.filter, capacity=capacity)
 
 
 def build_alerter(advisory_params: AdvisoryConfig, profile: AlertProfile) -> Alerter:
@@ -108,8 +123,20 @@ def build_alerter(advisory_params: AdvisoryConfig, profile: AlertProfile) -> Ale
     from avionics.advisory.alerting import tcas2_alerter, wcv_alerter
 
     if profile.alerter is not None:
-        return wcv_alerter(profile.alerter, profile.name)
+        other = profile.alerter.non_cooperative
+        return wcv_alerter(profile.alerter, profile.name,
+                           None if other is None else non_cooperative_alerter(profile, other))
     return tcas2_alerter(hmd_filter=advisory_params.hmd_filter, ta_min_duration_s=advisory_params.ta_min_duration_s)
+
+
+def non_cooperative_alerter(profile: AlertProfile, name: str) -> Alerter:
+    """The alerter of profile `name` for the intruders seen only by the ownship's sensors ([alerter]
+    non_cooperative; its levels and hysteresis were checked against the profile's at load,
+    tables._check_non_cooperative)."""
+    from avionics.advisory.alerting import wcv_alerter
+    from avionics.advisory.tables import load_profile
+
+    return wcv_alerter(load_profile(name).alerter, name)
 
 
 def build_hysteresis(profile: AlertProfile) -> AlertingHysteresis | NoHysteresis:

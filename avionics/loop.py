@@ -19,7 +19,8 @@ from typing import Iterable, Iterator, Protocol
 
 from avionics.config import Config
 from avionics.base.faults import FaultLog
-from avionics.base.types import Input, IntruderReport
+from avionics.base.types import Input, IntruderReport, SensorScan
+from avionics.tracking.measurement import PolarMeasurement
 from avionics.daa import Daa, DaaResult, SourceStatus
 from avionics.io.decode import MessageDecoder
 from avionics.ports import NOTHING, OutputPort
@@ -55,16 +56,21 @@ class MavlinkInput:
         self._now_s = now_s
         if self.diagnostics is not None:
             self.diagnostics.observe(msgs, now_s)
-        inputs = []
+        inputs, detections = [], {}
         for m in msgs:
             try:
                 item = self.decoder.decode(m, now_s)
             except Exception as exc:  # noqa: BLE001  (one message's fault: it is dropped, the rest go on)
                 self._fault("decode", exc)
                 continue
-            if item is not None:
+            if type(item) is PolarMeasurement:  # DAA_SENSOR_MEASUREMENT: one detection of a scan
+                detections.setdefault((item.mount.sensor_id, item.time_s), []).append(item)
+            elif item is not None:
                 inputs.append(item)
                 self.traffic = self.traffic or type(item) is IntruderReport
+        # a scan is the detections of one sensor at one time (their time_usec); one split across two batches is
+        # two scans at one time, each detection applied once (sensor_tracker.py)
+        inputs += [SensorScan(t, sensor, tuple(ms)) for (sensor, t), ms in detections.items()]
         return inputs
 
     def status(self) -> SourceStatus:

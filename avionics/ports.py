@@ -18,7 +18,7 @@ from typing import IO, Protocol
 from avionics.config import Config
 from avionics.contract.advisory_csv import CSV_COLUMNS, GUIDANCE_CSV_COLUMNS, GUIDANCE_ROW
 from avionics.base.schedule import Every
-from avionics.base.types import UNAVAILABLE_REASONS, Advisory, AdvisoryLevel
+from avionics.base.types import UNAVAILABLE_REASONS, AddressSource, Advisory, AdvisoryLevel
 from avionics.daa import DaaResult
 from avionics.io import encode
 from avionics.io.diagnostics import Announcements
@@ -265,9 +265,10 @@ class MavlinkOut:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
         if self._rebroadcast_now and result.tracks is not None and not result.final:
             self._rebroadcast_now = False
-            # alerting intruders first, then the most recently heard
-            tracks = sorted(result.tracks, key=lambda t: (-int(t.advisory_level),
-                                                          -t.last_report_s))
+            # alerting intruders first, then the most recently heard; a sensor's track has no ICAO address to
+            # put in ADSB_VEHICLE (the ground sees it on the zenoh tracks topic)
+            tracks = sorted((t for t in result.tracks if t.key.source is not AddressSource.SENSOR),
+                            key=lambda t: (-int(t.advisory_level), -t.last_report_s))
             for track in tracks[:REBROADCAST_MAX]:
                 self._send_as(encode.adsb_vehicle(track, now), self._rebroadcast_component)
 

@@ -72,6 +72,14 @@ class Runner:
                             duration_s, self.stop, start_s=start_s)
         if self.feeds.feeds:
             source = TrafficSource(source, self.feeds)  # started by the loop's iteration, joined at its end
+        self._sensors = None
+        if self.bus is not None and getattr(self.bus, "session", None) is not None:
+            from avionics.io.sensor_input import SensorInputSource, SensorPayloadDecoder, SensorSubscriber
+
+            # the ownship's range/bearing sensors on `<prefix>/<vehicle>/sensor/*` (docs/zenoh.md, "Sensor")
+            self._sensors = SensorSubscriber(self.bus.session, config.zenoh.key_prefix, config.vehicle.id,
+                                             lambda: time.monotonic() - start_s)
+            source = SensorInputSource(source, self._sensors, SensorPayloadDecoder(self.counters, config.vehicle.id))
         self.loop = Loop(Daa(config, self.counters), source, ports)
 
     def _mavlink_input(self, config: Config) -> MavlinkInput:
@@ -103,6 +111,8 @@ class Runner:
         try:
             self.feeds.close()  # the reader threads are joined (no-op when the loop's end did it)
             self.link.close()
+            if self._sensors is not None:
+                self._sensors.close()
             if self._csv is not None:
                 self._csv.close()
         finally:

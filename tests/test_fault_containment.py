@@ -134,8 +134,8 @@ def test_a_non_finite_state_in_one_track_fails_that_track_alone():
     def corrupt(t):
         if abs(t - FAIL_AFTER_S) < 1e-6:
             slot = core.tracker.tracks[B].slot
-            core.tracker.bank_h.x[slot] = np.nan
-            core.tracker.bank_h.p[slot] = np.nan
+            core.tracker.adsb.bank_h.x[slot] = np.nan
+            core.tracker.adsb.bank_h.p[slot] = np.nan
     changes = two_intruders(core, 110.0, on_step=corrupt)
     a, b = levels_of(changes, A), levels_of(changes, B)
     assert a[:2] == [(TA, False), (RA, False)], a

@@ -48,6 +48,9 @@ class _Onboard:
         _wait_for_tcp(tcp_port, self.process)
         self.session = open_session(ZenohConfig(listen=(), connect=(self.endpoint,)))
         self.subscriber = self.session.declare_subscriber("daa/guideduav/guidance", self._on_sample)
+        # the guidance goes out with every status (1 Hz): once one is here the subscription is routed, and a flight
+        # started now cannot put its first state change before it (a sample put before that is not delivered)
+        assert wait_for(lambda: self.states()[:1] == ["idle"]), "no guidance state before the flight"
 
     def _on_sample(self, sample):
         with self._lock:

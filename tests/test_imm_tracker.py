@@ -238,4 +238,4 @@ def test_pipeline_alerts_at_the_hand_computed_onsets_with_the_imm():
 
     assert first[AdvisoryLevel.TA] == pytest.approx(onset(30, 0.48 * NM), abs=0.11)
     assert first[AdvisoryLevel.RA] == pytest.approx(onset(20, 0.35 * NM), abs=0.11)
-    assert isinstance(core.tracker, ImmTracker)
+    assert isinstance(core.tracker.adsb, ImmTracker)

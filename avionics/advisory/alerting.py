@@ -57,6 +57,7 @@ class Encounter:
     # (N, 4) ownship's + intruder's stated errors before z-scores (advisory/wcv_sum.py SumData.errors: horizontal
     # and vertical position, horizontal and vertical speed), read by the SUM detector; None: no uncertainty
     uncertainty: np.ndarray | None = None
+    non_cooperative: np.ndarray | bool = False  # (N,) the intruder is seen only by the ownship's sensors
 
     def take(self, rows) -> "Encounter":
         """The encounter of the pairs `rows` (an int array)."""
@@ -65,7 +66,8 @@ class Encounter:
         pick = lambda a: a if np.ndim(a) == 0 else np.asarray(a)[rows]  # noqa: E731
         return Encounter(geometry, np.asarray(self.has_altitude)[rows], pick(self.vertical_margin_m),
                          pick(self.threat_eligible),
-                         None if self.uncertainty is None else np.asarray(self.uncertainty)[rows])
+                         None if self.uncertainty is None else np.asarray(self.uncertainty)[rows],
+                         pick(self.non_cooperative))
 
     def separation_z_m(self) -> np.ndarray:
         """The relative altitude with the margin taken off (never below 0): uncertainty never hides a threat."""
@@ -282,10 +284,19 @@ class Alerter:
 
     name: str
     levels: tuple[AlertLevel, ...]
+    # DAIDALUS's per-intruder alerter (its aircraft's `alerter` index; issue 30 item 5): the levels that judge the
+    # intruders seen only by the ownship's sensors (Encounter.non_cooperative), e.g. DO-365B's DWC_Non_Coop beside
+    # the Phase I volume. Same level numbers, names and advisories as this alerter's (checked), other thresholds.
+    non_cooperative: Alerter | None = None
 
     def __post_init__(self):
         if [lv.number for lv in self.levels] != list(range(1, len(self.levels) + 1)):
             raise ValueError(f"alerter {self.name}: the levels must be numbered 1..{len(self.levels)} in order")
+        other = self.non_cooperative
+        if other is not None and ([(lv.name, lv.advisory_level) for lv in other.levels]
+                                  != [(lv.name, lv.advisory_level) for lv in self.levels]):
+            raise ValueError(f"alerter {self.name}: its non-cooperative alerter {other.name} must have the same "
+                             "levels (number, name, advisory), so that one advisory logic reads both")
         object.__setattr__(self, "_compiled", _CompiledWcv.of(self.levels))
 
     @property
@@ -321,6 +332,14 @@ class Alerter:
         far, for the levels' early alerting times (DaidalusCore.raw_alert_level). A well-clear alerter runs as
         one compiled kernel call when the kernels are ready (advisory/kernels.py wcv_alert_pairs; this loop over
         the levels' numpy detectors is its reference)."""
+        split = self._by_surveillance(encounter)
+        if split is not None:
+            out = np.empty(len(split[0]) + len(split[1]), int)
+            for alerter, rows in zip((self, self.non_cooperative), split):
+                if len(rows):
+                    out[rows] = alerter.alert(encounter.take(rows), level, max_level,
+                                              None if previous is None else previous[rows])
+            return out
         if self._compiled is not None and jit.ready():
             return self._compiled.alert(encounter, max_level, previous)
         out = np.full(len(encounter.has_altitude), NONE, int)
@@ -332,10 +351,27 @@ class Alerter:
                 out = np.where(fires, lv.number, out)
         return out
 
+    def _by_surveillance(self, encounter: Encounter) -> tuple[np.ndarray, np.ndarray] | None:
+        """(cooperative rows, non-cooperative rows) where a non-cooperative alerter is set and some intruder is
+        non-cooperative; None where this alerter judges every pair."""
+        nc = encounter.non_cooperative
+        if self.non_cooperative is None or nc is False or not np.any(nc):
+            return None
+        nc = np.broadcast_to(np.asarray(nc, bool), np.shape(encounter.has_altitude))
+        return np.flatnonzero(~nc), np.flatnonzero(nc)
+
     def hold(self, encounter: Encounter, level: SensitivityLevel, previous: np.ndarray, candidates: np.ndarray,
              max_level: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Apply the levels' continuations: a pair that had a level (`previous` (N,) int) and whose candidate is now
         below it keeps the level while its continuation holds. Returns (candidates, continued (N,) bool)."""
+        split = self._by_surveillance(encounter)
+        if split is not None:
+            candidates, continued = np.array(candidates, copy=True), np.zeros(len(candidates), bool)
+            for alerter, rows in zip((self, self.non_cooperative), split):
+                if len(rows):
+                    candidates[rows], continued[rows] = alerter.hold(encounter.take(rows), level, previous[rows],
+                                                                     candidates[rows], max_level)
+            return candidates, continued
         continued = np.zeros(len(candidates), bool)
         for lv in self.levels:
             if lv.continuation is None or (max_level is not None and lv.number > max_level):
@@ -403,12 +439,13 @@ def tcas2_alerter(hmd_filter: bool = True, ta_min_duration_s: float = 8.0) -> Al
     return Alerter("tcas2", (ta, ra))
 
 
-def wcv_alerter(spec, name: str = "wcv") -> Alerter:
+def wcv_alerter(spec, name: str = "wcv", non_cooperative: Alerter | None = None) -> Alerter:
     """A DO-365 well-clear alerter: the levels of a profile's [alerter] table as advisory/tables.py read them
     (WcvAlerterSpec.levels: AlertLevels with WCV_TAUMOD detectors, advisory/wcv.py, or WCV_TAUMOD_SUM,
     advisory/wcv_sum.py, where the table has [alerter.sum]; the guidance bands read the same levels). Their
-    hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis."""
-    return Alerter(name, tuple(spec.levels))
+    hysteresis (M of N, persistence) is DAIDALUS's HysteresisData, advisory/persistence.py AlertingHysteresis.
+    non_cooperative: the alerter of the intruders seen only by the ownship's sensors (Alerter.non_cooperative)."""
+    return Alerter(name, tuple(spec.levels), non_cooperative)
 
 
 CD3D_D_M, CD3D_H_M, CD3D_LOOKAHEAD_S = 5.0 * NM, 1000.0 * FT, 180.0  # DAIDALUS Alerter.CD3D()

@@ -82,6 +82,9 @@ class WcvAlerterSpec:
     period_s: float
     sum: SumZScores | None = None  # [alerter.sum]: the levels' detector is WCV_TAUMOD_SUM with these z-scores
     lookahead_s: float = 180.0  # DAIDALUS lookahead_time: the SUM detector's detection interval [0, lookahead]
+    # the profile whose [alerter] judges the intruders seen only by the ownship's sensors (DAIDALUS's per-intruder
+    # alerter; DO-365B: DWC_Non_Coop beside the Phase I volume); None: this one judges every intruder
+    non_cooperative: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,7 +187,7 @@ def _level(table: dict, where: str) -> SensitivityLevel:
 
 
 ALERTER_KEYS = {"kind", "source", "hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s",
-                "levels", "sum", "lookahead_s"}
+                "levels", "sum", "lookahead_s", "non_cooperative"}
 # [alerter.sum]: DAIDALUS's SUM parameters (DaidalusParameters h_pos_z_score ... v_vel_z_score), advisory/wcv_sum.py
 SUM_KEYS = {"h_pos_z_score", "h_vel_z_score_min", "h_vel_z_score_max", "v_pos_z_score", "v_vel_z_score"} | {
     f"h_vel_z_distance{suffix}" for suffix in DISTANCE_UNITS}
@@ -259,7 +262,9 @@ def _wcv_alerter(table: dict, where: str) -> WcvAlerterSpec:
         source=_text(table.get("source", ""), f"{where}.source"), levels=tuple(levels),
         hysteresis_time_s=_number(table.get("hysteresis_time_s", 0.0), f"{where}.hysteresis_time_s"),
         persistence_time_s=_number(table.get("persistence_time_s", 0.0), f"{where}.persistence_time_s"),
-        alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"))
+        alerting_m=m, alerting_n=n, period_s=_number(table.get("period_s", 1.0), f"{where}.period_s"),
+        non_cooperative=_text(table["non_cooperative"], f"{where}.non_cooperative")
+        if "non_cooperative" in table else None)
 
 
 def _bands_params(table: dict, alerter: WcvAlerterSpec, where: str):
@@ -368,6 +373,34 @@ def profile_text(name_or_path: str) -> tuple[str, str]:
 
 
 def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
+    profile = _load_profile(name_or_path, overrides)
+    if profile.alerter is not None and profile.alerter.non_cooperative is not None:
+        _check_non_cooperative(profile, _load_profile(profile.alerter.non_cooperative))
+    return profile
+
+
+def _check_non_cooperative(profile: AlertProfile, other: AlertProfile) -> None:
+    """[alerter] non_cooperative names a well-clear alerter with the same alerting hysteresis (one
+    AlertingHysteresis serves both, advisory/alerting.py Alerter.non_cooperative), the same use of SUM and the same
+    levels (one advisory logic reads both); checked
+    here, at load, so that `avionics config` refuses what `run` could not build."""
+    spec, name = profile.alerter, profile.alerter.non_cooperative
+    if other.alerter is None or other.alerter.non_cooperative is not None:
+        raise ProfileError(f"profile {profile.name}: [alerter] non_cooperative = {name!r} needs a well-clear "
+                           "[alerter] of its own and none further")
+    same = ("hysteresis_time_s", "persistence_time_s", "alerting_m", "alerting_n", "period_s")
+    if any(getattr(spec, k) != getattr(other.alerter, k) for k in same):
+        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must share its alerting "
+                           f"hysteresis ({', '.join(same)})")
+    if (spec.sum is None) != (other.alerter.sum is None):
+        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must use SUM as it does")
+    if [(lv.name, lv.advisory_level) for lv in spec.levels] != [(lv.name, lv.advisory_level)
+                                                               for lv in other.alerter.levels]:
+        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must have the same levels "
+                           "(number, name, advisory)")
+
+
+def _load_profile(name_or_path: str, overrides=()) -> AlertProfile:
     where, text = profile_text(name_or_path)
     try:
         data = tomllib.loads(text)

@@ -23,6 +23,7 @@ class AddressSource(str, Enum):
 
     ES1090 = "1090es"
     UAT = "uat"
+    SENSOR = "sensor"  # no address: a range/bearing sensor's track (tracking/surveillance.py), keyed by its track id
 
 
 @dataclass(frozen=True, slots=True, order=True)
@@ -89,6 +90,7 @@ class OwnshipFix:
     height_above_home_m: float
     velocity_ned_mps: tuple[float, float, float]
     uncertainty: SumData | None = None  # ownship's stated uncertainties (as IntruderReport.uncertainty)
+    heading_deg: float | None = None  # the nose's true heading (GLOBAL_POSITION_INT hdg); None: not known
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,7 +122,17 @@ class CommandAck:
     result: int
 
 
-Input = IntruderReport | OwnshipFix | OwnshipPressure | AutopilotHeartbeat | CommandAck
+@dataclass(frozen=True, slots=True)
+class SensorScan:
+    """One scan of one range/bearing sensor (radar, active surveillance): its detections at one time of
+    measurement, tracking/measurement.py PolarMeasurement objects (decoded by io/sensor_input.py)."""
+
+    time_s: float
+    sensor: str  # the sensor's instance (its mount's sensor_id)
+    measurements: tuple
+
+
+Input = IntruderReport | OwnshipFix | OwnshipPressure | SensorScan | AutopilotHeartbeat | CommandAck
 AUTOPILOT_INPUTS = (AutopilotHeartbeat, CommandAck)  # for the guidance stage, not the DAA core
 
 

@@ -35,9 +35,9 @@ COMMON = (
     number("time_s", "s", TIME, "time of the assessment or the publication"),
 )
 _IDENTITY = (
-    ident("intruder", "`<source>-<ICAO hex>`, e.g. 1090es-A1B2C3"),
-    integer("address", (0, 0xFFFFFF), "24-bit ICAO address"),
-    ident("address_source", "`1090es` or `uat`"),
+    ident("intruder", "`<source>-<ICAO hex>`, e.g. 1090es-A1B2C3; a sensor's track: sensor-<track id>"),
+    integer("address", (0, 0xFFFFFF), "24-bit ICAO address; a sensor's track: its track id"),
+    ident("address_source", "`1090es`, `uat` or `sensor` (a range/bearing sensor's track: no address)"),
     ident("callsign", "the last valid callsign known; null if none"),
 )
 # The assessment of one intruder, as a track carries it (base/types.py ASSESSMENT_FIELDS, in that order)
@@ -82,6 +82,8 @@ ADVISORY = (
     number("ra_separation_m", "m", SIGNED_DISTANCE, "projected vertical separation at CPA with the RA flown"),
     flag("ra_composite", "a composite RA against threats above and below"),
     ident("integrity", "ADS-B integrity: `ok` or `degraded:<mode>`"),
+    ident("surveillance", "`cooperative` (ADS-B, alone or fused with a sensor's track) or `non_cooperative` (seen "
+                          "only by the ownship's sensors; judged by the profile's non-cooperative alerter if any)"),
 )
 # What makes an advisory sample a change (and not a refresh): what a pilot would hear change.
 ADVISORY_STATE_FIELDS = ("level", "ra_sense", "ra_strength", "ra_words", "ra_reversed", "ra_composite")

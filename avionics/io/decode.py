@@ -27,6 +27,8 @@ from avionics.io.checks import (
 from avionics.io.ownship_check import OwnshipJumpCheck
 from avionics.io.params import DecoderConfig as Config
 from avionics.io.senders import Senders
+from avionics.io.sensor_input import SensorMessageDecoder
+from avionics.tracking.measurement import PolarMeasurement
 from avionics.base.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.base.types import (
     AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, OwnshipFix,
@@ -107,7 +109,9 @@ class MessageDecoder:
             "ADSB_VEHICLE": self._adsb_vehicle,
             "GLOBAL_POSITION_INT": self._global_position_int,
             "SCALED_PRESSURE": self._scaled_pressure,
+            "DAA_SENSOR_MEASUREMENT": self._sensor_measurement,
         }
+        self.sensors = SensorMessageDecoder(counters)  # io/sensor_input.py: one detection per message
         # guidance.mode = "execute" (avionics/guidance): our autopilot's mode (HEARTBEAT) and its answers
         # (COMMAND_ACK) are inputs too; otherwise nothing reads them
         guidance = getattr(config, "guidance", None)
@@ -115,7 +119,7 @@ class MessageDecoder:
         if self.autopilot_inputs:
             self._handlers["COMMAND_ACK"] = self._command_ack
 
-    def decode(self, msg, now_s: float) -> Input | None:
+    def decode(self, msg, now_s: float) -> Input | PolarMeasurement | None:
         kind = msg.get_type()
         if kind == "HEARTBEAT":
             self.senders.heartbeat(msg, now_s)  # who is who (io/senders.py)
@@ -262,6 +266,13 @@ class MessageDecoder:
         return CommandAck(now_s, int(msg.command), int(msg.result))
 
     # -- ownship ----------------------------------------------------------------------------------------------
+    def _sensor_measurement(self, msg, now_s: float):
+        """One detection of a sensor on our vehicle (any component of our system: a radar is not the autopilot)
+        as a PolarMeasurement; MavlinkInput groups a batch's detections into scans."""
+        if msg.get_srcSystem() != self.senders.system:
+            return self._reject("sensor.mavlink.other_system")  # another vehicle's sensor sees from elsewhere
+        return self.sensors.decode(msg, now_s)
+
     def _from_own_vehicle(self, msg, prefix: str, now_s: float) -> bool:
         return self.senders.ownship((msg.get_srcSystem(), msg.get_srcComponent()), prefix, now_s)
 
@@ -280,7 +291,9 @@ class MessageDecoder:
         if math.hypot(velocity[0], velocity[1]) > cfg.max_ground_speed_mps or \
                 abs(velocity[2]) > cfg.max_vertical_rate_mps or INT16_MAX in (msg.vx, msg.vy, msg.vz):
             return self._reject("gpi.velocity_invalid")
-        fix = OwnshipFix(now_s, position[0], position[1], msg.alt * 1e-3, msg.relative_alt * 1e-3, velocity)
+        heading = msg.hdg * 1e-2 if msg.hdg < 36000 else None  # UINT16_MAX: unknown (common.xml)
+        fix = OwnshipFix(now_s, position[0], position[1], msg.alt * 1e-3, msg.relative_alt * 1e-3, velocity,
+                         heading_deg=heading)
         return fix if self.ownship_check.accept(fix) else None  # counted gpi.jump
 
     def _scaled_pressure(self, msg, now_s: float) -> OwnshipPressure | None:

@@ -8,7 +8,7 @@ import math
 from avionics import __version__
 from avionics.contract.bands import BAND_KIND_NAMES
 from avionics.contract.zenoh import ADVISORY, SCHEMA_VERSION, TRACK_MODEL_CV
-from avionics.base.types import ASSESSMENT_FIELDS, Advisory, TrackView
+from avionics.base.types import ASSESSMENT_FIELDS, AddressSource, Advisory, TrackView
 from avionics.base.units import ground_speed_mps, track_deg
 
 # The advisory fields that are not an Advisory attribute of the same name, each from (vehicle, advisory, callsign)
@@ -25,6 +25,9 @@ _ADVISORY_MADE = {
     "alert_level": lambda vehicle, a, callsign: a.alert()[0],
     "alert_name": lambda vehicle, a, callsign: a.alert()[1],
     "altitude_datum": lambda vehicle, a, callsign: a.altitude_datum.value if a.altitude_datum else None,
+    # which alerter judged it (advisory/alerting.py Alerter.non_cooperative): by how the intruder is seen
+    "surveillance": lambda vehicle, a, callsign:
+        "non_cooperative" if a.intruder.source is AddressSource.SENSOR else "cooperative",
 }
 _ADVISORY_FIELDS = tuple((f.name, _ADVISORY_MADE.get(f.name)) for f in ADVISORY)
 

@@ -27,6 +27,7 @@ from avionics.contract import mavlink as contract_mavlink
 from avionics.contract.fields import Field
 from avionics.contract.zenoh import MAX_SENSOR_AGE_S, SCHEMA_VERSION, SENSOR, SENSOR_RETURN
 from avionics.io.dialect import daa as m2
+from avionics.base.types import SensorScan
 from avionics.tracking.measurement import SENSOR_KINDS, PolarMeasurement, SensorMount
 
 MAX_SAMPLE_BYTES = 64 * 1024  # a scan of MAX_SENSOR_RETURNS returns is ~60 kB of JSON
@@ -259,6 +260,26 @@ class SensorMessageDecoder:
 
 
 # -- the zenoh subscription ------------------------------------------------------------------------------------------
+class SensorInputSource:
+    """A loop Source (avionics/loop.py) with the zenoh sensor samples added to its batches as SensorScans: each
+    sample is one scan (SensorPayloadDecoder; a rejected one is counted and adds nothing)."""
+
+    def __init__(self, inner, subscriber: "SensorSubscriber", decoder: SensorPayloadDecoder):
+        self.inner, self.subscriber, self.decoder = inner, subscriber, decoder
+
+    def __iter__(self):
+        for batch in self.inner:
+            scans = []
+            for sensor_id, raw, received_s in self.subscriber.drain():
+                measurements = self.decoder.decode(raw, sensor_id, received_s)
+                if measurements:
+                    scans.append(SensorScan(measurements[0].time_s, sensor_id, tuple(measurements)))
+            yield replace(batch, inputs=batch.inputs + scans) if scans else batch  # a loop.Batch
+
+    def status(self):
+        return self.inner.status()
+
+
 class SensorSubscriber:
     """Subscribes to `<prefix>/<vehicle>/sensor/*` on an open session. The callback (zenoh's thread) only files
     (sensor id, payload bytes, receipt time on `clock`); the loop drains and decodes on its own thread, so the

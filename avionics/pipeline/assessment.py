@@ -15,7 +15,7 @@ from avionics.compose import Components
 from avionics.config import Config
 from avionics.conflict.cpa import PairGeometry, pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
-from avionics.base.types import Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
+from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
 from avionics.base.uncertainty import errors_from_covariance
 from avionics.pipeline.containment import Containment
 from avionics.pipeline.intake import Intake
@@ -41,6 +41,9 @@ class Evaluation:
     pc: dict  # the conflict stage's probabilities of the [conflict] zone
     within_age: np.ndarray
     finite: np.ndarray  # (N,) every number of the row is finite
+
+
+SENSOR = AddressSource.SENSOR
 
 
 class Assessor:
@@ -104,7 +107,11 @@ class Assessor:
                                  np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
         margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
         threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
-        encounter = Encounter(geometry, has_alt, margin, threat_eligible, self._pair_errors(keys, ps, own))
+        # which alerter judges each intruder (DAIDALUS's per-intruder alerter): one seen only by a sensor is
+        # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
+        non_coop = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys)) \
+            if self.alerter.non_cooperative is not None else False
+        encounter = Encounter(geometry, has_alt, margin, threat_eligible, self._pair_errors(keys, ps, own), non_coop)
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,

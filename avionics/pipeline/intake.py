@@ -3,8 +3,9 @@
 Positions and velocities go into the tracking frame here (base/frame.py: a tangent plane kept within 1 km of the
 ownship, every filter carried along when it moves), so the geometry holds anywhere the ownship flies. Ownship
 fixes and pressure go into the ownship filter one by one; intruder reports go to the tracker in one vectorised
-call per step, through the identity resolver (one aircraft, one track). No NaN or inf goes into a filter. The
-stated uncertainties of the latest reports (DAIDALUS SUMData) are kept for the assessment.
+call per step, through the identity resolver (one aircraft, one track); sensor scans go to the tracker after them,
+each with the ownship's position and heading at its time (tracking/surveillance.py). No NaN or inf goes into a
+filter. The stated uncertainties of the latest reports (DAIDALUS SUMData) are kept for the assessment.
 """
 
 from __future__ import annotations
@@ -18,11 +19,16 @@ import numpy as np
 
 from avionics.config import Config
 from avionics.base.frame import FrameChange, TrackingFrame
-from avionics.base.types import Advisory, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure
+from avionics.base.types import Advisory, Input, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure, SensorScan
 from avionics.pipeline.containment import Containment
 from avionics.tracking.identity import IdentityResolver
 from avionics.tracking.interface import Tracker
 from avionics.tracking.ownship import OwnshipFilter, OwnshipState
+
+
+MAX_SCAN_EXTRAPOLATION_S = 2.0  # a scan is placed from an ownship fix (or hdg) at most this far from its time
+MIN_TRACK_SPEED_MPS = 1.0  # below it the track angle says nothing of where the nose points
+MAX_TURN_RATE_RPS = math.radians(60.0)  # a heading change between fixes faster than this is not extrapolated on
 
 
 class Intake:
@@ -38,14 +44,21 @@ class Intake:
         # from each aircraft's latest report that carried them: what a SUM detector widens its tests by.
         self.stated_errors: dict[IntruderKey, tuple[float, float, float, float]] = {}
         self.own_errors: tuple[float, float, float, float] | None = None
+        self._heading: tuple[float, float, float] | None = None  # (time, heading in the plane's axes, rad; rad/s)
 
     def take(self, now_s: float, inputs: Iterable[Input], changes: list[Advisory]) -> set[IntruderKey]:
-        """A step's inputs into the filters; the intruders whose tracks a report updated."""
+        """A step's inputs into the filters; the intruders whose tracks a report or a scan updated."""
         dirty: set[IntruderKey] = set()
         reports: list[IntruderReport] = []
+        scans: list[SensorScan] = []
         for item in inputs:
-            self._ingest(item, reports)
+            if type(item) is SensorScan:
+                scans.append(item)
+            else:
+                self._ingest(item, reports)
         self._ingest_reports(now_s, reports, dirty, changes)
+        for scan in sorted(scans, key=lambda s: s.time_s):
+            self._ingest_scan(scan, dirty)
         return dirty
 
     def ownship_at(self, now_s: float) -> OwnshipState | None:
@@ -75,9 +88,53 @@ class Intake:
         change = self.frame.follow(fix.lat_deg, fix.lon_deg)
         if change is not None:
             self._carry(change)
+        if fix.heading_deg is not None:
+            h = math.radians(fix.heading_deg)
+            _, _, (he, hn) = self.frame.to_plane(fix.lat_deg, fix.lon_deg, (math.sin(h), math.cos(h)))
+            h = math.atan2(float(he), float(hn))
+            rate = 0.0
+            if self._heading is not None and 0.0 < fix.time_s - self._heading[0] <= MAX_SCAN_EXTRAPOLATION_S:
+                turned = (h - self._heading[1] + math.pi) % (2.0 * math.pi) - math.pi
+                rate = max(-MAX_TURN_RATE_RPS, min(MAX_TURN_RATE_RPS, turned / (fix.time_s - self._heading[0])))
+            self._heading = (fix.time_s, h, rate)
         vn, ve, vd = fix.velocity_ned_mps
         east, north, (ve, vn) = self.frame.to_plane(fix.lat_deg, fix.lon_deg, (ve, vn))
         return replace(fix, velocity_ned_mps=(float(vn), float(ve), vd)), float(east), float(north)
+
+    def _ingest_scan(self, scan: SensorScan, dirty: set[IntruderKey]) -> None:
+        """A sensor scan into the tracker, from where the ownship was, facing where its nose pointed, at the
+        scan's time. Without the ownship then (no fix yet, or one far from it) the scan is counted and dropped:
+        a detection is relative to the ownship and means nothing without it."""
+        if not scan.measurements:
+            return
+        fix = self.ownship.last_fix
+        own = self.ownship_at(scan.time_s) if fix is not None else None
+        if own is None or abs(fix.time_s - scan.time_s) > MAX_SCAN_EXTRAPOLATION_S:
+            self.counters["sensor.no_ownship"] += 1
+            return
+        heading = self._heading_at(scan.time_s, own)
+        if heading is None:
+            self.counters["sensor.no_heading"] += 1
+            return
+        altitude = float(own.x[2])  # the datum of the sensor's altitudes: active surveillance's are pressure
+        if scan.measurements[0].mount.kind == "active" and own.pressure_altitude_m is not None:
+            altitude = own.pressure_altitude_m
+        try:
+            dirty |= self.tracker.scan(scan, (float(own.x[0]), float(own.x[1]), altitude), heading)
+        except Exception as exc:  # noqa: BLE001  (stage boundary: a scan's fault loses that scan, not the step)
+            self.containment.batch_failed("sensor", exc)
+
+    def _heading_at(self, t_s: float, own: OwnshipState) -> float | None:
+        """The nose's heading (rad, clockwise from the plane's north) at t_s: GLOBAL_POSITION_INT's hdg when a
+        recent fix had one, carried to t_s at the turn rate of the last two fixes (a scan between 5 Hz fixes of
+        an aircraft turning at 3 deg/s would otherwise see the world 0.3 deg rotated: 7 m at 1.3 km); else the
+        ownship's track angle while it moves (a stabilised sensor on an aircraft flying its track, as the
+        simulator's sensors are mounted); None when neither is known (a hover without hdg)."""
+        if self._heading is not None and abs(t_s - self._heading[0]) <= MAX_SCAN_EXTRAPOLATION_S:
+            t0, h, rate = self._heading
+            return h + rate * (t_s - t0)
+        ve, vn = float(own.x[3]), float(own.x[4])
+        return math.atan2(ve, vn) if math.hypot(ve, vn) >= MIN_TRACK_SPEED_MPS else None
 
     def _carry(self, change: FrameChange) -> None:
         self.tracker.reframe(change)

@@ -181,11 +181,11 @@ class SensorTracker:
                 trk.confirmed = True
                 self.counters["sensor.track_confirmed"] += 1
             elif sum(trk.hits) + (self.n - len(trk.hits)) < self.m:
-                self._delete(trk, "sensor.tentative_dropped")
+                self.delete(trk, "sensor.tentative_dropped")
         elif t_s - trk.t_s > self.delete_after_s:
-            self._delete(trk, "sensor.track_deleted")
+            self.delete(trk, "sensor.track_deleted")
 
-    def _delete(self, trk: SensorTrack, counter: str) -> None:
+    def delete(self, trk: SensorTrack, counter: str) -> None:
         del self.tracks[trk.track_id]
         self._free.append(trk.slot)
         self.counters[counter] += 1

@@ -53,7 +53,7 @@ def cmd_replay(args) -> int:
                             fly_guidance=True, ports=[csv_out], firmware=args.autopilot)
     else:
         result = replay(scenario, config, PRESETS[args.noise], seed=args.seed, respond=args.fly_ras,
-                        progress=progress)
+                        progress=progress, sensors=args.sensor, exact_sensors=args.noise == "none")
     if args.misses:
         result.write_misses_csv(args.misses)
     if args.out and not args.fly_guidance:  # (with --fly-guidance the rows were written as it flew)
@@ -221,6 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(equal without --fly-ras or --fly-guidance; --fly-guidance adds hmd_flown_m)")
     p.add_argument("--config", metavar="FILE", help="onboard configuration TOML")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE", help="config override")
+    p.add_argument("--sensor", type=_sensor_list, default=("adsb",), metavar="adsb|radar|active[,...]",
+                   help="how the intruders are seen: adsb (ADSB_VEHICLE), radar, active (the ownship's DO-365 "
+                        "Appendix Q sensors as DAA_SENSOR_MEASUREMENT; exactly and all round with --noise none); "
+                        "without adsb no intruder broadcasts; not with --fly-ras or --fly-guidance (default: adsb)")
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("live", help="fly an encounter in real time over MAVLink; print what comes back (JSON lines)")
@@ -266,8 +270,9 @@ def main(argv=None) -> int:
                      "--no-adsb-vehicle")
     if args.func is cmd_live and "adsb" not in args.sensor and (args.sbs or args.beast or args.no_adsb_vehicle):
         parser.error("--sbs, --beast and --no-adsb-vehicle are ADS-B: --sensor must include adsb")
-    if getattr(args, "fly_guidance", False) and args.func is cmd_live and args.sensor != ("adsb",):
-        parser.error("--fly-guidance serves traffic as ADSB_VEHICLE only: not with --sensor")
+    if (getattr(args, "fly_guidance", False) or getattr(args, "fly_ras", False)) and args.sensor != ("adsb",):
+        parser.error("the simulated sensors measure the scenario's paths: --fly-ras and --fly-guidance serve traffic "
+                     "as ADSB_VEHICLE only, not with --sensor")
     if getattr(args, "no_adsb_vehicle", False) and not (args.sbs or args.beast):
         parser.error("--no-adsb-vehicle needs --sbs or --beast (otherwise no traffic is sent at all)")
     return call("sitl", args.func, args, ERRORS)  # exit codes as avionics: 1 link, 2 configuration, scenario or file

@@ -17,7 +17,7 @@ import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
-from avionics.base.types import Advisory, IntruderKey, IntruderReport, OwnshipFix
+from avionics.base.types import Advisory, AddressSource, IntruderKey, IntruderReport, OwnshipFix
 from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
 from avionics.loop import Batch, Loop, MavlinkInput
@@ -49,8 +49,15 @@ class ReplayResult:
     guidance: list = field(default_factory=list)  # every guidance decision whose state changed (fly_guidance)
     sent: list = field(default_factory=list)  # (time, message) of every command the DAA process sent the autopilot
 
+    sensor_names: dict = field(default_factory=dict)  # a sensor track's key -> its aircraft's name (replay's)
+
+    def name_of(self, key: IntruderKey) -> str:
+        if key.source is AddressSource.SENSOR:
+            return self.sensor_names.get(key, "")
+        return self.names.get(key.address, "")
+
     def rows(self) -> list[dict]:
-        return [csv_row(a, self.names.get(a.intruder.address, "")) for a in self.changes]
+        return [csv_row(a, self.name_of(a.intruder)) for a in self.changes]
 
     def write_csv(self, path: str | Path) -> None:
         with open(path, "w", newline="") as fh:
@@ -122,13 +129,22 @@ class _ScheduleSource:
     a responder, ownship flies the RAs it received and its GLOBAL_POSITION_INT follows."""
 
     def __init__(self, scenario, impairments, seed, autopilot, tick_s, mavlink: MavlinkInput, counters,
-                 responder: RaResponder | None, copter=None, pilot=()):
+                 responder: RaResponder | None, copter=None, pilot=(), sensors=("adsb",), exact_sensors=False):
         self.scenario, self.tick_s, self.mavlink, self.responder = scenario, tick_s, mavlink, responder
         self.names = {a.icao_address: a.name for a in scenario.intruders}
         self.copter, self.pilot = copter, sorted(pilot)  # fly_guidance: the SimCopter; (time, mode) a pilot selects
         self.replies: list = []  # the copter's answers to the DAA process, delivered at the next tick
         self.events = schedule(scenario, impairments, seed, autopilot,
                                ownship=responder is None and copter is None)
+        if "adsb" not in sensors:  # the intruders do not broadcast: only the ownship's sensors see them
+            self.events = [e for e in self.events if e.msg.get_type() != "ADSB_VEHICLE"]
+        self.scans = []
+        if set(sensors) - {"adsb"}:  # sensor_feed.py: what `sitl live --sensor` sends, on the same schedule
+            from avionics_sitl.sensor_feed import mavlink_events, sensor_scans, simulated_sensors
+
+            self.scans = sensor_scans(scenario, simulated_sensors(sensors, seed, exact=exact_sensors),
+                                      scenario.duration_s + 1e-9)
+            self.events = sorted([*self.events, *mavlink_events(self.scans)], key=lambda e: e.deliver_s)
         self.own_period = 1.0 / autopilot.ownship_hz
         self.scanner = FrameScanner(counters)
         self.packer = Packer(autopilot)
@@ -140,7 +156,9 @@ class _ScheduleSource:
 
     def _batch(self, msg, now_s: float) -> Batch:
         self.now_s = now_s
-        inputs = self.mavlink.decode(self.scanner.feed(self.packer.pack(msg), end_of_datagram=True), now_s)
+        msgs = msg if isinstance(msg, list) else [msg]
+        inputs = self.mavlink.decode([m for one in msgs
+                                      for m in self.scanner.feed(self.packer.pack(one), end_of_datagram=True)], now_s)
         if self.scenario.stated_uncertainty:
             inputs = [self._stated(item) for item in inputs]
         return Batch(now_s, inputs)
@@ -165,8 +183,12 @@ class _ScheduleSource:
             if self.progress is not None and k % PROGRESS_EVERY_TICKS == 0:
                 self.progress(t_tick)
             while i < len(events) and events[i].deliver_s <= t_tick + 1e-9:
-                yield self._batch(events[i].msg, events[i].deliver_s)
-                i += 1
+                j = i + 1  # a scan's detections (DAA_SENSOR_MEASUREMENT, one time) arrive together, as live
+                while j < len(events) and events[j].deliver_s == events[i].deliver_s and \
+                        events[i].msg.get_type() == events[j].msg.get_type() == "DAA_SENSOR_MEASUREMENT":
+                    j += 1
+                yield self._batch([e.msg for e in events[i:j]] if j > i + 1 else events[i].msg, events[i].deliver_s)
+                i = j
             if self.copter is not None:
                 while self.pilot and self.pilot[0][0] <= t_tick + 1e-9:
                     self.copter.set_mode(self.pilot.pop(0)[1], t_tick)
@@ -201,7 +223,7 @@ class _ScheduleSource:
 def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, seed: int = 0,
            autopilot: AutopilotConfig = AutopilotConfig(), respond: bool = False, ports=(),
            progress: bool | None = False, fly_guidance: bool = False, copter=None, pilot=(),
-           firmware: str | None = None, core=None) -> ReplayResult:
+           firmware: str | None = None, core=None, sensors=("adsb",), exact_sensors: bool = False) -> ReplayResult:
     """Fly the encounter through the DAA loop in fast time. respond=True closes the loop: ownship flies the RAs
     it receives (avionics_sitl.response) and the result records the vertical miss with and without the response.
     fly_guidance=True closes it through the guidance stage instead (config guidance.mode = "execute"): the
@@ -211,7 +233,13 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     ArduPlane for the fixed-wing); pilot: (time, custom mode)
     mode changes a pilot makes. ports: more output ports (avionics/ports.py) fed by the same loop, e.g. a CsvOut.
     progress: a bar of the simulated time on stderr (None: when stderr is a terminal). core: the DaaCore to drive
-    (built from config when None): a lab instrument that reads the core's state between steps passes its own."""
+    (built from config when None): a lab instrument that reads the core's state between steps passes its own.
+    sensors: how the intruders are seen (sensor_feed.py: adsb, radar, active; the loop open: the sensors measure
+    the scenario's paths), exact_sensors: they measure exactly and see all round (`--noise none`). A sensor track
+    is named after the aircraft whose true horizontal range is nearest its first advisory's (the simulator knows
+    the truth, the process does not)."""
+    if set(sensors) - {"adsb"} and (respond or fly_guidance):
+        raise ValueError("the simulated sensors measure the scenario's paths: not with a closed loop")
     counters: Counter = core.counters if core is not None else Counter()
     daa = Daa(config, counters, core)
     result = ReplayResult([], {a.icao_address: a.name for a in scenario.intruders}, counters=counters)
@@ -226,7 +254,8 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     copter = copter if fly_guidance else None
     result.copter = copter
     source = _ScheduleSource(scenario, impairments, seed, autopilot, 1.0 / config.advisory.assessment_hz,
-                             MavlinkInput(config, counters), counters, responder, copter, pilot)
+                             MavlinkInput(config, counters), counters, responder, copter, pilot, sensors,
+                             exact_sensors)
     autopilot_side = _Autopilot(config, result, responder, lambda: source.now_s, copter, source.replies)
     bar, task = progress_bar(progress, f"replaying {scenario.name}", scenario.duration_s)
     if bar is not None:
@@ -242,7 +271,23 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
                                     IntruderKey(spec.icao_address, spec.address_source))
                      for spec, traj in zip(scenario.intruders, source.intruder_trajs)]
     result.min_agl_m = source.min_alt_msl_m - scenario.ground_elevation_m
+    if source.scans:
+        result.sensor_names = _sensor_names(result.changes, source.own_traj, source.intruder_trajs,
+                                            [a.name for a in scenario.intruders])
     return result
+
+
+def _sensor_names(changes, own_traj, intruder_trajs, names) -> dict[IntruderKey, str]:
+    """Each sensor track's aircraft: the one whose true horizontal range at the track's first advisory is nearest
+    the advisory's range_m (horizontal, conflict/cpa.py)."""
+    out: dict[IntruderKey, str] = {}
+    for a in changes:
+        if a.intruder.source is not AddressSource.SENSOR or a.intruder in out or not intruder_trajs:
+            continue
+        own = own_traj.enu_at(a.time_s)
+        ranges = [math.dist(own[:2], traj.enu_at(a.time_s)[:2]) for traj in intruder_trajs]
+        out[a.intruder] = names[min(range(len(ranges)), key=lambda i: abs(ranges[i] - a.range_m))]
+    return out
 
 
 @dataclass(frozen=True, slots=True)

@@ -13,12 +13,12 @@ from tests.golden.generate import CONFORMANCE
 TOLERANCE_S = 1.0  # DAIDALUS evaluates every 0.1 s (TCAS3D) or 1 s (DO-365); the replay every 0.1 s
 
 
-def golden(config: str) -> dict[str, list[dict]]:
-    """case file -> its rows of `config` (TCAS3D, DO_365B_no_SUM, ...); {} where the data are absent."""
-    if not (CONFORMANCE / "first_alerts.csv").is_file():
+def golden(config: str, table: str = "first_alerts.csv") -> dict[str, list[dict]]:
+    """case file -> its rows of `config` (TCAS3D, DO_365B_no_SUM, ...) in `table`; {} where the data are absent."""
+    if not (CONFORMANCE / table).is_file():
         return {}
     by_file: dict[str, list[dict]] = {}
-    with open(CONFORMANCE / "first_alerts.csv", newline="") as fh:
+    with open(CONFORMANCE / table, newline="") as fh:
         for row in csv.DictReader(fh):
             if row["config"] == config:
                 by_file.setdefault(row["case_file"], []).append(row)
