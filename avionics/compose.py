@@ -5,6 +5,7 @@ or a test may hand the core other objects behind the same interfaces instead."""
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, replace
 from collections.abc import Callable
@@ -72,22 +73,33 @@ def build_surveillance(tracking_params: TrackingConfig, counters: Counter) -> Tr
     and, from the first scan on, the range/bearing sensors' tracks over the IMM motion models of [tracking]."""
     from avionics.tracking.surveillance import SurveillanceTracker
 
-    return SurveillanceTracker(build_tracker(tracking_params, counters), lambda: motion_models(tracking_params),
+    return SurveillanceTracker(build_tracker(tracking_params, counters),
+                               lambda period_s: motion_models(tracking_params, period_s),
                                tracking_params, counters)
 
 
-def motion_models(t: TrackingConfig) -> tuple[list, list]:
+def motion_models(t: TrackingConfig, period_s: float = 1.0) -> tuple[list, list]:
     """The IMM's horizontal and vertical mode filters (tracking/models.py) of tracking.imm_horizontal_modes and
-    imm_vertical_modes, their noise from [tracking]."""
+    imm_vertical_modes, their noise from [tracking]. Those sigmas are per step and were chosen for ADS-B's 1 s
+    report period; period_s: the period of the measurements the filters will take (a 10 Hz radar: 0.1 s), for
+    which each per-step sigma is rescaled to put the same noise into a second of flight: a per-step velocity
+    increment of sigma T (CV's piecewise-constant acceleration, Baek & Bang eq 5; CAD, eq 8) adds sigma^2 T^2
+    per step, sigma^2 T per second, so sigma^2 is divided by T; a per-step acceleration or vertical-speed
+    increment (CT's and CA's Wiener sequence, Hwang eq 18, Baek & Bang eq 6; CH, eq 7) adds sigma^2 per step, so sigma^2 is multiplied by
+    T. Left at per-step values, a 10 Hz radar's CT mode took ten times the acceleration variance a second and
+    its CV mode a tenth: tracks whose velocity wandered by 3-5 m/s at 6 km (issue 30's extra radar alerts)."""
     from avionics.tracking import models  # only when an IMM is configured: start-up (issue 13)
 
+    if not (math.isfinite(period_s) and period_s > 0.0):
+        raise ValueError(f"measurement period must be a positive number of seconds, got {period_s!r}")
+    faster, slower = math.sqrt(1.0 / period_s), math.sqrt(period_s)  # sigma factors for 1 s -> period_s
     motion = {
-        "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2),  # Baek & Bang eq 5
-        "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2, heading_noise=True),  # eq 6 with eq 31
-        "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2),  # Hwang eq 18
+        "cv": lambda: models.ConstantVelocity(t.imm_cv_sigma_mps2 * faster),  # Baek & Bang eq 5
+        "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2 * slower, heading_noise=True),  # eq 6, 31
+        "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2 * slower),  # Hwang eq 18
         "cs": lambda: models.CurrentStatistical(t.imm_cs_alpha_per_s, t.imm_cs_max_accel_mps2),  # Dai eqs 8-12
-        "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps),  # Baek & Bang eq 7
-        "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2),  # Baek & Bang eq 8
+        "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps * slower),  # Baek & Bang eq 7
+        "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2 * faster),  # Baek & Bang eq 8
     }
     return [motion[k]() for k in t.imm_horizontal_modes], [motion[k]() for k in t.imm_vertical_modes]
 

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from avionics.config import load_config
 from avionics.base.types import AddressSource, IntruderKey, OwnshipFix, SensorScan
@@ -111,3 +112,25 @@ def test_an_adsb_step_leaves_the_fused_track_within_the_radars_3_sigma(size_m):
     t, fused, adsb, three_sigma = res.T
     assert (fused <= three_sigma).all(), res[fused > three_sigma]
     assert (adsb > three_sigma).any()
+
+
+@settings(max_examples=25)
+@given(steps=st.integers(1, 50))
+def test_a_sensor_s_tracks_take_the_noise_per_second_the_1_s_values_were_set_for(steps):
+    """compose.motion_models at a period of 1/steps s: `steps` predictions add to the state each model drives
+    (CV's and CAD's velocity, CT's and CA's acceleration, CH's vertical speed) exactly the variance one 1 s
+    prediction adds at [tracking]'s per-step values (by hand: those states evolve as a random walk, F's row is
+    the identity on them, so their variances add)."""
+    from avionics.compose import motion_models
+
+    config = load_config().tracking.__class__(imm_horizontal_modes=("cv", "ct", "ca"))
+    period = 1.0 / steps
+    driven = {"cv": [2, 3], "ct": [4, 5], "ca": [4, 5], "ch": [1], "cad": [1]}
+    for one_s, fast in zip(*(sum(motion_models(config, p), []) for p in (1.0, period))):
+        idx = driven[one_s.name]
+        f, _, q = fast.matrices(np.array([period]))
+        p = np.zeros_like(q[0])
+        for _ in range(steps):
+            p = f[0] @ p @ f[0].T + q[0]
+        expected = one_s.matrices(np.array([1.0]))[2][0]
+        assert np.allclose(np.diag(p)[idx], np.diag(expected)[idx], rtol=1e-9), one_s.name

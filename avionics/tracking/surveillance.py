@@ -34,6 +34,9 @@ from avionics.tracking.sensor_tracker import SensorTracker
 
 DATUM = {"radar": AltitudeDatum.GEOMETRIC, "active": AltitudeDatum.PRESSURE}
 PAIRING_PERIOD_S = 1.0  # how often a sensor kind's confirmed tracks are paired with the ADS-B tracks
+# A kind's tracker is built once its scan period is known (compose.motion_models scales the per-step noise to it):
+# from the first two scans' times, within these bounds (DAA_SENSOR_MEASUREMENT has no rate field).
+SCAN_PERIOD_BOUNDS_S = (0.02, 5.0)
 
 
 class _Tracks(Mapping):
@@ -60,8 +63,8 @@ class _Tracks(Mapping):
 
 class SurveillanceTracker:
     """A Tracker (interface.py) over the ADS-B tracker and the sensors' trackers. adsb: the ADS-B tracker;
-    motion_models: () -> (horizontal, vertical) IMM mode filters for a sensor's tracks (compose.motion_models,
-    called at the first scan of each kind); tracking: [tracking]."""
+    motion_models: (measurement period s) -> (horizontal, vertical) IMM mode filters for a sensor's tracks
+    (compose.motion_models, called at the first scan of each kind with its mount's period); tracking: [tracking]."""
 
     def __init__(self, adsb: Tracker, motion_models, tracking, counters: Counter):
         self.adsb = adsb
@@ -75,6 +78,7 @@ class SurveillanceTracker:
         self._partner: dict[IntruderKey, IntruderKey] = {}  # sensor key -> ADS-B key
         self._gone: list[IntruderKey] = []  # sensor keys that left the published set since the last prune
         self._next_pairing_s: dict[str, float] = {}
+        self._held: dict[str, list] = {}  # kind -> its first scans (scan, own_enu, heading) until its period is known
         self._view = _Tracks(self)
 
     @property
@@ -95,15 +99,32 @@ class SurveillanceTracker:
     # -- sensors -----------------------------------------------------------------------------------------------
     def scan(self, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
         """Apply one sensor scan (the ownship's [east, north, altitude] and heading at its time, the altitude in
-        the datum of the sensor's kind); the keys it updated (a paired sensor track: its ADS-B partner's)."""
+        the datum of the sensor's kind); the keys it updated (a paired sensor track: its ADS-B partner's). A kind's
+        first scan is held until the next one gives the period its tracker is built for (_start)."""
         kind = scan.measurements[0].mount.kind
-        tracker = self.sensors.get(kind)
+        tracker = self.sensors.get(kind) or self._start(kind, (scan, own_enu, own_heading_rad))
         if tracker is None:
-            t = self.config
-            tracker = self.sensors[kind] = SensorTracker(
-                *self.motion_models(), switch_probability=t.imm_switch_probability,
-                gate_probability=t.gate_probability, delete_after_s=t.delete_after_s,
-                initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2, counters=self.counters)
+            return set()
+        dirty = set().union(*(self._apply(tracker, *h) for h in self._held.pop(kind, [])))
+        return dirty | self._apply(tracker, scan, own_enu, own_heading_rad)
+
+    def _start(self, kind: str, item) -> SensorTracker | None:
+        """The kind's tracker once two scans of it tell its period; None while the first scans are held."""
+        held = self._held.setdefault(kind, [])
+        held.append(item)
+        period_s = item[0].time_s - held[0][0].time_s
+        if period_s <= 1e-6 and len(held) < 64:
+            return None
+        t = self.config
+        self._held[kind] = held[:-1]  # the scan in hand is applied after them
+        return self.sensors.setdefault(kind, SensorTracker(
+            *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1])),
+            switch_probability=t.imm_switch_probability, gate_probability=t.gate_probability,
+            delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
+            counters=self.counters))
+
+    def _apply(self, tracker: SensorTracker, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
+        kind = scan.measurements[0].mount.kind
         before = set(tracker.tracks)
         ids = tracker.scan(scan.time_s, list(scan.measurements), np.asarray(own_enu, float), own_heading_rad)
         for track_id in before - set(tracker.tracks):  # deleted by the scan's review
