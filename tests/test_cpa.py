@@ -3,7 +3,7 @@
 import math
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from avionics.conflict.cpa import modified_tau, pair_geometry
@@ -103,3 +103,25 @@ def test_intervals_and_loss_of_separation():
     # co-located, no relative motion: CPA now in 3D too
     g = pair_geometry([[0.0, 0.0]], [[0.0, 0.0]], [0.0], [0.0])
     assert g.t_cpa3d_s[0] == 0.0 and g.miss3d_m[0] == 0.0 and g.time_to_coaltitude_s[0] == 0.0
+
+
+@settings(max_examples=40)
+@given(st.floats(2000.0, 15000.0), st.floats(-math.pi, math.pi), st.floats(50.0, 250.0), st.floats(-0.5, 0.5),
+       st.floats(1.0, 30.0), st.floats(0.05, 1.0), st.integers(0, 2**16))
+def test_hmd_sigma_matches_a_monte_carlo_of_the_relative_state(rng_m, bearing, closing, offset, sigma_pos,
+                                                              sigma_vel, seed):
+    """hmd_sigma_m, the first-order spread of the horizontal miss distance (read by the alerter for a sensor-only
+    track), against the spread of the miss distances of 20,000 relative states drawn from the covariance. The
+    pair is closing (CPA ahead) and the errors small beside the miss, where first order holds."""
+    from avionics.conflict.cpa import hmd_sigma_m, pair_geometry_reference
+
+    s = rng_m * np.array([math.sin(bearing), math.cos(bearing)])
+    heading = bearing + math.pi + offset  # towards the ownship, `offset` rad off
+    v = closing * np.array([math.sin(heading), math.cos(heading)])
+    g = pair_geometry_reference(s[None], v[None], np.zeros(1), np.zeros(1))
+    p = np.diag([sigma_pos**2, sigma_pos**2, 1.0, sigma_vel**2, sigma_vel**2, 0.1])
+    p[0, 3] = p[3, 0] = 0.5 * sigma_pos * sigma_vel  # a correlated pair, as a filter's
+    draws = np.random.default_rng(seed).multivariate_normal(np.r_[s, 0.0, v, 0.0], p, 20000)
+    mc = pair_geometry_reference(draws[:, 0:2], draws[:, 3:5], draws[:, 2], draws[:, 5])
+    assume(g.hmd_m[0] > 5.0 * (sigma_pos + g.t_cpa_s[0] * sigma_vel))  # else folded at 0: not first order
+    assert math.isclose(hmd_sigma_m(g, p[None])[0], mc.hmd_m.std(), rel_tol=0.05)

@@ -128,6 +128,20 @@ def pair_geometry_reference(s_xy, v_xy, sz, vz) -> PairGeometry:
     )
 
 
+def hmd_sigma_m(g: PairGeometry, p_rel: np.ndarray) -> np.ndarray:
+    """(N,) 1-sigma of each pair's horizontal miss distance, to first order, from the covariance of the relative
+    state p_rel (N, 6, 6) on [x, y, z, vx, vy, vz]: the miss point s + t v moves across v by n.(ds + t dv), n the
+    unit normal to v and t the time to CPA (an error along v moves the CPA's time, not the miss). With v = 0 the
+    miss is the range: n = s/|s|."""
+    s, v, t = g.s_xy_m, g.v_xy_mps, g.t_cpa_s
+    speed, rng = np.linalg.norm(v, axis=1), np.linalg.norm(s, axis=1)
+    n = np.where((speed > 0.0)[:, None], np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(speed, 1e-300)[:, None],
+                 s / np.maximum(rng, 1e-300)[:, None])
+    j = np.zeros((len(t), 6))
+    j[:, 0:2], j[:, 3:5] = n, n * t[:, None]
+    return np.sqrt(np.maximum(np.einsum("ni,nij,nj->n", j, p_rel, j), 0.0))
+
+
 def modified_tau(range_m, s_dot_v, dmod_m) -> np.ndarray:
     """TCAS II modified tau: time until range would reach DMOD at the current closure; 0 inside DMOD."""
     range_m, s_dot_v = np.asarray(range_m, float), np.asarray(s_dot_v, float)

@@ -6,14 +6,14 @@ stage call inside a fault boundary (containment.py); what comes out is finite.""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from avionics.advisory.alerting import Encounter
 from avionics.compose import Components
 from avionics.config import Config
-from avionics.conflict.cpa import PairGeometry, pair_geometry
+from avionics.conflict.cpa import PairGeometry, hmd_sigma_m, pair_geometry
 from avionics.conflict.pc_at_cpa import pc_at_cpa
 from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey
 from avionics.base.uncertainty import errors_from_covariance
@@ -44,6 +44,7 @@ class Evaluation:
 
 
 SENSOR = AddressSource.SENSOR
+HMD_SIGMAS = 2.0  # a sensor-only track's miss distance, as the alerter reads it: this many sigmas below the estimate
 
 
 class Assessor:
@@ -111,7 +112,8 @@ class Assessor:
         # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
         non_coop = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys)) \
             if self.alerter.non_cooperative is not None else False
-        encounter = Encounter(geometry, has_alt, margin, threat_eligible, self._pair_errors(keys, ps, own), non_coop)
+        encounter = Encounter(self._resolvable(geometry, keys, ps, own), has_alt, margin, threat_eligible,
+                              self._pair_errors(keys, ps, own), non_coop)
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
@@ -136,6 +138,20 @@ class Assessor:
         return Evaluation(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, mismatch=mismatch, geometry=geometry,
                           threat_eligible=threat_eligible, encounter=encounter, candidates=candidates,
                           pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)
+
+    @staticmethod
+    def _resolvable(geometry: PairGeometry, keys: list[IntruderKey], ps: np.ndarray, own) -> PairGeometry:
+        """The geometry the alerter reads: an intruder seen only by the ownship's sensors has its horizontal miss
+        distance taken HMD_SIGMAS below the estimate (not below 0), so that TCAS's HMD filter (alerting.TCAS3D)
+        suppresses an RA only on a miss the track resolves. Active surveillance measures bearing to 9-15 deg:
+        its track's cross-range velocity is off by metres per second, its HMD by hundreds of metres, and the
+        filter fed the estimate held RAs back 4-8 s on NASA's encounters (avionics_eval.reports.noncoop). An
+        ADS-B track's miss is resolved to a few metres and is judged as DAIDALUS judges it, by the estimate."""
+        sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
+        if not sensed.any():
+            return geometry
+        lowered = np.maximum(geometry.hmd_m - HMD_SIGMAS * hmd_sigma_m(geometry, ps + own.p), 0.0)
+        return replace(geometry, hmd_m=np.where(sensed, lowered, geometry.hmd_m))
 
     def _pair_errors(self, keys: list[IntruderKey], ps: np.ndarray, own) -> np.ndarray | None:
         """(N, 4) ownship's + each intruder's errors for a SUM detector (Encounter.uncertainty): the stated ones
