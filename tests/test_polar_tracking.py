@@ -99,10 +99,13 @@ def run_radar(targets, duration_s, seed, errors=RADAR):
     return tracker
 
 
+def two_aircraft_03_nm_apart() -> list:
+    """Two aircraft side by side 0.3 NM apart, 3.5 km ahead, flying towards the ownship at 30 m/s."""
+    return [lambda t, x=x: straight([x, 3500.0, 1050.0], [0.0, -30.0, 0.0], t) for x in (-0.15 * NM, 0.15 * NM)]
+
+
 def test_two_aircraft_03_nm_apart_on_radar_only_are_two_tracks():
-    sep = 0.3 * NM
-    a = lambda t: straight([-sep / 2, 3500.0, 1050.0], [0.0, -30.0, 0.0], t)  # noqa: E731
-    b = lambda t: straight([sep / 2, 3500.0, 1050.0], [0.0, -30.0, 0.0], t)  # noqa: E731
+    a, b = two_aircraft_03_nm_apart()
     tracker = run_radar([a, b], 20.0, seed=3)
     confirmed = tracker.confirmed
     assert len(confirmed) == 2

@@ -14,11 +14,10 @@ from hypothesis import given, settings, strategies as st
 
 from avionics.config import load_config
 from avionics.base.types import AddressSource, IntruderKey, OwnshipFix, SensorScan
-from avionics.base.units import NM
 from avionics.pipeline.daa_core import DaaCore
 from avionics.tracking import fusion
 from avionics_sitl.sensors import RADAR, SimulatedSensor
-from tests.test_polar_tracking import PLANE, adsb_reports, fault_target, own_at, straight
+from tests.test_polar_tracking import PLANE, adsb_reports, fault_target, own_at, straight, two_aircraft_03_nm_apart
 
 
 def fix(t: float) -> OwnshipFix:
@@ -53,9 +52,7 @@ def fly(targets, duration_s, seed, adsb_target=None, fault=None, probe=None):
 
 
 def test_radar_only_aircraft_are_tracks_of_their_own_and_two_at_03_nm_are_two():
-    sep = 0.3 * NM
-    a = lambda t: straight([-sep / 2, 3500.0, 1050.0], [0.0, -30.0, 0.0], t)  # noqa: E731
-    b = lambda t: straight([sep / 2, 3500.0, 1050.0], [0.0, -30.0, 0.0], t)  # noqa: E731
+    a, b = two_aircraft_03_nm_apart()
     core = fly([a, b], 20.0, seed=3)
     keys = sorted(core.tracker.tracks)
     assert len(keys) == 2 and all(k.source is AddressSource.SENSOR for k in keys)
