@@ -4,7 +4,8 @@ Each scan's measurements (measurement.PolarMeasurement, one sensor, one time) ar
 (measurement.to_tracking_frame: the unbiased conversion and its covariance), associated with the tracks by gate and
 global nearest neighbour (association.py) and applied to the same IMM banks as ADS-B's (imm.ImmBank: horizontal
 [x, y, vx, vy, ax, ay], vertical [z, vz]) with the converted measurement's full 2 x 2 covariance (ImmBank.update's
-r_cov).
+r_cov); a measurement without an elevation (active surveillance) updates as the EKF linearised at the track's
+prediction (measurement.about_prediction), whose range is not biased by a wide bearing error.
 
 Lifecycle (Blackman & Popoli 1999, Sec. 3.3, M-of-N confirmation):
 - an unassociated measurement starts a tentative track (position at its converted covariance, velocity at the
@@ -29,7 +30,7 @@ from avionics.tracking import models
 from avionics.tracking.association import gnn
 from avionics.tracking.imm import ImmBank, spd_inverse
 from avionics.tracking.imm_tracker import assemble
-from avionics.tracking.measurement import PolarMeasurement, to_tracking_frame
+from avionics.tracking.measurement import PolarMeasurement, about_prediction, ground_polar, to_tracking_frame
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS
 
 
@@ -97,6 +98,7 @@ class SensorTracker:
                 pairs = gnn(d2, self.gate)
             taken = {j for _, j in pairs}
             if pairs:
+                self._relinearise(pairs, tracks, meas, t_s, z_h, r_h, own_enu, own_heading_rad)
                 self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)))
                 for i, j in pairs:
                     out[good[j]] = tracks[i].track_id
@@ -126,6 +128,23 @@ class SensorTracker:
         d_h = np.einsum("tmi,tmij,tmj->tm", rh, s_inv, rh)
         d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
         return d_h + d_v
+
+    def _relinearise(self, pairs, tracks, meas, t_s, z_h, r_h, own_enu, own_heading_rad) -> None:
+        """A paired measurement without an elevation (active surveillance: a 9-15 deg bearing) updates its track as
+        the extended Kalman filter linearised at the track's prediction does (measurement.about_prediction), in
+        place of its converted position, which biases the range outwards; gating and new tracks keep the
+        converted one (there is no prediction to linearise at). The radar's 1 deg conversion is kept: its bias is
+        r sigma^2 = 0.015 % of the range."""
+        rows = [(i, j) for i, j in pairs if meas[j].elevation_rad is None]
+        if not rows:
+            return
+        trk = [tracks[i] for i, _ in rows]
+        xh, _, _ = self.bank_h.predict(np.array([t.slot for t in trk]), t_s - np.array([t.t_s for t in trk]))
+        own = np.broadcast_to(np.asarray(own_enu, float), (len(meas), 3))
+        js = [j for _, j in rows]
+        rho, s_rho, bearing, s_b = ground_polar([meas[j] for j in js], own[js], own_heading_rad)
+        z, r = about_prediction(rho, s_rho, bearing, s_b, xh[:, :2] - own[js, :2])
+        z_h[js], r_h[js] = z + own[js, :2], r
 
     def _update(self, tracks, t_s, z_h, r_h, z_v, r_v) -> None:
         b = len(tracks)

@@ -52,7 +52,7 @@ from avionics.tracking import fusion, models
 from avionics.tracking.imm import ImmBank
 from avionics.tracking.imm_tracker import assemble
 from avionics.tracking.integrity import IntegrityMonitor
-from avionics.tracking.measurement import to_tracking_frame
+from avionics.tracking.measurement import about_prediction, ground_polar, to_tracking_frame
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS
 from avionics_eval.reports.tracking import OSC_AMPLITUDE_M, OSC_PERIOD_S, RAMP_MPS, STEP_M
 from avionics_sitl.impairments import DEFAULT
@@ -132,17 +132,26 @@ class Local:
 
     def __init__(self, runs: int, cfg):
         modes = build_tracker(cfg, Counter())  # the configured filter's motion models (compose.py)
-        h, v = modes.h_modes, modes.v_modes
+        h, v = modes.h_modes, modes.v_modes  # at [tracking]'s 1 s values: fixed sampling takes one a second
         p = cfg.imm_switch_probability
         self.bank_h = ImmBank(h, 4, models.switching_matrix(len(h), p), capacity=runs, compiled=False)
         self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), p), capacity=runs, compiled=False)
         self.t = np.full(runs, np.nan)  # time of each run's last update (NaN: not started)
         self.accel0 = cfg.imm_initial_accel_sigma_mps2
 
-    def apply(self, runs, t, z_h, m_h, r_h, z_v, m_v, r_v) -> None:
+    def apply(self, runs, t, z_h, m_h, r_h, z_v, m_v, r_v, polar=None) -> None:
         """Measurements of these runs at times t: z_h (B, 4) [e, n, ve, vn] with mask and covariance r_h (B, 4, 4);
-        z_v (B, 2) [alt, vu] with mask and variances r_v (B, 2). Starts a run's filter at its first."""
+        z_v (B, 2) [alt, vu] with mask and variances r_v (B, 2); polar (B, 6) [ground range, its sigma, bearing,
+        its sigma, ownship e, n] of a measurement without elevation (else NaN), which updates a started filter as
+        the EKF linearised at its prediction, as the live sensor tracker does (SensorTracker._relinearise).
+        Starts a run's filter at its first."""
         new = np.isnan(self.t[runs])
+        if polar is not None and (lin := ~new & np.isfinite(polar[:, 0])).any():
+            xh, _, _ = self.bank_h.predict(runs[lin], t[lin] - self.t[runs[lin]])
+            q = polar[lin]
+            z, r = about_prediction(q[:, 0], q[:, 1], q[:, 2], q[:, 3], xh[:, :2] - q[:, 4:6])
+            z_h, r_h = z_h.copy(), r_h.copy()
+            z_h[lin, :2], r_h[lin, :2, :2] = z + q[:, 4:6], r
         if new.any():
             s = runs[new]
             x = np.zeros((len(s), 6))
@@ -199,7 +208,11 @@ def simulate_sensor(kind: str, truths, seed: int):
         m_v = np.zeros((n, 2), bool)
         m_v[:, 0] = True
         sigma = np.sqrt(0.5 * (r_hh[:, 0, 0] + r_hh[:, 1, 1]))
-        out.append((times, z_h, m_h, r_h, z_v, m_v, r_v, sigma))
+        polar = np.full((n, 6), np.nan)
+        if n and rows[0][1].elevation_rad is None:  # active surveillance: relinearised at each update (Local.apply)
+            polar[:, :4] = np.stack(ground_polar([r[1] for r in rows], np.array([r[2][:3] for r in rows]), 0.0), axis=1)
+            polar[:, 4:6] = [r[2][:2] for r in rows]
+        out.append((times, z_h, m_h, r_h, z_v, m_v, r_v, sigma, polar))
     return out
 
 
@@ -259,8 +272,8 @@ def run_local(meas, sampling: str, cfg, monitor: IntegrityMonitor | None = None)
                 ptr[r] = j + 1
         if take:
             take_a, at_a = np.array(take), np.array(at)
-            cols = [np.stack([meas[r][c][j] for r, j in zip(take, at)]) for c in range(8)]
-            local.apply(take_a, cols[0], *cols[1:7])
+            cols = [np.stack([meas[r][c][j] for r, j in zip(take, at)]) for c in range(len(meas[take[0]]))]
+            local.apply(take_a, cols[0], *cols[1:7], *cols[8:])
             if sampling == "variable":
                 x, _ = local.predict(tick)
                 sigma = cols[7]
