@@ -64,7 +64,7 @@ class _Tracks(Mapping):
 class SurveillanceTracker:
     """A Tracker (interface.py) over the ADS-B tracker and the sensors' trackers. adsb: the ADS-B tracker;
     motion_models: (measurement period s) -> (horizontal, vertical) IMM mode filters for a sensor's tracks
-    (compose.motion_models, called at the first scan of each kind with its mount's period); tracking: [tracking]."""
+    (compose.motion_models, called once a kind's first two scans give its period); tracking: [tracking]."""
 
     def __init__(self, adsb: Tracker, motion_models, tracking, counters: Counter):
         self.adsb = adsb
@@ -102,7 +102,9 @@ class SurveillanceTracker:
         the datum of the sensor's kind); the keys it updated (a paired sensor track: its ADS-B partner's). A kind's
         first scan is held until the next one gives the period its tracker is built for (_start)."""
         kind = scan.measurements[0].mount.kind
-        tracker = self.sensors.get(kind) or self._start(kind, (scan, own_enu, own_heading_rad))
+        tracker = self.sensors.get(kind)
+        if tracker is None:
+            tracker = self._start(kind, (scan, own_enu, own_heading_rad))
         if tracker is None:
             return set()
         dirty = set().union(*(self._apply(tracker, *h) for h in self._held.pop(kind, [])))
