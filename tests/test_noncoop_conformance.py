@@ -72,3 +72,15 @@ def test_active_surveillance_raises_the_ta_and_ra_within_3_s_of_tcas3d(case_file
     assert first.keys() == reference.keys(), (first, reference)
     for key, t in reference.items():
         assert abs(first[key] - t) <= 3.0, f"{case_file} {key}: ours at {first[key]:.1f} s, TCAS3D {t:.1f} s"
+
+
+def test_the_noncoop_report_leaves_out_an_intruder_below_the_active_sensor_s_field_of_regard():
+    """avionics_eval.reports.noncoop judges a noisy run only where its sensor could see the intruder: on
+    scenario_7 the intruder is 260-285 m below the ownship at 430-460 m, 29-34 deg down, below Appendix Q
+    active surveillance's field of regard (-15 to +20 deg, sitl sensors.py) in the 10 s before DAIDALUS's TA (it
+    comes into view at 170 s, where our first alert is); the head-on H0_0_120 is in view."""
+    from avionics_eval.reports.noncoop import sensor_sees
+
+    require(TCAS3D)
+    assert not sensor_sees(CONFORMANCE / "daadisplays_scenario_7.daa", "a63ed4", 127.5, "active")
+    assert sensor_sees(CONFORMANCE / "daidalus_H0_0_120.daa", "Intruder", 52.8, "active")

@@ -10,7 +10,8 @@ Three runs per file (`sitl replay FILE --sensor ...`, no ADSB_VEHICLE):
   same references and profile: within 3 s, counted only for intruders the radar sees from 10 s before DAIDALUS's
   first level 1 until it (an intruder behind the radar's field of regard is not the radar's to find);
 - `active`: active surveillance (TCAS-like Mode C interrogation, Appendix Q: 1 Hz, 9-15 deg bearing), profile
-  daidalus-tcas3d, against the TCAS3D rows of `first_alerts.csv`: TA and RA within 3 s.
+  daidalus-tcas3d, against the TCAS3D rows of `first_alerts.csv`: TA and RA within 3 s, counted, as the radar's,
+  only for intruders inside its field of regard (-15 to +20 deg elevation) and range for those 10 s.
 A first alert with no reference is "extra"; a reference with none of ours is "missed".
 
     python -m avionics_eval.reports.noncoop [--jobs 2] [--seed 0] [--markdown]
@@ -62,18 +63,19 @@ def first_levels(path: Path, sensor: str, exact: bool, profile: str, seed: int) 
     return first
 
 
-def radar_sees(path: Path, name: str, t_s: float) -> bool:
-    """Whether the Appendix Q radar sees the aircraft at every second from SEEN_BEFORE_S before t_s until t_s."""
+def sensor_sees(path: Path, name: str, t_s: float, kind: str) -> bool:
+    """Whether the Appendix Q sensor `kind` (radar, active) sees the aircraft at every second from SEEN_BEFORE_S
+    before t_s until t_s (its field of regard and range limits, sitl/avionics_sitl/sensors.py)."""
     import numpy as np
 
     from avionics_sitl.encounters import load_scenario
     from avionics_sitl.sensor_feed import _enu
-    from avionics_sitl.sensors import RADAR, SimulatedSensor
+    from avionics_sitl.sensors import MODELS, SimulatedSensor
 
     scenario = load_scenario(str(path))
     own_traj, trajs = scenario.trajectories()
     traj = trajs[[a.name for a in scenario.intruders].index(name)]
-    sensor = SimulatedSensor(RADAR, "0")
+    sensor = SimulatedSensor(MODELS[kind], "0")
     for t in np.arange(max(0.0, t_s - SEEN_BEFORE_S), t_s + 1e-9, 1.0):
         own = _enu(own_traj, float(t))
         heading = math.atan2(own[3], own[4]) if math.hypot(own[3], own[4]) > 0.0 else 0.0
@@ -84,12 +86,12 @@ def radar_sees(path: Path, name: str, t_s: float) -> bool:
 
 def compare(run: str, case_file: str, rows: list[dict], ours: dict, folder: Path) -> list[dict]:
     """One line per (intruder, level): DAIDALUS's first time, ours, and the verdict (ok, late/early, missed,
-    extra, not seen: outside the radar's field of regard)."""
-    _, _, _, _, _, levels, tolerance = RUNS[run]
+    extra, not seen: outside the sensor's field of regard or range)."""
+    sensor, exact, _, _, _, levels, tolerance = RUNS[run]
     out = []
     for row in rows:
         t1 = row["first_level1_sim_s"]
-        unseen = run == "radar" and t1 and not radar_sees(folder / case_file, row["intruder"], float(t1))
+        unseen = not exact and t1 and not sensor_sees(folder / case_file, row["intruder"], float(t1), sensor)
         for level in levels:
             text = row[f"first_level{level}_sim_s"]
             theirs = float(text) if text else None
