@@ -86,8 +86,9 @@ def motion_models(t: TrackingConfig, period_s: float = 1.0) -> tuple[list, list]
     increment of sigma T (CV's piecewise-constant acceleration, Baek & Bang eq 5; CAD, eq 8) adds sigma^2 T^2
     per step, sigma^2 T per second, so sigma^2 is divided by T; a per-step acceleration or vertical-speed
     increment (CT's and CA's Wiener sequence, Hwang eq 18, Baek & Bang eq 6; CH, eq 7) adds sigma^2 per step,
-    so sigma^2 is multiplied by T. Left at per-step values, a 10 Hz radar's CT mode took ten times the acceleration variance a second and
-    its CV mode a tenth: tracks whose velocity wandered by 3-5 m/s at 6 km (issue 30's extra radar alerts)."""
+    so sigma^2 is multiplied by T. Left at per-step values, a 10 Hz radar's CT mode took ten times the
+    acceleration variance a second and its CV mode a tenth: tracks whose velocity wandered by 3-5 m/s at 6 km
+    (issue 30's extra radar alerts)."""
     from avionics.tracking import models  # only when an IMM is configured: start-up (issue 13)
 
     if not (math.isfinite(period_s) and period_s > 0.0):

@@ -119,8 +119,9 @@ def test_a_sensor_s_tracks_take_the_noise_per_second_the_1_s_values_were_set_for
     prediction adds at [tracking]'s per-step values (by hand: those states evolve as a random walk, F's row is
     the identity on them, so their variances add)."""
     from avionics.compose import motion_models
+    from avionics.tracking.params import TrackingConfig
 
-    config = load_config().tracking.__class__(imm_horizontal_modes=("cv", "ct", "ca"))
+    config = TrackingConfig(imm_horizontal_modes=("cv", "ct", "ca"))
     period = 1.0 / steps
     driven = {"cv": [2, 3], "ct": [4, 5], "ca": [4, 5], "ch": [1], "cad": [1]}
     for one_s, fast in zip(*(sum(motion_models(config, p), []) for p in (1.0, period))):

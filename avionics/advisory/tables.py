@@ -382,8 +382,8 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
 def _check_non_cooperative(profile: AlertProfile, other: AlertProfile) -> None:
     """[alerter] non_cooperative names a well-clear alerter with the same alerting hysteresis (one
     AlertingHysteresis serves both, advisory/alerting.py Alerter.non_cooperative), the same use of SUM and the same
-    levels (one advisory logic reads both); checked
-    here, at load, so that `avionics config` refuses what `run` could not build."""
+    levels (one advisory logic reads both); checked here, at load, so that `avionics config` refuses what `run`
+    could not build."""
     spec, name = profile.alerter, profile.alerter.non_cooperative
     if other.alerter is None or other.alerter.non_cooperative is not None:
         raise ProfileError(f"profile {profile.name}: [alerter] non_cooperative = {name!r} needs a well-clear "

@@ -110,9 +110,9 @@ class Assessor:
         threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
         # which alerter judges each intruder (DAIDALUS's per-intruder alerter): one seen only by a sensor is
         # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
-        non_coop = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys)) \
-            if self.alerter.non_cooperative is not None else False
-        encounter = Encounter(self._resolvable(geometry, keys, ps, own), has_alt, margin, threat_eligible,
+        sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
+        non_coop = sensed if self.alerter.non_cooperative is not None else False
+        encounter = Encounter(self._resolvable(geometry, sensed, ps, own), has_alt, margin, threat_eligible,
                               self._pair_errors(keys, ps, own), non_coop)
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
@@ -140,14 +140,13 @@ class Assessor:
                           pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)
 
     @staticmethod
-    def _resolvable(geometry: PairGeometry, keys: list[IntruderKey], ps: np.ndarray, own) -> PairGeometry:
-        """The geometry the alerter reads: an intruder seen only by the ownship's sensors has its horizontal miss
+    def _resolvable(geometry: PairGeometry, sensed: np.ndarray, ps: np.ndarray, own) -> PairGeometry:
+        """The geometry the alerter reads: an intruder seen only by the ownship's sensors (sensed) has its horizontal miss
         distance taken HMD_SIGMAS below the estimate (not below 0), so that TCAS's HMD filter (alerting.TCAS3D)
         suppresses an RA only on a miss the track resolves. Active surveillance measures bearing to 9-15 deg:
         its track's cross-range velocity is off by metres per second, its HMD by hundreds of metres, and the
         filter fed the estimate held RAs back 4-8 s on NASA's encounters (avionics_eval.reports.noncoop). An
         ADS-B track's miss is resolved to a few metres and is judged as DAIDALUS judges it, by the estimate."""
-        sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
         if not sensed.any():
             return geometry
         lowered = np.maximum(geometry.hmd_m - HMD_SIGMAS * hmd_sigma_m(geometry, ps + own.p), 0.0)

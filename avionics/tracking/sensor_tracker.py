@@ -94,11 +94,11 @@ class SensorTracker:
         if meas:
             z_h, r_h, z_v, r_v = to_tracking_frame(meas, own_enu, own_heading_rad)
             if tracks:
-                d2 = self._distances(tracks, t_s, z_h, r_h, z_v, r_v)
+                d2, xh = self._distances(tracks, t_s, z_h, r_h, z_v, r_v)
                 pairs = gnn(d2, self.gate)
             taken = {j for _, j in pairs}
             if pairs:
-                self._relinearise(pairs, tracks, meas, t_s, z_h, r_h, own_enu, own_heading_rad)
+                self._relinearise(pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad)
                 self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)))
                 for i, j in pairs:
                     out[good[j]] = tracks[i].track_id
@@ -118,7 +118,8 @@ class SensorTracker:
         return out
 
     def _distances(self, tracks, t_s, z_h, r_h, z_v, r_v) -> np.ndarray:
-        """d^2 (T, M) of each measurement against each track's prediction at t_s (horizontal and altitude)."""
+        """d^2 (T, M) of each measurement against each track's prediction at t_s (horizontal and altitude), and the
+        tracks' horizontal predictions (T, 6)."""
         slots = np.array([t.slot for t in tracks])
         dt = t_s - np.array([t.t_s for t in tracks])
         xh, ph, _ = self.bank_h.predict(slots, dt)
@@ -127,23 +128,21 @@ class SensorTracker:
         s_inv, _ = spd_inverse(ph[:, None, :2, :2] + r_h[None])
         d_h = np.einsum("tmi,tmij,tmj->tm", rh, s_inv, rh)
         d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
-        return d_h + d_v
+        return d_h + d_v, xh
 
-    def _relinearise(self, pairs, tracks, meas, t_s, z_h, r_h, own_enu, own_heading_rad) -> None:
+    def _relinearise(self, pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad) -> None:
         """A paired measurement without an elevation (active surveillance: a 9-15 deg bearing) updates its track as
-        the extended Kalman filter linearised at the track's prediction does (measurement.about_prediction), in
-        place of its converted position, which biases the range outwards; gating and new tracks keep the
-        converted one (there is no prediction to linearise at). The radar's 1 deg conversion is kept: its bias is
-        r sigma^2 = 0.015 % of the range."""
+        the extended Kalman filter linearised at the track's prediction (xh, the gate's) does
+        (measurement.about_prediction), in place of its converted position, which biases the range outwards;
+        gating and new tracks keep the converted one (there is no prediction to linearise at). The radar's 1 deg
+        conversion is kept: its bias is r sigma^2 = 0.015 % of the range."""
         rows = [(i, j) for i, j in pairs if meas[j].elevation_rad is None]
         if not rows:
             return
-        trk = [tracks[i] for i, _ in rows]
-        xh, _, _ = self.bank_h.predict(np.array([t.slot for t in trk]), t_s - np.array([t.t_s for t in trk]))
         own = np.broadcast_to(np.asarray(own_enu, float), (len(meas), 3))
-        js = [j for _, j in rows]
+        ts, js = [i for i, _ in rows], [j for _, j in rows]
         rho, s_rho, bearing, s_b = ground_polar([meas[j] for j in js], own[js], own_heading_rad)
-        z, r = about_prediction(rho, s_rho, bearing, s_b, xh[:, :2] - own[js, :2])
+        z, r = about_prediction(rho, s_rho, bearing, s_b, xh[ts, :2] - own[js, :2])
         z_h[js], r_h[js] = z + own[js, :2], r
 
     def _update(self, tracks, t_s, z_h, r_h, z_v, r_v) -> None:

@@ -100,30 +100,27 @@ class SurveillanceTracker:
     def scan(self, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
         """Apply one sensor scan (the ownship's [east, north, altitude] and heading at its time, the altitude in
         the datum of the sensor's kind); the keys it updated (a paired sensor track: its ADS-B partner's). A kind's
-        first scan is held until the next one gives the period its tracker is built for (_start)."""
+        first scans are held until one at a later time gives the period its tracker is built for."""
         kind = scan.measurements[0].mount.kind
         tracker = self.sensors.get(kind)
         if tracker is None:
-            tracker = self._start(kind, (scan, own_enu, own_heading_rad))
-        if tracker is None:
-            return set()
+            held = self._held.setdefault(kind, [])
+            period_s = scan.time_s - held[0][0].time_s if held else 0.0
+            if period_s <= 1e-6 and len(held) < 63:
+                held.append((scan, own_enu, own_heading_rad))
+                return set()
+            tracker = self.sensors[kind] = self._tracker(period_s)
         dirty = set().union(*(self._apply(tracker, *h) for h in self._held.pop(kind, [])))
         return dirty | self._apply(tracker, scan, own_enu, own_heading_rad)
 
-    def _start(self, kind: str, item) -> SensorTracker | None:
-        """The kind's tracker once two scans of it tell its period; None while the first scans are held."""
-        held = self._held.setdefault(kind, [])
-        held.append(item)
-        period_s = item[0].time_s - held[0][0].time_s
-        if period_s <= 1e-6 and len(held) < 64:
-            return None
+    def _tracker(self, period_s: float) -> SensorTracker:
+        """A kind's tracker, its motion noise for scans period_s apart (within SCAN_PERIOD_BOUNDS_S)."""
         t = self.config
-        self._held[kind] = held[:-1]  # the scan in hand is applied after them
-        return self.sensors.setdefault(kind, SensorTracker(
+        return SensorTracker(
             *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1])),
             switch_probability=t.imm_switch_probability, gate_probability=t.gate_probability,
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
-            counters=self.counters))
+            counters=self.counters)
 
     def _apply(self, tracker: SensorTracker, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
         kind = scan.measurements[0].mount.kind

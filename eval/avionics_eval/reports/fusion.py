@@ -197,7 +197,8 @@ def simulate_sensor(kind: str, truths, seed: int):
             period = errors.period_s(float(range_tau(truth[k], own)))
             k += max(k_step, int(round(period / DT)))
         times = np.array([r[0] for r in rows])
-        z_hh, r_hh, z_vv, r_vv = to_tracking_frame([r[1] for r in rows], np.array([r[2][:3] for r in rows]), 0.0)
+        own_enu = np.array([r[2][:3] for r in rows])
+        z_hh, r_hh, z_vv, r_vv = to_tracking_frame([r[1] for r in rows], own_enu, 0.0)
         n = len(rows)
         z_h, r_h = np.zeros((n, 4)), np.tile(np.eye(4), (n, 1, 1))
         z_h[:, :2], r_h[:, :2, :2] = z_hh, r_hh
@@ -210,8 +211,8 @@ def simulate_sensor(kind: str, truths, seed: int):
         sigma = np.sqrt(0.5 * (r_hh[:, 0, 0] + r_hh[:, 1, 1]))
         polar = np.full((n, 6), np.nan)
         if n and rows[0][1].elevation_rad is None:  # active surveillance: relinearised at each update (Local.apply)
-            polar[:, :4] = np.stack(ground_polar([r[1] for r in rows], np.array([r[2][:3] for r in rows]), 0.0), axis=1)
-            polar[:, 4:6] = [r[2][:2] for r in rows]
+            polar[:, :4] = np.stack(ground_polar([r[1] for r in rows], own_enu, 0.0), axis=1)
+            polar[:, 4:6] = own_enu[:, :2]
         out.append((times, z_h, m_h, r_h, z_v, m_v, r_v, sigma, polar))
     return out
 
