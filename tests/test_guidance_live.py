@@ -232,10 +232,13 @@ def test_the_px4_mode_ladder_escalates_hold_then_return_each_once_live(udp_port,
     onboard = _Onboard(udp_port, tcp_port, end_s - START_S,
                        [*GUIDANCE, 'guidance.ladder=["hold", "return"]'])
     copter = SimCopter(load_vehicle("multirotor"), firmware="px4")
-    stop = threading.Event()
+    stop, returning = threading.Event(), threading.Event()
 
-    def record(_received):  # the loop ends once Return is in force
-        if copter.modes[-1][1] == px4.RTL:
+    def record(received):  # the loop ends once Return is in force and its STATUSTEXT is here (it may follow the mode)
+        msg = received.msg
+        if msg.get_type() == "STATUSTEXT" and msg.text.startswith("DAA GUIDANCE COMMANDING RETURN"):
+            returning.set()
+        if copter.modes[-1][1] == px4.RTL and returning.is_set():
             stop.set()
 
     try:
