@@ -351,3 +351,20 @@ def test_a_stuck_barometer_in_level_flight_is_not_flagged_until_the_altitude_cha
     feed(check, [(20.0 + i * 0.2, 1000.0, 1000.0 - 2.0 * i * 0.2, -2.0) for i in range(1, 100)])
     assert check.fault == "stuck"
     assert 20.0 + 28.3 / 2.0 <= check.fault_since_s <= 20.0 + 28.3 / 2.0 + 0.4
+
+
+def test_the_ownship_state_asked_twice_at_one_instant_sees_what_came_between():
+    """OwnshipFilter.state_at keeps its last answer for the stages that ask at the same instant (issue 32): a fix or
+    a pressure sample that arrives at that instant must still be seen by the next ask."""
+    from avionics.config import InputConfig
+    from avionics.tracking.ownship import OwnshipFilter
+
+    own = OwnshipFilter(CFG, InputConfig())
+    own.update_fix(OwnshipFix(0.0, 0.0, 0.0, 100.0, 100.0, (10.0, 0.0, 0.0)), 0.0, 0.0)
+    assert own.state_at(1.0).x[1] == pytest.approx(10.0)  # predicted 1 s north at 10 m/s
+    own.update_fix(OwnshipFix(1.0, 0.0, 0.0, 120.0, 120.0, (10.0, 0.0, 0.0)), 0.0, 50.0)
+    after_fix = own.state_at(1.0)
+    assert (after_fix.x[1], after_fix.x[2]) == (50.0, 120.0)
+    assert after_fix.pressure_altitude_m is None
+    own.update_pressure(OwnshipPressure(1.0, 150.0))  # the first sample sets the offset (30 m above GNSS)
+    assert own.state_at(1.0).pressure_altitude_m == pytest.approx(150.0)

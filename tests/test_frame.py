@@ -51,6 +51,19 @@ def test_velocity_matrix_is_the_derivative_of_the_projection(lat0, lon0, dlat, d
 
 
 @settings(max_examples=200)
+@given(latitudes, longitudes, st.floats(-300e3, 300e3), st.floats(-300e3, 300e3))
+def test_one_point_and_many_points_go_to_the_same_place(lat0, lon0, east, north):
+    """to_geodetic takes one point through math and arrays through numpy (the flight loop converts one point a
+    step): the same surface point both ways, within a micrometre, and to_en brings it back to the plane point."""
+    plane = LocalTangentPlane(lat0, lon0)
+    lat, lon = plane.to_geodetic(east, north)
+    lats, lons = plane.to_geodetic(np.array([east, 0.0]), np.array([north, 0.0]))
+    assert isinstance(lat, float) and lats.shape == (2,)
+    assert (lat, lon) == pytest.approx((lats[0], lons[0]), abs=1e-11)  # degrees: 1e-11 deg is about 1 um
+    assert plane.to_en(lat, lon) == pytest.approx((east, north), abs=1e-6)
+
+
+@settings(max_examples=200)
 @given(latitudes, longitudes, st.floats(0, 2 * math.pi), st.floats(0, 30 * NM), st.floats(0, 2 * math.pi),
        st.floats(0, RECENTRE_M), st.floats(0, 2 * math.pi), st.floats(5, 300), st.floats(0, 2 * math.pi),
        st.floats(5, 300))

@@ -3,11 +3,16 @@ an altitude in its own datum, so the tangent plane's tilt never leaks into verti
 
 from __future__ import annotations
 
+import math
+from types import SimpleNamespace
+
 import numpy as np
 
 WGS84_A = 6378137.0
 WGS84_F = 1.0 / 298.257223563
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+# the ellipsoid as x^2/a^2 + y^2/a^2 + z^2/b^2 = 1: its coefficients
+_QUADRIC = (1.0 / WGS84_A**2, 1.0 / WGS84_A**2, 1.0 / (WGS84_A * (1.0 - WGS84_F)) ** 2)
 
 
 def geodetic_to_ecef(lat_deg, lon_deg, h_m):
@@ -20,21 +25,41 @@ def geodetic_to_ecef(lat_deg, lon_deg, h_m):
 
 
 def ecef_to_geodetic(x, y, z):
-    """Bowring's method with two iterations: sub-millimetre for aircraft altitudes."""
-    lon = np.arctan2(y, x)
-    p = np.hypot(x, y)
-    lat = np.arctan2(z, p * (1.0 - WGS84_E2))
+    """Bowring's method with two iterations: sub-millimetre for aircraft altitudes. Scalars go through math:
+    numpy's per-call cost is most of a single point's, and the flight loop converts one point a step."""
+    m = _math_of(x, y, z)
+    lon = m.atan2(y, x)
+    p = m.hypot(x, y)
+    lat = m.atan2(z, p * (1.0 - WGS84_E2))
     for _ in range(3):
-        n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
-        h = p / np.cos(lat) - n
-        lat = np.arctan2(z, p * (1.0 - WGS84_E2 * n / (n + h)))
-    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * np.sin(lat) ** 2)
-    h = p / np.cos(lat) - n
-    return np.degrees(lat), np.degrees(lon), h
+        n = WGS84_A / m.sqrt(1.0 - WGS84_E2 * m.sin(lat) ** 2)
+        h = p / m.cos(lat) - n
+        lat = m.atan2(z, p * (1.0 - WGS84_E2 * n / (n + h)))
+    n = WGS84_A / m.sqrt(1.0 - WGS84_E2 * m.sin(lat) ** 2)
+    h = p / m.cos(lat) - n
+    return m.degrees(lat), m.degrees(lon), h
+
+
+def _scalar_sqrt(v: float) -> float:
+    return math.sqrt(v) if v >= 0.0 else math.nan  # as np.sqrt under errstate(invalid="ignore")
+
+
+_SCALAR = SimpleNamespace(atan2=math.atan2, hypot=math.hypot, sqrt=_scalar_sqrt, sin=math.sin, cos=math.cos,
+                          degrees=math.degrees)
+_ARRAY = SimpleNamespace(atan2=np.arctan2, hypot=np.hypot, sqrt=np.sqrt, sin=np.sin, cos=np.cos, degrees=np.degrees)
+
+
+def _math_of(*values):
+    """The functions for these operands: math's for plain numbers, numpy's for anything else."""
+    return _SCALAR if all(isinstance(v, float) for v in values) else _ARRAY
 
 
 def horizontal_axes(lat_deg, lon_deg) -> np.ndarray:
     """ECEF unit vectors of local true east (row 0) and north (row 1) at points: shape (..., 2, 3)."""
+    if _math_of(lat_deg, lon_deg) is _SCALAR:
+        lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+        sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
+        return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl]])
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
     # filled in place: the nested np.stack it replaces cost more than the arithmetic for one point
@@ -59,6 +84,9 @@ class LocalTangentPlane:
         sl, cl, so, co = np.sin(lat0), np.cos(lat0), np.sin(lon0), np.cos(lon0)
         # Rows: east, north, up unit vectors in ECEF.
         self._rot = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+        self._origin_xyz = tuple(float(v) for v in self._origin)  # plain floats: to_geodetic's scalar path
+        self._axes_xyz = tuple(tuple(float(v) for v in row) for row in self._rot)
+        self._qa = sum(dk * uk * uk for dk, uk in zip(_QUADRIC, self._axes_xyz[2]))
 
     def to_en(self, lat_deg, lon_deg):
         """Horizontal (east, north) in metres of points at the ellipsoid surface below them."""
@@ -80,15 +108,16 @@ class LocalTangentPlane:
         That point lies on the line through the plane point along the local vertical; intersecting the line
         with the ellipsoid is a quadratic in the distance u along the vertical (exact, no iteration).
         """
-        east_m, north_m = np.asarray(east_m, float), np.asarray(north_m, float)
-        e_axis, n_axis, u_axis = self._rot
-        c = self._origin[:, None] + np.outer(e_axis, east_m.reshape(-1)) + np.outer(n_axis, north_m.reshape(-1))
-        b2 = (WGS84_A * (1.0 - WGS84_F)) ** 2
-        d = np.array([1.0 / WGS84_A**2, 1.0 / WGS84_A**2, 1.0 / b2])
-        qa = np.sum(d * u_axis * u_axis)
-        qb = np.sum(d[:, None] * c * u_axis[:, None], axis=0)
-        qc = np.sum(d[:, None] * c * c, axis=0) - 1.0
+        scalar = isinstance(east_m, (int, float)) and isinstance(north_m, (int, float))
+        east_m, north_m = (float(east_m), float(north_m)) if scalar else (np.asarray(east_m, float),
+                                                                          np.asarray(north_m, float))
+        m = _SCALAR if scalar else _ARRAY
+        # component by component, so that one point is plain floats and many are arrays
+        c = [o + ea * east_m + na * north_m for o, ea, na in zip(self._origin_xyz, *self._axes_xyz[:2])]
+        u_axis = self._axes_xyz[2]
+        qb = sum(dk * ck * uk for dk, ck, uk in zip(_QUADRIC, c, u_axis))
+        qc = sum(dk * ck * ck for dk, ck in zip(_QUADRIC, c)) - 1.0
         with np.errstate(invalid="ignore"):  # a point off the Earth's disc has no surface point: NaN
-            u = (-qb + np.sqrt(qb * qb - qa * qc)) / qa  # the intersection nearest the plane
-        lat, lon, _ = ecef_to_geodetic(*(c + np.outer(u_axis, u)))
-        return lat.reshape(east_m.shape), lon.reshape(east_m.shape)
+            u = (-qb + m.sqrt(qb * qb - self._qa * qc)) / self._qa  # the intersection nearest the plane
+        lat, lon, _ = ecef_to_geodetic(*(ck + uk * u for ck, uk in zip(c, u_axis)))
+        return lat, lon

@@ -42,6 +42,9 @@ class OwnshipFilter:
         self.kf: CvKalman | None = None
         self.last_fix: OwnshipFix | None = None
         self.baro = BaroCrossCheck(altitude, GNSS_ALTITUDE_SIGMA_M, self.counters)
+        # the last state_at's (time, state): the loop's stages ask for the same instant several times a step;
+        # everything that changes the filter (a fix, a pressure, a new frame) forgets it
+        self._state_memo: tuple[float, OwnshipState | None] | None = None
 
     def update_fix(self, fix: OwnshipFix, east: float, north: float) -> bool:
         vn, ve, vd = fix.velocity_ned_mps
@@ -55,6 +58,7 @@ class OwnshipFilter:
         # The fix is the autopilot's navigation solution (ArduPilot EKF3, PX4 EKF2), already filtered: it is taken
         # as it is, with the GNSS-class uncertainty above, and propagated at constant velocity to each assessment.
         # Filtering it again lagged it by metres in turns whenever its position and velocity disagreed.
+        self._state_memo = None
         self.kf = CvKalman(fix.time_s, z.value, np.diag(z.sigma**2), OWNSHIP_ACCEL_SIGMA_MPS2, OWNSHIP_ACCEL_SIGMA_MPS2)
         self.last_fix = fix
         return True
@@ -65,6 +69,7 @@ class OwnshipFilter:
         if self.kf is None:
             return False
         x = self.kf.predict_to(pressure.time_s)[0]
+        self._state_memo = None
         self.baro.update(pressure.time_s, pressure.pressure_altitude_m, float(x[2]), float(x[5]))
         return True
 
@@ -75,12 +80,20 @@ class OwnshipFilter:
 
     def reframe(self, change) -> None:
         """The tangent plane moved (avionics/base/frame.py): carry the filter's state into it."""
+        self._state_memo = None
         if self.kf is not None:
             x, p, _ = change.carry(self.kf.x[None], self.kf.p[None], vectors=(3,))
             self.kf.x, self.kf.p = x[0], p[0]
 
     def state_at(self, t_s: float) -> OwnshipState | None:
         """Ownship at t_s, or None without a fix in the last ownship_timeout_s."""
+        if self._state_memo is not None and self._state_memo[0] == t_s:
+            return self._state_memo[1]
+        state = self._state_at(t_s)
+        self._state_memo = (t_s, state)
+        return state
+
+    def _state_at(self, t_s: float) -> OwnshipState | None:
         if self.kf is None or self.last_fix is None or t_s - self.kf.t_s > self.input_cfg.ownship_timeout_s:
             return None
         x, p = self.kf.predict_to(t_s)
