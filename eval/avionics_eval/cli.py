@@ -38,6 +38,11 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.step:
+        from avionics_eval.step_bench import step_bench
+
+        print(json.dumps(step_bench(args.profiles.split(","), args.encounters, args.seed), indent=1))
+        return 0
     if args.soak is not None:
         from avionics_eval.soak_bench import soak
 
@@ -126,6 +131,12 @@ def add_commands(sub) -> None:
     p.add_argument("--soak", type=_positive, metavar="S",
                    help="memory soak: a real avionics run fed --intruders (one count, default 1000) at "
                         "1 Hz for S seconds, its VmRSS sampled (eval/avionics_eval/soak_bench.py, docs/performance.md)")
+    p.add_argument("--step", action="store_true",
+                   help="the whole step for one intruder and the evaluation's CPU per encounter, per profile, with "
+                        "filterpy's IMM step as a reference (eval/avionics_eval/step_bench.py, docs/performance.md)")
+    p.add_argument("--profiles", default="tcas2,do365,daidalus-do365b-sum", help="--step: alerting profiles")
+    p.add_argument("--encounters", type=_whole(1), default=40, help="--step: encounters per profile (a warm-up more)")
+    p.add_argument("--seed", type=_whole(0), default=1, help="--step: the evaluation's encounter seed")
     p.add_argument("--sample-seconds", type=_positive, default=5.0, metavar="S",
                    help="--soak: seconds between samples of the child's memory")
     p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,
