@@ -17,6 +17,7 @@ import avionics.io  # noqa: F401
 from avionics.io.dialect import daa as mavlink2
 
 from avionics.config import Config
+from avionics.base.geodesy import LocalTangentPlane
 from avionics.base.types import Advisory, AddressSource, IntruderKey, IntruderReport, OwnshipFix
 from avionics.daa import Daa
 from avionics.io.framing import FrameScanner
@@ -236,8 +237,7 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     (built from config when None): a lab instrument that reads the core's state between steps passes its own.
     sensors: how the intruders are seen (sensor_feed.py: adsb, radar, active; the loop open: the sensors measure
     the scenario's paths), exact_sensors: they measure exactly and see all round (`--noise none`). A sensor track
-    is named after the aircraft whose true horizontal range is nearest its first advisory's (the simulator knows
-    the truth, the process does not)."""
+    is named after the aircraft whose true position is nearest the track's at its first advisory (_SensorNamer)."""
     if set(sensors) - {"adsb"} and (respond or fly_guidance):
         raise ValueError("the simulated sensors measure the scenario's paths: not with a closed loop")
     counters: Counter = core.counters if core is not None else Counter()
@@ -261,8 +261,10 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
     if bar is not None:
         source.progress = lambda t: bar.update(task, completed=t)
     try:
+        namer = [_SensorNamer(daa, source.intruder_trajs, [a.name for a in scenario.intruders],
+                              result.sensor_names)] if source.scans else []
         Loop(daa, source, [MavlinkOut(autopilot_side.send, config), _Recorder(result.changes, result.guidance),
-                           *ports]).run()
+                           *namer, *ports]).run()
     finally:
         if bar is not None:
             bar.update(task, completed=scenario.duration_s)
@@ -271,23 +273,34 @@ def replay(scenario: Scenario, config: Config, impairments: AdsbImpairments, see
                                     IntruderKey(spec.icao_address, spec.address_source))
                      for spec, traj in zip(scenario.intruders, source.intruder_trajs)]
     result.min_agl_m = source.min_alt_msl_m - scenario.ground_elevation_m
-    if source.scans:
-        result.sensor_names = _sensor_names(result.changes, source.own_traj, source.intruder_trajs,
-                                            [a.name for a in scenario.intruders])
     return result
 
 
-def _sensor_names(changes, own_traj, intruder_trajs, names) -> dict[IntruderKey, str]:
-    """Each sensor track's aircraft: the one whose true horizontal range at the track's first advisory is nearest
-    the advisory's range_m (horizontal, conflict/cpa.py)."""
-    out: dict[IntruderKey, str] = {}
-    for a in changes:
-        if a.intruder.source is not AddressSource.SENSOR or a.intruder in out or not intruder_trajs:
-            continue
-        own = own_traj.enu_at(a.time_s)
-        ranges = [math.dist(own[:2], traj.enu_at(a.time_s)[:2]) for traj in intruder_trajs]
-        out[a.intruder] = names[min(range(len(ranges)), key=lambda i: abs(ranges[i] - a.range_m))]
-    return out
+class _SensorNamer:
+    """The replay's port that names each sensor track after an aircraft, at the track's first advisory: the one
+    whose true position is nearest the track's estimated position then (the simulator knows the truth, the process
+    does not). A track's range alone named two of sim3's tracks after one aircraft: active surveillance's range
+    bias is larger than the two aircraft's difference in range."""
+
+    def __init__(self, daa: Daa, trajectories, names, out: dict):
+        self.daa, self.trajectories, self.names, self.out = daa, trajectories, names, out
+
+    def wants(self, now_s):
+        return NOTHING
+
+    def publish(self, result) -> None:
+        new = {a.intruder for a in result.changes if a.intruder.source is AddressSource.SENSOR} - set(self.out)
+        if not new or not self.trajectories:
+            return
+        for view in self.daa.tracks(result.time_s):
+            if view.key in new:
+                here = LocalTangentPlane(view.lat_deg, view.lon_deg)
+                truths = [traj.state_at(result.time_s) for traj in self.trajectories]
+                miss = [math.hypot(*here.to_en(s.lat_deg, s.lon_deg), s.alt_msl_m - float(view.x[2])) for s in truths]
+                self.out[view.key] = self.names[miss.index(min(miss))]
+
+    def close(self) -> None:
+        pass
 
 
 @dataclass(frozen=True, slots=True)
