@@ -166,13 +166,18 @@ def build_hysteresis(profile: AlertProfile) -> AlertingHysteresis | NoHysteresis
 
 def build_bands(profile: AlertProfile) -> BandsEngine | None:
     """A DO-365 alerter's guidance bands (advisory/bands.py, DAIDALUS DaidalusRealBands): the profile's [bands]
-    parameters and the alerter's levels, each painting its region; None for the tcas2 alerter."""
+    parameters and the alerter's levels, each painting its region (a sensor-only intruder's conflicts with its
+    non-cooperative alerter's, [alerter] non_cooperative); None for the tcas2 alerter."""
     spec = profile.alerter
     if spec is None:
         return None
     from avionics.advisory.bands import BandsEngine  # not imported for tcas2: start-up (issue 13)
 
-    return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum)  # the alerter's levels; SUM: its tests too
+    from avionics.advisory.tables import load_profile
+
+    other = None if spec.non_cooperative is None else load_profile(spec.non_cooperative).alerter.levels
+    # the alerter's levels (SUM: its tests too), and the non-cooperative alerter's for the sensor-only intruders
+    return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum, non_cooperative_levels=other)
 
 
 def build_gate(advisory_params: AdvisoryConfig) -> AlertGate:

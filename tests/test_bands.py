@@ -426,3 +426,70 @@ def test_bands_sum_lines_are_the_scalar_detector(lines, err):
             a, b = math.inf, -math.inf
         for ours, ref in ((t_in[j, 0], a), (t_out[j, 0], b)):
             assert ours == ref or abs(ours - ref) <= 1e-9, (j, (a, b), (t_in[j, 0], t_out[j, 0]))
+
+
+# -- per-intruder alerters (issue 30 item 5: DAIDALUS's bands take each aircraft with its own alerter) ---------------
+NON_COOP_LEVELS = load_profile("do365-non-coop").alerter.levels  # DO_365B_no_SUM.conf's DWC_Non_Coop
+
+
+def _traffic(intruders):
+    pos = [[x, y, 3000 + z] for x, y, z, *_ in intruders]
+    vel = [[gs * math.sin(math.radians(tr)), gs * math.cos(math.radians(tr)), vs] for *_, tr, gs, vs in intruders]
+    return pos, vel
+
+
+def _probes(kind: str, params: BandsParams):
+    """Values between candidates (never on a band end) across the kind's range."""
+    if kind == "track_deg":
+        return np.arange(0.5, 360.0, 1.0)
+    lo, hi, step = {"ground_speed_mps": (params.min_gs_mps, params.max_gs_mps, params.step_gs_mps),
+                    "vertical_rate_mps": (params.min_vs_mps, params.max_vs_mps, params.step_vs_mps),
+                    "altitude_m": (params.min_alt_m, params.max_alt_m, params.step_alt_m)}[kind]
+    return np.arange(lo + step / 2, hi, step)
+
+
+@settings(max_examples=25, deadline=None)
+@given(own_trk=st.floats(0, 360), own_gs=st.floats(60 * KT, 300 * KT), intruders=st.lists(geometry, min_size=1,
+                                                                                          max_size=3))
+def test_sensor_only_traffic_is_banded_with_the_non_cooperative_alerter(own_trk, own_gs, intruders):
+    """Every intruder seen only by the ownship's sensors: the bands are those of an engine of DWC_Non_Coop's levels
+    alone (DAIDALUS with every aircraft on alerter 3); every intruder cooperative: those of the Phase I levels alone,
+    the non-cooperative levels unused."""
+    params = BandsParams()
+    vo = [own_gs * math.sin(math.radians(own_trk)), own_gs * math.cos(math.radians(own_trk)), 0.0]
+    pos, vel = _traffic(intruders)
+    ids, levels = list(range(len(pos))), [0] * len(pos)
+    both = BandsEngine(params, DO365B_LEVELS, non_cooperative_levels=NON_COOP_LEVELS)
+    sensed = both.compute(0.0, [0, 0, 3000], vo, pos, vel, ids, levels, non_cooperative=[True] * len(pos))
+    alone = BandsEngine(params, NON_COOP_LEVELS).compute(0.0, [0, 0, 3000], vo, pos, vel, ids, levels)
+    both = BandsEngine(params, DO365B_LEVELS, non_cooperative_levels=NON_COOP_LEVELS)
+    heard = both.compute(0.0, [0, 0, 3000], vo, pos, vel, ids, levels, non_cooperative=[False] * len(pos))
+    phase_1 = BandsEngine(params, DO365B_LEVELS).compute(0.0, [0, 0, 3000], vo, pos, vel, ids, levels)
+    for kind in KINDS:
+        assert sensed.intervals(kind) == alone.intervals(kind), kind
+        assert heard.intervals(kind) == phase_1.intervals(kind), kind
+
+
+SEVERITY = {"NONE": 0, "FAR": 1, "MID": 2, "NEAR": 3}
+
+
+@settings(max_examples=40, deadline=None)
+@given(own_trk=st.floats(0, 360), own_gs=st.floats(60 * KT, 300 * KT), heard=geometry, sensed=geometry)
+def test_each_intruder_is_painted_with_its_own_alerter(own_trk, own_gs, heard, sensed):
+    """A cooperative and a sensor-only intruder together: wherever no recovery band is computed, each value's region
+    is the more severe of the two aircraft's own (each alone, with its own alerter's engine): a candidate is in a
+    region's conflict when some aircraft's conflict puts it there (DaidalusRealBands.compute_none_bands), and that
+    aircraft's conflict is its alerter's. Hysteresis off, so that one call is the bands of that instant."""
+    params = BandsParams(bands_persistence=False, alerting_m=1, alerting_n=1)
+    vo = [own_gs * math.sin(math.radians(own_trk)), own_gs * math.cos(math.radians(own_trk)), 0.0]
+    pos, vel = _traffic([heard, sensed])
+    together = BandsEngine(params, DO365B_LEVELS, non_cooperative_levels=NON_COOP_LEVELS).compute(
+        0.0, [0, 0, 3000], vo, pos, vel, ["a", "b"], [0, 0], non_cooperative=[False, True])
+    first = BandsEngine(params, DO365B_LEVELS).compute(0.0, [0, 0, 3000], vo, pos[:1], vel[:1], ["a"], [0])
+    second = BandsEngine(params, NON_COOP_LEVELS).compute(0.0, [0, 0, 3000], vo, pos[1:], vel[1:], ["b"], [0])
+    for kind in KINDS:
+        if together.recovery[kind] or first.recovery[kind] or second.recovery[kind] or not together.intervals(kind):
+            continue
+        for x in _probes(kind, params):
+            worst = max(first.region_at(kind, x), second.region_at(kind, x), key=SEVERITY.__getitem__)
+            assert together.region_at(kind, x) == worst, (kind, x)

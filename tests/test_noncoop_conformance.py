@@ -86,3 +86,56 @@ def test_the_noncoop_report_leaves_out_an_intruder_below_the_active_sensor_s_fie
     require(TCAS3D)
     assert not sensor_sees(CONFORMANCE / "daadisplays_scenario_7.daa", "a63ed4", 127.5, "active")
     assert sensor_sees(CONFORMANCE / "daidalus_H0_0_120.daa", "Intruder", 52.8, "active")
+
+
+class _BandsRecorder:
+    """A port of the replay's loop that keeps every guidance bands the step computed."""
+
+    def __init__(self):
+        self.bands = []
+
+    def wants(self, now_s):
+        from avionics.ports import NOTHING
+
+        return NOTHING
+
+    def publish(self, result):
+        if result.bands is not None:
+            self.bands.append(result.bands)
+
+    def close(self):
+        pass
+
+
+def _radar_bands(case_file: str, profile: str):
+    from avionics.config import load_config
+    from avionics_sitl.encounters import load_scenario
+    from avionics_sitl.impairments import PRESETS
+    from avionics_sitl.replay import replay
+
+    recorder = _BandsRecorder()
+    config = load_config(overrides=[f"advisory.profile={profile}", "zenoh.enabled=false",
+                                    "advisory.guidance_bands=true"])
+    replay(load_scenario(str(CONFORMANCE / case_file)), config, PRESETS["none"], sensors=("radar",),
+           exact_sensors=True, ports=[recorder])
+    return recorder.bands
+
+
+def test_the_bands_take_a_sensor_only_intruder_with_dwc_non_coop():
+    """The guidance bands take each intruder with its own alerter, as DAIDALUS's (DaidalusCore.conflict_aircraft):
+    a radar-only intruder under daidalus-do365b-no-sum (Phase I, its non-cooperative alerter DWC_Non_Coop) gets the
+    bands that do365-non-coop (DWC_Non_Coop for every intruder) gives it, second by second; with Phase I's volume
+    they differ (0.66 nmi and 35 s against 2200 ft and no tau)."""
+    require(GOLDEN)
+    case_file = "daidalus_H0_0_120.daa"  # head-on: conflict bands from ~70 s before the pass
+    per_intruder = _radar_bands(case_file, "daidalus-do365b-no-sum")
+    non_coop = _radar_bands(case_file, "do365-non-coop")
+    kinds = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
+    assert len(per_intruder) == len(non_coop) > 60
+    painted = 0
+    for a, b in zip(per_intruder, non_coop):
+        assert a.time_s == b.time_s
+        for kind in kinds:
+            assert a.intervals(kind) == b.intervals(kind), (a.time_s, kind)
+        painted += any(iv.region != "NONE" for iv in a.intervals("track_deg"))
+    assert painted >= 20  # the head-on does paint track bands

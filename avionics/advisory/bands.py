@@ -631,11 +631,26 @@ class _Kind:
     recovery: bool
 
 
+def _regions(levels: Sequence[AlertLevel]) -> list[AlertLevel | None]:
+    """The level of `levels` that paints each region index (0 NEAR, 1 MID, 2 FAR), None where none does."""
+    out: list[AlertLevel | None] = []
+    for reg in _REGION_OF_INDEX:
+        lv = [lv for lv in levels if _ORDER[lv.region] == reg]
+        out.append(lv[0] if lv else None)
+    return out
+
+
 class BandsEngine:
     """DAIDALUS bands for one ownship, with the state DAIDALUS's bands keep between calls (BandsHysteresis per
     kind, and when each intruder was first seen, for the early alerting time)."""
 
-    def __init__(self, params: BandsParams, levels: Sequence[AlertLevel], sum_z: SumZScores | None = None):
+    def __init__(self, params: BandsParams, levels: Sequence[AlertLevel], sum_z: SumZScores | None = None,
+                 non_cooperative_levels: Sequence[AlertLevel] | None = None):
+        """non_cooperative_levels: the levels of the alerter of the intruders seen only by the ownship's sensors
+        (DAIDALUS's per-intruder alerter: DO-365B's DWC_Non_Coop; advisory/alerting.py Alerter.non_cooperative),
+        whose conflicts the bands take with those levels' volumes and times, as DAIDALUS's bands take each
+        aircraft's with its own alerter (DaidalusCore.conflict_aircraft). Same SUM as `levels` (tables.py checks a
+        profile's non-cooperative alerter at load)."""
         self.params = params
         self.sum_z = sum_z  # the alerter's [alerter.sum]: its detectors are WCV_TAUMOD_SUM, so are the bands' tests
         # the alerter's own levels (advisory/levels.py, a profile's [[alerter.levels]]): each level's thresholds
@@ -649,12 +664,14 @@ class BandsEngine:
             _Kind("vertical_rate_mps", 0.0, p.min_vs_mps, p.max_vs_mps, p.step_vs_mps, p.recovery_vs),
             _Kind("altitude_m", 0.0, p.min_alt_m, p.max_alt_m, p.step_alt_m, p.recovery_alt),
         )
-        # regions painted (DaidalusCore.bands4region_): index 0 NEAR, 1 MID, 2 FAR -> the level that paints it
-        self._level_for_region: list[AlertLevel | None] = []
-        for reg in _REGION_OF_INDEX:
-            lv = [lv for lv in self.levels if _ORDER[lv.region] == reg]
-            self._level_for_region.append(lv[0] if lv else None)
+        # regions painted (DaidalusCore.bands4region_): index 0 NEAR, 1 MID, 2 FAR -> the level that paints it,
+        # per alerter (the cooperative one first)
+        self._level_for_region = _regions(self.levels)
+        self._non_cooperative = None if non_cooperative_levels is None else _regions(non_cooperative_levels)
         self._corrective = 3 - _ORDER[p.corrective_region]
+        # this call's alerters: (the intruders' indices, that alerter's level per region); one, unless some
+        # intruder is non-cooperative (compute)
+        self._alerters: list[tuple[np.ndarray, list]] = []
         self.reset()
 
     def reset(self) -> None:
@@ -677,23 +694,45 @@ class BandsEngine:
         self._last_time = time_s
         early_ok = np.array([self._first_seen.setdefault(i, time_s) < time_s for i in ids], bool)
         s, v = si - so, vi - vo
+        levels = np.asarray(alert_levels)
         out, det_data = [], []
-        for lv in self._level_for_region:
-            if lv is None:
+        for r in range(len(_REGION_OF_INDEX)):
+            painted = self._painting(r)
+            if not painted:
                 out.append(np.zeros(0, int))
                 det_data.append(None)
                 continue
-            tin, tout = _lines(lv.thresholds, s, v, p.lookahead_s, sum_data)
-            is_conf = conflict(tin, tout)
-            at = np.where(early_ok & (np.asarray(alert_levels) == lv.number), lv.early_alerting_time_s,
-                          lv.alerting_time_s)
-            # ConflictData.conflictBefore: time_in == 0 or Util.almost_less(time_in, t) (PRECISION13)
-            before = is_conf & ((tin == 0) | almost_less_13(tin, at))
-            out.append(np.flatnonzero(before))
-            t_at = min(p.lookahead_s, lv.alerting_time_s)
-            before_at = is_conf & ((tin == 0) | almost_less_13(tin, t_at))
+            conflicting, before_at = [], np.zeros(len(ids), bool)
+            for g, lv in painted:  # each intruder with its own alerter's level for the region
+                rows = None if sum_data is None else (sum_data[0], sum_data[1][g])
+                tin, tout = _lines(lv.thresholds, s[g], v[g], p.lookahead_s, rows)
+                is_conf = conflict(tin, tout)
+                at = np.where(early_ok[g] & (levels[g] == lv.number), lv.early_alerting_time_s, lv.alerting_time_s)
+                # ConflictData.conflictBefore: time_in == 0 or Util.almost_less(time_in, t) (PRECISION13)
+                conflicting.append(g[is_conf & ((tin == 0) | almost_less_13(tin, at))])
+                t_at = min(p.lookahead_s, lv.alerting_time_s)
+                before_at[g] = is_conf & ((tin == 0) | almost_less_13(tin, t_at))
+            out.append(np.sort(np.concatenate(conflicting)))
             det_data.append(before_at)
         return out, det_data
+
+    def _painting(self, r: int) -> list[tuple[np.ndarray, AlertLevel]]:
+        """(intruders, their alerter's level) for region index r, for each alerter of this call that paints it."""
+        return [(g, regions[r]) for g, regions in self._alerters if regions[r] is not None]
+
+    def _green(self, cand: _Candidates, r: int, idx, B: float, T, rec) -> np.ndarray:
+        """green_segments against the aircraft idx (horizons T), each tested with its own alerter's detector for
+        region index r (DaidalusRealBands.compute_none_bands over aircraft of several alerters: a segment is
+        none when it is none against every one)."""
+        if len(self._alerters) == 1:
+            return cand.green_segments(idx, self._alerters[0][1][r].thresholds, B, T, rec)
+        idx, T = np.asarray(idx, int), np.asarray(T, float)
+        seg = np.ones(cand.n_segments, bool)
+        for g, lv in self._painting(r):
+            mine = np.isin(idx, g)
+            if mine.any():
+                seg &= cand.green_segments(idx[mine], lv.thresholds, B, T[mine], rec)
+        return seg
 
     # -- one kind ---------------------------------------------------------------------------------------------------
 
@@ -755,8 +794,6 @@ class BandsEngine:
         cyl = Cylinder(p.min_horizontal_recovery_m, p.min_vertical_recovery_m)
         factor = 1.0 - p.ca_factor
         nfactor = 0
-        lv = self._level_for_region[self._corrective]
-        det = lv.thresholds
         while cyl.d_m > p.horizontal_nmac_m or cyl.h_m > p.vertical_nmac_m:
             none = cand.green_segments(idx, cyl, 0.0, T, None)
             solid = not none.any()
@@ -766,14 +803,14 @@ class BandsEngine:
                 red_t, green_t = 0.0, L + 1.0
                 pivot = green_t - 1.0
                 while green_t - red_t > 0.5:
-                    none = cand.green_segments(idx, det, pivot, T, cyl)
+                    none = self._green(cand, self._corrective, idx, pivot, T, cyl)
                     if not none.any():
                         red_t = pivot
                     else:
                         green_t = pivot
                     pivot = (red_t + green_t) / 2.0
                 rec_time = min(L, green_t + p.recovery_stability_time_s) if green_t <= L else red_t
-                none = cand.green_segments(idx, det, rec_time, T, cyl)
+                none = self._green(cand, self._corrective, idx, rec_time, T, cyl)
                 if none.any():
                     self.recovery_info = (rec_time, cyl.d_m, cyl.h_m, nfactor)
                     return none, True
@@ -801,19 +838,21 @@ class BandsEngine:
         self.recovery_information[kind.name] = None
         # aircraft per region: conflict (horizon lookahead) + peripheral (horizon alerting time)
         acs: list[tuple[np.ndarray, np.ndarray] | None] = []
-        for r, lv in enumerate(self._level_for_region):
-            if lv is None:
+        for r in range(len(_REGION_OF_INDEX)):
+            painted = self._painting(r)
+            if not painted:
                 acs.append(None)
                 continue
-            at = min(L, lv.alerting_time_s)
-            periph = np.zeros(0, int)
-            if cand.n:
-                candidates = ~conf_at[r]
+            idx, T = [conf_idx[r]], [np.full(len(conf_idx[r]), L)]
+            for g, lv in painted:
+                at = min(L, lv.alerting_time_s)
+                candidates = np.zeros(cand.n, bool)
+                candidates[g] = ~conf_at[r][g]
                 if candidates.any():
                     periph = np.flatnonzero(candidates & cand.any_red(lv.thresholds, at))
-            idx = np.concatenate([conf_idx[r], periph]).astype(int)
-            T = np.concatenate([np.full(len(conf_idx[r]), L), np.full(len(periph), at)])
-            acs.append((idx, T))
+                    idx.append(periph)
+                    T.append(np.full(len(periph), at))
+            acs.append((np.concatenate(idx).astype(int), np.concatenate(T)))
         none_sets: list[np.ndarray | None] = [None, None, None]
         recovery = False
         saturated = False
@@ -821,8 +860,7 @@ class BandsEngine:
         while r < 3 and not saturated:
             if acs[r] is not None:
                 idx, T = acs[r]
-                lv = self._level_for_region[r]
-                none_sets[r] = cand.green_segments(idx, lv.thresholds, 0.0, T, None)
+                none_sets[r] = self._green(cand, r, idx, 0.0, T, None)
                 if kind.recovery and not none_sets[r].any() and r <= self._corrective:
                     cidx, cT = acs[self._corrective]
                     none_sets[self._corrective], _ = self._recovery_bands(cand, cidx, cT)
@@ -892,12 +930,13 @@ class BandsEngine:
     # -- public ---------------------------------------------------------------------------------------------------
 
     def compute(self, time_s: float, own_pos, own_vel, intr_pos, intr_vel, intruder_ids: Sequence,
-                alert_levels, errors=None) -> Bands:
+                alert_levels, errors=None, non_cooperative=None) -> Bands:
         """Bands at time_s. Positions (3,) / (N, 3) and velocities in local ENU (m, m/s); intruder_ids name the
         intruders across calls; alert_levels (N,) are their current DAIDALUS alert levels (0..3), used for the
         early alerting time of the level painting each region (DaidalusCore.conflict_aircraft). errors: (N, 4)
         ownship's + each intruder's errors before z-scores (the alerter's Encounter.uncertainty), used with the
-        engine's sum_z (None, or no sum_z: the plain WCV_TAUMOD)."""
+        engine's sum_z (None, or no sum_z: the plain WCV_TAUMOD). non_cooperative: (N,) bool, the intruders seen
+        only by the ownship's sensors, taken with the non-cooperative levels (None: none is)."""
         so, vo = np.asarray(own_pos, float).reshape(3), np.asarray(own_vel, float).reshape(3)
         si = np.asarray(intr_pos, float).reshape(-1, 3)
         vi = np.asarray(intr_vel, float).reshape(-1, 3)
@@ -911,6 +950,14 @@ class BandsEngine:
             if errors.shape[0] != si.shape[0]:
                 raise ValueError("errors must have one row per intruder")
             sum_data = (self.sum_z, errors)
+        sensed = np.zeros(len(ids), bool) if non_cooperative is None else np.asarray(non_cooperative, bool).reshape(-1)
+        if sensed.shape != (len(ids),):
+            raise ValueError("non_cooperative must have one flag per intruder")
+        if self._non_cooperative is not None and sensed.any():
+            self._alerters = [(np.flatnonzero(~sensed), self._level_for_region),
+                              (np.flatnonzero(sensed), self._non_cooperative)]
+        else:
+            self._alerters = [(np.arange(len(ids)), self._level_for_region)]
         conf_idx, conf_at = self._conflict_aircraft(float(time_s), so, vo, si, vi, ids, levels, sum_data)
         out, rec = {}, {}
         for kind in self._kinds:

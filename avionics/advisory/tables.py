@@ -381,9 +381,9 @@ def load_profile(name_or_path: str = "tcas2", overrides=()) -> AlertProfile:
 
 def _check_non_cooperative(profile: AlertProfile, other: AlertProfile) -> None:
     """[alerter] non_cooperative names a well-clear alerter with the same alerting hysteresis (one
-    AlertingHysteresis serves both, advisory/alerting.py Alerter.non_cooperative), the same use of SUM and the same
-    levels (one advisory logic reads both); checked here, at load, so that `avionics config` refuses what `run`
-    could not build."""
+    AlertingHysteresis serves both, advisory/alerting.py Alerter.non_cooperative), the same SUM (the bands test
+    every intruder with one, advisory/bands.py) and the same levels (one advisory logic reads both); checked here,
+    at load, so that `avionics config` refuses what `run` could not build."""
     spec, name = profile.alerter, profile.alerter.non_cooperative
     if other.alerter is None or other.alerter.non_cooperative is not None:
         raise ProfileError(f"profile {profile.name}: [alerter] non_cooperative = {name!r} needs a well-clear "
@@ -392,8 +392,9 @@ def _check_non_cooperative(profile: AlertProfile, other: AlertProfile) -> None:
     if any(getattr(spec, k) != getattr(other.alerter, k) for k in same):
         raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must share its alerting "
                            f"hysteresis ({', '.join(same)})")
-    if (spec.sum is None) != (other.alerter.sum is None):
-        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must use SUM as it does")
+    if spec.sum != other.alerter.sum:  # one SUM for both: the guidance bands test every intruder with the profile's
+        raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must use SUM as it does "
+                           "(the same z-scores, or none)")
     if [(lv.name, lv.advisory_level) for lv in spec.levels] != [(lv.name, lv.advisory_level)
                                                                for lv in other.alerter.levels]:
         raise ProfileError(f"profile {profile.name}: the non-cooperative alerter {name!r} must have the same levels "

@@ -23,7 +23,8 @@ class BandsTraffic:
         self.schedule = schedule
         self.containment = containment
         self._slot: int | None = None  # the second of the last bands computed
-        # key -> (time, position, velocity, SUM errors (4,) or None) of its last assessment
+        # key -> (time, position, velocity, SUM errors (4,) or None, seen only by the ownship's sensors) of its last
+        # assessment
         self._traffic: dict[IntruderKey, tuple] = {}
 
     def record(self, now_s: float, ev, own_alt_m: float) -> None:
@@ -34,8 +35,9 @@ class BandsTraffic:
         keys, xs, has_alt = ev.keys, ev.xs, ev.has_alt
         pos = np.column_stack([xs[:, :2], own_alt_m + ev.geometry.sz_m])
         errors = ev.encounter.uncertainty  # the SUM detector's inputs: the bands use them as the alerter does
+        sensed = np.broadcast_to(np.asarray(ev.encounter.non_cooperative, bool), (len(keys),))
         for i in np.flatnonzero(has_alt):
-            self._traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6], None if errors is None else errors[i])
+            self._traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6], None if errors is None else errors[i], bool(sensed[i]))
         for i in np.flatnonzero(~has_alt):
             self._traffic.pop(keys[i], None)
 
@@ -57,15 +59,16 @@ class BandsTraffic:
                 return None
             keys = sorted(k for k, (t, *_) in self._traffic.items() if self.schedule.recent(now_s, t))
             pos, vel, errors = np.empty((len(keys), 3)), np.empty((len(keys), 3)), np.zeros((len(keys), 4))
+            sensed = np.zeros(len(keys), bool)
             stated = False
             for i, k in enumerate(keys):
-                t, pos[i], vel[i], err = self._traffic[k]
+                t, pos[i], vel[i], err, sensed[i] = self._traffic[k]
                 pos[i] += vel[i] * (now_s - t)
                 if err is not None:
                     errors[i], stated = err, True
             levels = [int(states.alert[r]) if (r := states.row(k)) is not None else NONE for k in keys]
             bands = self.engine.compute(now_s, own.x[:3], own.x[3:6], pos, vel, [str(k) for k in keys], levels,
-                                        errors if stated else None)
+                                        errors if stated else None, sensed)
             return replace(bands, intruders=tuple((str(k), lvl, self.alert_names[lvl]) for k, lvl in zip(keys, levels)))
         except Exception as exc:  # noqa: BLE001  (stage boundary: the bands)
             self.containment.bands_failed(now_s, exc)
