@@ -35,6 +35,25 @@ def wait_for(predicate, timeout_s: float = DEADLINE_S, period_s: float = 0.02) -
     return poll(predicate, timeout_s, period_s)
 
 
+class ResultCapture:
+    """An output port (avionics/ports.py) that keeps every step's DaaResult: the replay's loop feeds it as it
+    feeds the others."""
+
+    def __init__(self):
+        self.results = []
+
+    def wants(self, now_s):
+        from avionics.ports import NOTHING
+
+        return NOTHING
+
+    def publish(self, result):
+        self.results.append(result)
+
+    def close(self):
+        pass
+
+
 def free_port(kind=socket.SOCK_STREAM) -> int:
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))

@@ -24,32 +24,18 @@ from avionics.io.dialect import daa as dialect
 from avionics.io.payloads import bands_payload
 from avionics.io.zenoh_bus import ZenohBus, open_session
 from avionics.monitor.feed import wait_for
-from avionics.ports import NOTHING, LogOut, MavlinkOut
+from avionics.ports import LogOut, MavlinkOut
 from avionics_sitl.encounters import load_scenario
 from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
-from tests.conftest import DEADLINE_S
+from tests.conftest import DEADLINE_S, ResultCapture
 
 DO365_PHASE_I = load_profile("daidalus-do365b-no-sum").alerter.levels[-1].thresholds  # DWC_Phase_I det_3, the data
 
 
-class _Capture:
-    def __init__(self):
-        self.results = []
-
-    def wants(self, now_s):
-        return NOTHING
-
-    def publish(self, result):
-        self.results.append(result)
-
-    def close(self):
-        pass
-
-
 @pytest.fixture(scope="module")
 def head_on():
-    capture = _Capture()
+    capture = ResultCapture()
     config = load_config(overrides=["advisory.profile=do365"])
     replay(load_scenario("head-on"), config, PRESETS["none"], ports=[capture])
     return capture.results
@@ -103,7 +89,7 @@ def test_statustext_collision_and_log_line_speak_do365(caplog):
 def test_guidance_bands_off_leaves_the_alerts_and_publishes_no_bands(head_on):
     """advisory.guidance_bands = false (what the evaluation runs): the same alert changes at the same times, and
     no result carries bands."""
-    capture = _Capture()
+    capture = ResultCapture()
     config = load_config(overrides=["advisory.profile=do365", "advisory.guidance_bands=false"])
     replay(load_scenario("head-on"), config, PRESETS["none"], ports=[capture])
     assert all(r.bands is None for r in capture.results)

@@ -23,6 +23,7 @@ import io
 import pytest
 
 from tests.golden.first_alerts import golden, problems, require
+from tests.conftest import ResultCapture
 from tests.golden.generate import CONFORMANCE, replayed_csv
 
 pytestmark = pytest.mark.xdist_group("replays-do365")
@@ -88,37 +89,18 @@ def test_the_noncoop_report_leaves_out_an_intruder_below_the_active_sensor_s_fie
     assert sensor_sees(CONFORMANCE / "daidalus_H0_0_120.daa", "Intruder", 52.8, "active")
 
 
-class _BandsRecorder:
-    """A port of the replay's loop that keeps every guidance bands the step computed."""
-
-    def __init__(self):
-        self.bands = []
-
-    def wants(self, now_s):
-        from avionics.ports import NOTHING
-
-        return NOTHING
-
-    def publish(self, result):
-        if result.bands is not None:
-            self.bands.append(result.bands)
-
-    def close(self):
-        pass
-
-
 def _radar_bands(case_file: str, profile: str):
     from avionics.config import load_config
     from avionics_sitl.encounters import load_scenario
     from avionics_sitl.impairments import PRESETS
     from avionics_sitl.replay import replay
 
-    recorder = _BandsRecorder()
+    capture = ResultCapture()
     config = load_config(overrides=[f"advisory.profile={profile}", "zenoh.enabled=false",
                                     "advisory.guidance_bands=true"])
     replay(load_scenario(str(CONFORMANCE / case_file)), config, PRESETS["none"], sensors=("radar",),
-           exact_sensors=True, ports=[recorder])
-    return recorder.bands
+           exact_sensors=True, ports=[capture])
+    return [r.bands for r in capture.results if r.bands is not None]
 
 
 def test_the_bands_take_a_sensor_only_intruder_with_dwc_non_coop():
