@@ -88,14 +88,15 @@ def own_at(t):
     return straight([0.0, 0.0, 1000.0], OWN_V, t)
 
 
-def run_radar(targets, duration_s, seed, errors=RADAR):
-    """Scan the targets (callables t -> state) with a simulated radar; returns the tracker at the end."""
+def run_radar(targets, duration_s, seed, errors=RADAR, range_rates=True):
+    """Scan the targets (callables t -> state) with a simulated radar; returns the tracker at the end.
+    range_rates=False: the tracker is not given the ownship's velocity, so it leaves the range rates unused."""
     sensor = SimulatedSensor(errors, "radar0", seed=seed)
     tracker = SensorTracker(h_modes(), v_modes())
     for t in np.arange(0.1, duration_s + 1e-9, 1.0 / errors.rate_hz):
         own = own_at(t)
         meas, _ = sensor.scan(t, own, 0.0, np.array([f(t) for f in targets]))
-        tracker.scan(t, meas, own[:3], 0.0)
+        tracker.scan(t, meas, own[:3], 0.0, own[3:6] if range_rates else None)
     return tracker
 
 
@@ -151,9 +152,13 @@ def adsb_reports(state_at, times, rng, sigma_m=12.0, fault=None):
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(rng_m=st.floats(2500.0, 8000.0), az_deg=st.floats(-90.0, 90.0), dalt=st.floats(-200.0, 200.0),
        heading_deg=st.floats(0.0, 360.0), speed=st.floats(20.0, 60.0), seed=st.integers(0, 2**16))
+@example(rng_m=2500.0, az_deg=0.0, dalt=24.0, heading_deg=0.0, speed=60.0, seed=40)
 def test_the_same_aircraft_on_adsb_and_radar_is_one_track(rng_m, az_deg, dalt, heading_deg, speed, seed):
     """Any geometry inside the radar's field of regard for the 8 s (range >= 2500 m, |azimuth| <= 90 deg, at most
-    7.6 deg of elevation, at most 800 m flown by both): one radar track, paired with the ADS-B track."""
+    7.6 deg of elevation, at most 800 m flown by both): one radar track, paired with the ADS-B track. The example:
+    the radar's draw of biases left its track 38 m low and 12 m short at 2.5 km, where its own covariance (80
+    detections averaged as independent) says 11 m and 3 m; compared with its bias considered, as the process
+    compares them (SensorTracker.predict(consider_bias=True)), it pairs."""
     a = math.radians(az_deg)
     p0 = [rng_m * math.sin(a), rng_m * math.cos(a), 1000.0 + dalt]
     v = [speed * math.sin(math.radians(heading_deg)), speed * math.cos(math.radians(heading_deg)), 0.0]
@@ -165,7 +170,7 @@ def test_the_same_aircraft_on_adsb_and_radar_is_one_track(rng_m, az_deg, dalt, h
         adsb.ingest(rep, pos[0], pos[1])
     xa, pa = adsb.predict([key], 8.0)
     ids = [t.track_id for t in radar.confirmed]
-    xs, ps = radar.predict(ids, 8.0)
+    xs, ps = radar.predict(ids, 8.0, consider_bias=True)
     assert len(ids) == 1
     assert fusion.pair_tracks(xa, pa, xs, ps) == [(0, 0)]
 
@@ -192,7 +197,7 @@ def radar_track(seed, duration_s=70.0):
         radar.scan(t, meas, own[:3], 0.0)
         if t >= 10.0 and abs(t - round(t)) < 1e-6:
             (trk,) = radar.confirmed
-            xs, ps = radar.predict([trk.track_id], t)
+            xs, ps = radar.predict([trk.track_id], t, consider_bias=True)
             rel = fault_target(t)[:3] - own[:3]
             rng_m = float(np.linalg.norm(rel))
             angle = math.radians(math.hypot(1.0, 0.5))  # declared: random and bias in quadrature (DEGAS)
@@ -302,3 +307,48 @@ def test_active_surveillance_tracks_range_without_the_converted_measurement_s_ou
         truth = target(40.0)[:2] - own_at(40.0)[:2]
         rel_errors.append((np.hypot(*(x[0, :2] - own_at(40.0)[:2])) - np.hypot(*truth)) / np.hypot(*truth))
     assert abs(np.mean(rel_errors)) < 0.005, rel_errors
+
+
+@settings(max_examples=50)
+@given(st.floats(-math.pi, math.pi), st.floats(-0.26, 0.26), st.floats(-80.0, 80.0), st.floats(-80.0, 80.0),
+       st.floats(1.0, 30.0), st.floats(1.0, 30.0), st.floats(-0.9, 0.9), st.floats(-150.0, 150.0),
+       st.floats(-10.0, 10.0), st.floats(1.0, 5.0))
+def test_the_range_rate_measurement_is_the_scalar_extended_kalman_update(bearing, el, ve, vn, s_e, s_n, corr, rdot,
+                                                                         vz_rel, s_rdot):
+    """measurement.range_rate_about_prediction against the textbook scalar EKF update of the velocity (Bar-Shalom et
+    al., Sec. 10.3) with h(v) = cos(el) u . (v - v_own) + sin(el) vz_rel, H = cos(el) u^T: the same posterior
+    velocity and covariance to 1e-5 (the cross-range direction's 1e4 m/s sigma stands for no information)."""
+    from avionics.tracking.measurement import range_rate_about_prediction
+
+    u = np.array([math.sin(bearing), math.cos(bearing)])
+    v_hat, v_own = np.array([ve, vn]), np.array([3.0, 40.0])
+    p_v = np.array([[s_e**2, corr * s_e * s_n], [corr * s_e * s_n, s_n**2]])
+    h_row = math.cos(el) * u
+    innovation = rdot - (h_row @ (v_hat - v_own) + math.sin(el) * vz_rel)
+    k = p_v @ h_row / (h_row @ p_v @ h_row + s_rdot**2)
+    ekf_v, ekf_p = v_hat + k * innovation, p_v - np.outer(k, h_row @ p_v)
+
+    z, r = range_rate_about_prediction([rdot], [s_rdot], [el], 5000.0 * u[None], v_own[None], [vz_rel], v_hat[None])
+    k2 = p_v @ np.linalg.inv(p_v + r[0])
+    assert np.allclose(v_hat + k2 @ (z[0] - v_hat), ekf_v, rtol=0, atol=1e-5 * max(1.0, np.abs(ekf_v).max()))
+    assert np.allclose((np.eye(2) - k2) @ p_v, ekf_p, rtol=0, atol=1e-5 * np.abs(p_v).max())
+
+
+def test_the_radar_s_range_rate_gives_a_new_track_its_closure_at_once():
+    """A head-on at 150 m/s closing from 8 km, Appendix Q's radar (range rate sigma 3 m/s, bias within 2.4 m/s):
+    2 s after the first scan, the track's closure (the rate of its range to the ownship) is within 3 m/s of the
+    truth when the tracker uses the range rates (1.2 m/s measured), where positions alone (21 m range noise, 1 deg
+    bearing at 10 Hz) leave it 8 m/s off (16 m/s at 1 s; they catch up after about 20 s). Mean absolute error over
+    20 runs."""
+    target = lambda t: straight([0.0, 8000.0, 1000.0], [0.0, -110.0, 0.0], t)  # noqa: E731
+
+    def closure_error(range_rates: bool, seed: int) -> float:
+        tracker = run_radar([target], 2.0, seed, range_rates=range_rates)
+        (trk,) = tracker.tracks.values()
+        x, _ = tracker.predict([trk.track_id], 2.0)
+        rel, rel_v = x[0, :2] - own_at(2.0)[:2], x[0, 3:5] - OWN_V[:2]
+        return abs(rel @ rel_v / np.hypot(*rel) - (-150.0))
+
+    with_rates = np.mean([closure_error(True, seed) for seed in range(20)])
+    without = np.mean([closure_error(False, seed) for seed in range(20)])
+    assert with_rates < 3.0 and without > 3 * with_rates, (with_rates, without)

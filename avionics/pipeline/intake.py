@@ -120,7 +120,7 @@ class Intake:
         if scan.measurements[0].mount.kind == "active" and own.pressure_altitude_m is not None:
             altitude = own.pressure_altitude_m
         try:
-            dirty |= self.tracker.scan(scan, (float(own.x[0]), float(own.x[1]), altitude), heading)
+            dirty |= self.tracker.scan(scan, (float(own.x[0]), float(own.x[1]), altitude), heading, own.x[3:6])
         except Exception as exc:  # noqa: BLE001  (stage boundary: a scan's fault loses that scan, not the step)
             self.containment.batch_failed("sensor", exc)
 

@@ -189,6 +189,41 @@ def about_prediction(rho, rho_sigma_m, bearing_rad, bearing_sigma_rad, predicted
     return z, r
 
 
+UNMEASURED_SPEED_SIGMA_MPS = 1.0e4  # a velocity component a measurement does not see: no information (R -> inf)
+
+
+def range_rate_about_prediction(range_rate_mps, range_rate_sigma_mps, elevation_rad, predicted_en, own_velocity_en,
+                                vertical_rate_rel_mps, predicted_velocity_en, predicted_position_cov=None) -> tuple:
+    """A radar's slant range rate as the horizontal velocity measurement (z (B, 2) east, north velocity of the
+    intruder, R (B, 2, 2)) whose linear update is the extended Kalman filter's scalar update linearised at the
+    track's prediction: with u the unit vector to the predicted relative position predicted_en and el the
+    measured elevation, r_dot = cos(el) u . (v - v_own) + sin(el) vz_rel, so the line-of-sight speed
+    u . v = (r_dot - sin(el) vz_rel) / cos(el) + u . v_own with sigma r_dot_sigma / cos(el). z carries it along u
+    and the prediction across it; R is that sigma squared along u and UNMEASURED_SPEED_SIGMA_MPS squared across
+    (the range rate says nothing of the cross-range speed), so the update is the scalar one to about 1e-6 of its
+    gain. vertical_rate_rel_mps: the track's predicted vertical rate minus the ownship's. predicted_position_cov
+    (B, 2, 2): the prediction's position covariance, whose bearing uncertainty s_theta = sqrt(u_b^T P u_b) / rho
+    turns u by as much: the line-of-sight speed taken along the predicted u is off by the cross-range speed times
+    that angle, added to sigma as (v_cross s_theta)^2 (the linearisation's own error; without it an exact range
+    rate is trusted along a line of sight the prediction only estimates)."""
+    p = np.asarray(predicted_en, float)
+    u = p / np.maximum(np.hypot(p[:, 0], p[:, 1]), 1.0)[:, None]
+    el = np.asarray(elevation_rad, float)
+    along = (np.asarray(range_rate_mps, float) - np.sin(el) * np.asarray(vertical_rate_rel_mps, float)) / np.cos(el) \
+        + np.einsum("bi,bi->b", u, np.asarray(own_velocity_en, float))
+    v = np.asarray(predicted_velocity_en, float)
+    z = v + u * (along - np.einsum("bi,bi->b", u, v))[:, None]
+    uu = u[:, :, None] * u[:, None, :]
+    var = (np.asarray(range_rate_sigma_mps, float) / np.cos(el)) ** 2
+    if predicted_position_cov is not None:
+        u_b = np.stack([u[:, 1], -u[:, 0]], axis=1)
+        theta_var = np.einsum("bi,bij,bj->b", u_b, np.asarray(predicted_position_cov, float), u_b) \
+            / np.maximum(np.einsum("bi,bi->b", p, p), 1.0)
+        var = var + np.einsum("bi,bi->b", u_b, v) ** 2 * theta_var
+    r = var[:, None, None] * uu + UNMEASURED_SPEED_SIGMA_MPS**2 * (np.eye(2) - uu)
+    return z, r
+
+
 def ground_polar(measurements: list[PolarMeasurement], own_enu, own_heading_rad) -> tuple:
     """Ground range, its 1-sigma, bearing (clockwise from north) and its 1-sigma of measurements that report an
     altitude instead of an elevation (active surveillance: ground range from the slant range and the height,

@@ -30,7 +30,8 @@ from avionics.tracking import models
 from avionics.tracking.association import gnn
 from avionics.tracking.imm import ImmBank, spd_inverse
 from avionics.tracking.imm_tracker import assemble
-from avionics.tracking.measurement import PolarMeasurement, about_prediction, ground_polar, to_tracking_frame
+from avionics.tracking.measurement import (PolarMeasurement, about_prediction, ground_polar,
+                                           range_rate_about_prediction, to_tracking_frame)
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS
 
 
@@ -43,6 +44,7 @@ class SensorTrack:
     confirmed: bool = False
     n_updates: int = 1
     address: int | None = None  # a Mode S reply's address, if any report carried one
+    detection_cov: np.ndarray | None = None  # (3, 3) [e, n, alt] covariance its last detection declared
 
 
 class SensorTracker:
@@ -77,9 +79,11 @@ class SensorTracker:
         return [t for t in self.tracks.values() if t.confirmed]
 
     # -- one scan --------------------------------------------------------------------------------------------
-    def scan(self, t_s: float, measurements: list[PolarMeasurement], own_enu, own_heading_rad) -> list:
-        """Apply one scan at t_s (its measurements; an empty scan counts as a miss for every track). Returns, per
-        measurement, the id of the track it updated or started (None: rejected)."""
+    def scan(self, t_s: float, measurements: list[PolarMeasurement], own_enu, own_heading_rad,
+             own_velocity=None) -> list:
+        """Apply one scan at t_s (its measurements; an empty scan counts as a miss for every track). own_velocity:
+        the ownship's [v_east, v_north, v_up] at t_s, for a measured range rate (None: range rates unused).
+        Returns, per measurement, the id of the track it updated or started (None: rejected)."""
         good = []
         for i, m in enumerate(measurements):
             why = m.problem()
@@ -94,12 +98,14 @@ class SensorTracker:
         if meas:
             z_h, r_h, z_v, r_v = to_tracking_frame(meas, own_enu, own_heading_rad)
             if tracks:
-                d2, xh = self._distances(tracks, t_s, z_h, r_h, z_v, r_v)
+                d2, xh, xv, ph = self._distances(tracks, t_s, z_h, r_h, z_v, r_v)
                 pairs = gnn(d2, self.gate)
             taken = {j for _, j in pairs}
             if pairs:
                 self._relinearise(pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad)
-                self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)))
+                rates = self._range_rates(pairs, xh, xv, ph, meas, own_enu, own_velocity)
+                self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)),
+                             rates)
                 for i, j in pairs:
                     out[good[j]] = tracks[i].track_id
                     if meas[j].address is not None:
@@ -117,9 +123,9 @@ class SensorTracker:
             self._review(trk, t_s)
         return out
 
-    def _distances(self, tracks, t_s, z_h, r_h, z_v, r_v) -> np.ndarray:
+    def _distances(self, tracks, t_s, z_h, r_h, z_v, r_v) -> tuple:
         """d^2 (T, M) of each measurement against each track's prediction at t_s (horizontal and altitude), and the
-        tracks' horizontal predictions (T, 6)."""
+        tracks' horizontal (T, 6) and vertical (T, 2) predictions and the horizontal covariances (T, 6, 6)."""
         slots = np.array([t.slot for t in tracks])
         dt = t_s - np.array([t.t_s for t in tracks])
         xh, ph, _ = self.bank_h.predict(slots, dt)
@@ -128,7 +134,26 @@ class SensorTracker:
         s_inv, _ = spd_inverse(ph[:, None, :2, :2] + r_h[None])
         d_h = np.einsum("tmi,tmij,tmj->tm", rh, s_inv, rh)
         d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
-        return d_h + d_v, xh
+        return d_h + d_v, xh, xv, ph
+
+    def _range_rates(self, pairs, xh, xv, ph, meas, own_enu, own_velocity):
+        """The paired measurements' range rates (the radar's) as horizontal velocity measurements linearised at the
+        tracks' predictions (measurement.range_rate_about_prediction): (rows of pairs that have one, z, R), or
+        None. Without the ownship's velocity a range rate cannot be turned into the intruder's, and is unused."""
+        if own_velocity is None:
+            return None
+        rows = [k for k, (_, j) in enumerate(pairs) if meas[j].range_rate_mps is not None
+                and meas[j].elevation_rad is not None]
+        if not rows:
+            return None
+        ts, js = [pairs[k][0] for k in rows], [pairs[k][1] for k in rows]
+        own = np.asarray(own_enu, float)
+        v_own = np.asarray(own_velocity, float)
+        z, r = range_rate_about_prediction(
+            [meas[j].range_rate_mps for j in js], [meas[j].range_rate_sigma_mps for j in js],
+            [meas[j].elevation_rad for j in js], xh[ts, :2] - own[:2], np.broadcast_to(v_own[:2], (len(js), 2)),
+            xv[ts, 1] - v_own[2], xh[ts, 2:4], ph[ts, :2, :2])
+        return np.array(rows), z, r
 
     def _relinearise(self, pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad) -> None:
         """A paired measurement without an elevation (active surveillance: a 9-15 deg bearing) updates its track as
@@ -145,7 +170,8 @@ class SensorTracker:
         z, r = about_prediction(rho, s_rho, bearing, s_b, xh[ts, :2] - own[js, :2])
         z_h[js], r_h[js] = z + own[js, :2], r
 
-    def _update(self, tracks, t_s, z_h, r_h, z_v, r_v) -> None:
+    def _update(self, tracks, t_s, z_h, r_h, z_v, r_v, rates=None) -> None:
+        """rates: (rows, z, R) of the tracks that also measured their horizontal velocity (_range_rates)."""
         b = len(tracks)
         slots = np.array([t.slot for t in tracks])
         dt = t_s - np.array([t.t_s for t in tracks])
@@ -155,14 +181,18 @@ class SensorTracker:
         mh[:, :2] = True
         rc = np.tile(np.eye(4), (b, 1, 1))
         rc[:, :2, :2] = r_h
+        if rates is not None:
+            rows, z_rate, r_rate = rates
+            zh[rows, 2:4], mh[rows, 2:4], rc[rows, 2:4, 2:4] = z_rate, True, r_rate
         zv = np.zeros((b, 2))
         zv[:, 0] = z_v
         mv = np.array([[True, False]] * b)
         self.bank_h.commit(self.bank_h.update(slots, dt, zh, mh, np.ones((b, 4)), r_cov=rc))
         self.bank_v.commit(self.bank_v.update(slots, dt, zv, mv, np.stack([r_v, np.ones(b)], axis=1)))
-        for trk in tracks:
+        for trk, cov in zip(tracks, _position_covariances(r_h, r_v)):
             trk.t_s = t_s
             trk.n_updates += 1
+            trk.detection_cov = cov
 
     def _start(self, t_s, z_h, r_h, z_v, r_v) -> list[SensorTrack]:
         b = len(z_h)
@@ -185,8 +215,8 @@ class SensorTracker:
         pv[:, 0, 0], pv[:, 1, 1] = r_v, UNKNOWN_VRATE_SIGMA_MPS**2
         self.bank_v.init(slots, xv, pv)
         out = []
-        for s in slots:
-            trk = SensorTrack(next(self._ids), int(s), t_s, deque([True]), confirmed=self.m == 1)
+        for s, cov in zip(slots, _position_covariances(r_h, r_v)):
+            trk = SensorTrack(next(self._ids), int(s), t_s, deque([True]), confirmed=self.m == 1, detection_cov=cov)
             self.tracks[trk.track_id] = trk
             self.counters["sensor.track_started"] += 1
             out.append(trk)
@@ -209,8 +239,16 @@ class SensorTracker:
         self.counters[counter] += 1
 
     # -- outputs ---------------------------------------------------------------------------------------------
-    def predict(self, track_ids, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """States (N, 6) [east, north, alt, v_east, v_north, v_up] and covariances (N, 6, 6) at t_s."""
+    def predict(self, track_ids, t_s: float, consider_bias: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """States (N, 6) [east, north, alt, v_east, v_north, v_up] and covariances (N, 6, 6) at t_s.
+
+        consider_bias: add to the position block the covariance the track's last detection declared. A sensor
+        declares its random error and its bias in quadrature (PolarMeasurement) and the banks take every detection
+        as independent, so at 10 Hz a track's position covariance shrinks below the bias, which no averaging
+        removes (Appendix Q's radar: range bias up to 15 m, angles 0.5 deg, 22 m at 2.5 km). Comparing the track
+        with another sensor's (association with ADS-B, fusion) needs that bias back: this is Schmidt's "consider"
+        covariance at its bound (all of one detection's declared error a bias; Bar-Shalom et al. 2001, Sec. 7.3
+        on sensor bias)."""
         if not len(track_ids):
             return np.empty((0, 6)), np.empty((0, 6, 6))
         trks = [self.tracks[i] for i in track_ids]
@@ -218,5 +256,15 @@ class SensorTracker:
         dt = t_s - np.array([t.t_s for t in trks])
         xh, ph, _ = self.bank_h.predict(slots, dt)
         xv, pv, _ = self.bank_v.predict(slots, dt)
-        return assemble(xh, ph, xv, pv)
+        x, p = assemble(xh, ph, xv, pv)
+        if consider_bias:
+            p[:, :3, :3] += np.array([t.detection_cov for t in trks])
+        return x, p
+
+
+def _position_covariances(r_h: np.ndarray, r_v: np.ndarray) -> np.ndarray:
+    """(B, 3, 3) [e, n, alt] covariances of detections from their horizontal (B, 2, 2) and altitude (B,) parts."""
+    cov = np.zeros((len(r_h), 3, 3))
+    cov[:, :2, :2], cov[:, 2, 2] = r_h, r_v
+    return cov
 

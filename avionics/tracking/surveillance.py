@@ -97,21 +97,22 @@ class SurveillanceTracker:
         return self.adsb.velocity_sigma_mps(report)
 
     # -- sensors -----------------------------------------------------------------------------------------------
-    def scan(self, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
-        """Apply one sensor scan (the ownship's [east, north, altitude] and heading at its time, the altitude in
-        the datum of the sensor's kind); the keys it updated (a paired sensor track: its ADS-B partner's). A kind's
-        first scans are held until one at a later time gives the period its tracker is built for."""
+    def scan(self, scan: SensorScan, own_enu, own_heading_rad: float, own_velocity=None) -> set[IntruderKey]:
+        """Apply one sensor scan (the ownship's [east, north, altitude], heading and [v_east, v_north, v_up] at its
+        time, the altitude in the datum of the sensor's kind; without the velocity, range rates are unused); the
+        keys it updated (a paired sensor track: its ADS-B partner's). A kind's first scans are held until one at a
+        later time gives the period its tracker is built for."""
         kind = scan.measurements[0].mount.kind
         tracker = self.sensors.get(kind)
         if tracker is None:
             held = self._held.setdefault(kind, [])
             period_s = scan.time_s - held[0][0].time_s if held else 0.0
             if period_s <= 1e-6 and len(held) < 63:
-                held.append((scan, own_enu, own_heading_rad))
+                held.append((scan, own_enu, own_heading_rad, own_velocity))
                 return set()
             tracker = self.sensors[kind] = self._tracker(period_s)
         dirty = set().union(*(self._apply(tracker, *h) for h in self._held.pop(kind, [])))
-        return dirty | self._apply(tracker, scan, own_enu, own_heading_rad)
+        return dirty | self._apply(tracker, scan, own_enu, own_heading_rad, own_velocity)
 
     def _tracker(self, period_s: float) -> SensorTracker:
         """A kind's tracker, its motion noise for scans period_s apart (within SCAN_PERIOD_BOUNDS_S)."""
@@ -122,10 +123,12 @@ class SurveillanceTracker:
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
             counters=self.counters)
 
-    def _apply(self, tracker: SensorTracker, scan: SensorScan, own_enu, own_heading_rad: float) -> set[IntruderKey]:
+    def _apply(self, tracker: SensorTracker, scan: SensorScan, own_enu, own_heading_rad: float,
+               own_velocity=None) -> set[IntruderKey]:
         kind = scan.measurements[0].mount.kind
         before = set(tracker.tracks)
-        ids = tracker.scan(scan.time_s, list(scan.measurements), np.asarray(own_enu, float), own_heading_rad)
+        ids = tracker.scan(scan.time_s, list(scan.measurements), np.asarray(own_enu, float), own_heading_rad,
+                           own_velocity)
         for track_id in before - set(tracker.tracks):  # deleted by the scan's review
             self._lost(kind, track_id)
         dirty: set[IntruderKey] = set()
@@ -168,7 +171,7 @@ class SurveillanceTracker:
         adsb = list(by_address.values())
         if free and adsb:
             ax, ap = self.adsb.predict(adsb, t_s)
-            sx, sp = tracker.predict([self._where[k][1] for k in free], t_s)
+            sx, sp = tracker.predict([self._where[k][1] for k in free], t_s, consider_bias=True)
             pairs += [(adsb[i], free[j]) for i, j in fusion.pair_tracks(ax, ap, sx, sp, self.config.gate_probability)]
         for adsb_key, sensor_key in pairs:
             self.paired[adsb_key] = sensor_key
@@ -200,7 +203,7 @@ class SurveillanceTracker:
             xs[adsb], ps[adsb] = self.adsb.predict([keys[i] for i in adsb], t_s)
             fused = [i for i in adsb if keys[i] in self.paired]
             if fused:
-                sx, sp = self._predict_sensor([self.paired[keys[i]] for i in fused], t_s)
+                sx, sp = self._predict_sensor([self.paired[keys[i]] for i in fused], t_s, consider_bias=True)
                 degraded = [self.adsb.tracks[keys[i]].integrity.degraded for i in fused]
                 xs[fused], ps[fused], _, _ = fusion.fuse(xs[fused], ps[fused], sx, sp, degraded, cross="ci",
                                                          gate_probability=self.config.gate_probability)
@@ -208,12 +211,12 @@ class SurveillanceTracker:
             xs[sensor], ps[sensor] = self._predict_sensor([keys[i] for i in sensor], t_s)
         return xs, ps
 
-    def _predict_sensor(self, keys: list[IntruderKey], t_s: float):
+    def _predict_sensor(self, keys: list[IntruderKey], t_s: float, consider_bias: bool = False):
         xs, ps = np.empty((len(keys), 6)), np.empty((len(keys), 6, 6))
         for kind, tracker in self.sensors.items():
             rows = [i for i, k in enumerate(keys) if self._where[k][0] == kind]
             if rows:
-                xs[rows], ps[rows] = tracker.predict([self._where[keys[i]][1] for i in rows], t_s)
+                xs[rows], ps[rows] = tracker.predict([self._where[keys[i]][1] for i in rows], t_s, consider_bias)
         return xs, ps
 
     def prune(self, now_s: float) -> list[IntruderKey]:

@@ -28,8 +28,12 @@ max_range_m to exercise them. The altitude's declared sigma is the 100 ft quanti
 declares 1 ft^2).
 
 `noise none` (exact()): every error, bias, limit, miss and false return off and the field of regard all round;
-the declared sigmas are then small floors (1 m, 1 mrad, 0.1 m/s) so that the tracker's converted measurement is
-the exact position.
+the declared sigmas are then small floors (1 m, 1 mrad) so that the tracker's converted measurement is the exact
+position. The range rate's floor is 1.5 m/s, not a small one: a .daa file states each aircraft's velocity at its
+rows and the replay interpolates the positions between them (sitl's trajectories), so the "exact" range rate (from
+the stated velocities) and the derivative of the exact positions differ by up to about 1 m/s in a turn; declared
+tighter, it pulls the track's velocity off its positions (measured: at 0.1 m/s the radar-exact replay of NASA's
+turning scenarios lost first levels).
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ from avionics.base.units import FT, NM
 from avionics.tracking.measurement import PolarMeasurement, SensorMount
 
 DEG = math.pi / 180.0
-EXACT_RANGE_SIGMA_M, EXACT_ANGLE_SIGMA_RAD, EXACT_RATE_SIGMA_MPS = 1.0, 1e-3, 0.1
+EXACT_RANGE_SIGMA_M, EXACT_ANGLE_SIGMA_RAD, EXACT_RATE_SIGMA_MPS = 1.0, 1e-3, 1.5
 
 
 @dataclass(frozen=True)
