@@ -244,7 +244,8 @@ class Daa:
                 ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
-                                         sources.link_authenticated, bands)
+                                         sources.link_authenticated, bands,
+                                         return_conflict=lambda dz, vz: self._core.ra_threatened_if(now_s, dz, vz))
         except Exception as exc:  # noqa: BLE001
             self._fault("guidance", exc)
             return None

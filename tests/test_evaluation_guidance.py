@@ -76,6 +76,19 @@ def test_a_guided_record_has_the_misses_sitl_replay_fly_guidance_gives(tmp_path)
     assert first_ra == pytest.approx(record["first_ra_s"], abs=1e-6)
 
 
+def test_the_vehicle_holds_clear_of_a_loitering_rotorcraft_instead_of_flying_back_into_it():
+    """Rotorcraft encounter 2 of set 28 under do365: the rotorcraft stays near the survey multirotor for the whole
+    encounter. Giving the mission back two seconds after each RA ended flew the vehicle back toward it ten times
+    (ten RA episodes, 2026-12-06); with the way back checked (GuidanceStage._mission_altitude_in_conflict) the
+    vehicle holds level until the end, and the truth miss it flies is wider than the mission's."""
+    encounter = LincolnSource.of(ROTORCRAFT, "uav-survey").encounter(SEED, 2)
+    record = ev.evaluate(encounter, "do365", (SEED, 2), conditions=GUIDED)
+    assert record["ra_episodes"] <= 2, record["guidance_states"]
+    assert "holding:mission_altitude_in_conflict" in record["guidance_states"]
+    assert "returning" not in record["guidance_states"]
+    assert record["vmd_flown_ft"] > record["vmd_unequipped_ft"] and not record["nmac_equipped"]
+
+
 def test_time_away_from_the_mission_by_hand():
     auto, guided = ardupilot.AUTO, ardupilot.GUIDED
     assert _away([(0.0, auto)], auto) == (0.0, True, None)

@@ -192,6 +192,53 @@ def test_a_preventive_ra_the_mission_complies_with_commands_nothing():
     assert out.decision.state == "commanding" and out.decision.target_vertical_rate_mps == 0.0  # level off
 
 
+def _guided(t):
+    """The HEARTBEAT of an ArduCopter in GUIDED, as it confirms the mode we asked for."""
+    from avionics.base.types import AutopilotHeartbeat
+
+    return AutopilotHeartbeat(t, 1, ardupilot.GUIDED, 0)
+
+
+def test_after_a_vertical_manoeuvre_the_mission_is_given_back_only_once_the_way_back_is_clear():
+    """The quiet time counts from the last step at which flying back to the mission's height (level there, or on
+    the way at the vehicle's rate) would raise an RA again (GuidanceStage._mission_altitude_in_conflict)."""
+    stage = _stage()
+    asked, in_conflict = [], [True]
+
+    def return_conflict(dz_m, vz_mps):
+        asked.append((dz_m, vz_mps))
+        return in_conflict[0]
+
+    assert stage.update(1.0, {KEY: _ra()}, None, Ownship(10.0, 0.0, 0.0, 100.0)).decision.state == "commanding"
+    climbed = Ownship(10.0, 0.0, 0.0, 130.0)  # 30 m above the mission's height, level
+
+    def step(t):
+        return stage.update(t, {}, None, climbed, [_guided(t)], return_conflict=return_conflict).decision
+
+    t = 2.0
+    while t < 10.0:
+        decision = step(t)
+        assert decision.state == "holding" and decision.reason == "mission_altitude_in_conflict", t
+        t = round(t + 0.5, 1)
+    assert asked[-1] == (-30.0, 0.0)  # the mission's height, level there
+    in_conflict[0], last_conflict = False, 9.5
+    while step(t).state == "holding":
+        t = round(t + 0.5, 1)
+    assert t == pytest.approx(last_conflict + stage.config.quiet_time_s)
+    assert stage.state == "returning" and stage.reason == "quiet_time_over"
+    assert (0.0, -1.5) in asked  # and the way down at the multirotor's descent rate
+
+
+def test_a_vehicle_back_near_its_mission_height_is_given_back_after_the_quiet_time_alone():
+    stage = _stage()
+    stage.update(1.0, {KEY: _ra()}, None, Ownship(10.0, 0.0, 0.0, 100.0))
+    asked = []
+    near = Ownship(10.0, 0.0, 0.0, 102.0)  # within MISSION_HEIGHT_TOLERANCE_M: nothing to fly back through
+    for t in (2.0, 3.0, 4.0):
+        out = stage.update(t, {}, None, near, [_guided(t)], return_conflict=lambda dz, vz: asked.append(dz) or True)
+    assert out.decision.state == "returning" and asked == []
+
+
 @pytest.mark.parametrize("height, expected", [(100.0, -1.5), (16.0, -math.sqrt(1.0)), (15.0, 0.0), (10.0, 0.0)])
 def test_a_descent_is_limited_to_stop_at_the_floor(height, expected):
     descend = _ra(target=-1.5, sense="descend")

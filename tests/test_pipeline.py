@@ -237,3 +237,22 @@ def test_the_hwang_prefilter_runs_through_full_assessments():
     assert level_sequence(hwang) == level_sequence(default)
     ra = next(c for _, c in hwang if c.level is AdvisoryLevel.RA)
     assert ra.pc_max > 0.5
+
+
+def test_the_way_back_check_reads_the_ra_thresholds_at_a_displaced_ownship():
+    """DaaCore.ra_threatened_if (the guidance's check before it gives the mission back) against the booklet's SL 4
+    RA thresholds by hand: inside RA tau (20 s), an intruder co-altitude with ownship raises an RA; ownship 150 m
+    (492 ft) above it is still inside RA ZTHR (600 ft); 250 m (820 ft) above, level, it is outside ZTHR with no
+    vertical closure; 250 m above descending at 10 m/s, its time to co-altitude (25 s) is over the RA's 20 s, so
+    no RA; at 20 m/s (12.5 s) an RA (DAIDALUS TCAS3D: the vertical test's time to co-altitude, TCOA = TAU)."""
+    encounter = head_on()
+    t_ra = onset(R0, 2 * V, 20, 0.35 * NM)
+    core, _ = encounter.run(t_ra + 1.0)
+    now = t_ra + 1.0
+    assert core.ra_threatened_if(now, 0.0, 0.0)
+    assert core.ra_threatened_if(now, 150.0, 0.0)
+    assert not core.ra_threatened_if(now, 250.0, 0.0)
+    assert not core.ra_threatened_if(now, 250.0, -10.0)
+    assert core.ra_threatened_if(now, 250.0, -20.0)
+    early, _ = encounter.run(t_ra - 5.0)  # outside RA tau: no geometry raises one
+    assert not early.ra_threatened_if(t_ra - 5.0, 0.0, 0.0)

@@ -63,8 +63,10 @@ class ModeLadder:
         self.request: tuple[int, float, int] | None = None  # (mode, sent at, attempts) of a DO_SET_MODE in flight
 
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own, autopilot_inputs: Iterable = (),
-               spoofed: frozenset = frozenset(), link_authenticated: bool = False, bands=None) -> GuidanceOutput:
-        """bands: the stage's signature (stage.py); the ladder switches modes and flies no track resolution."""
+               spoofed: frozenset = frozenset(), link_authenticated: bool = False, bands=None,
+               return_conflict=None) -> GuidanceOutput:
+        """bands, return_conflict: the stage's signature (stage.py); the ladder switches modes and flies no track
+        resolution or vertical manoeuvre to come back from."""
         before, commands = (self.state, self.action), []
         for item in autopilot_inputs:
             self._absorb(item, now_s)

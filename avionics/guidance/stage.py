@@ -11,7 +11,9 @@ States (GuidanceDecision.state):
   that paints the corrective region or a more severe one (DO-365 corrective, warning) is active: level, at the
   ground speed of the manoeuvre's start, the setpoint's track stepped toward the resolution at the turn rate;
 - holding: the RAs (the corrective alerts) ended, clear of conflict: level flight at that horizontal velocity (on
-  the resolution track) for quiet_time_s;
+  the resolution track) for quiet_time_s, counted from the last step at which flying back would meet the conflict
+  again (the mission's track in a corrective band; after a vertical manoeuvre, an RA's geometry at the mission's
+  altitude or on the way to it: `return_conflict`);
 - returning: the mode the vehicle was in before is asked for again (ArduCopter AUTO resumes the mission's current
   item), until HEARTBEAT shows it: then idle;
 - overridden: the mode changed under us while we commanded (a pilot or a failsafe): nothing is sent until the
@@ -55,6 +57,9 @@ SETPOINT_CHANGE_MPS = 0.1  # a target that moved this much is sent at once, not 
 BANDS_MAX_AGE_S = 2.0  # bands come once a second (DAIDALUS's 1 Hz); older than two periods they are not used
 # why no track is flown, where the RA's vertical manoeuvre is flown instead (not: no bands yet, or none in conflict)
 NO_TRACK_TO_FLY = ("no_track_resolution", "track_resolution_closer")
+# the vehicle this close to the mission's height needs no check before it is given back (a few metres: the
+# altitude hold's own error, and far inside any RA's vertical threshold)
+MISSION_HEIGHT_TOLERANCE_M = 3.0
 MAV_TYPE_FIXED_WING = 1  # HEARTBEAT type (common.xml MAV_TYPE) ArduPlane sends for a plane (not a QuadPlane)
 
 
@@ -182,6 +187,7 @@ class GuidanceStage:
         self.turned_s: float | None = None  # when track_cmd was last stepped
         self.no_manoeuvre = "no_bands"  # why a horizontal manoeuvre could not be picked
         self.mission_track: float | None = None  # the track the vehicle flew when we took it (its mission's)
+        self.mission_height: float | None = None  # its height above home then (AUTO flies back to it)
         self.execute = config.mode == "execute"
         self.system, self.component = system, component  # the autopilot's ids (component from its HEARTBEAT)
         self.state, self.since_s, self.reason = "idle", 0.0, "no_conflict"
@@ -202,7 +208,9 @@ class GuidanceStage:
     # -- the step ----------------------------------------------------------------------------------------------
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
                autopilot_inputs: Iterable = (), spoofed: frozenset = frozenset(),
-               link_authenticated: bool = False, bands=None) -> GuidanceOutput:
+               link_authenticated: bool = False, bands=None, return_conflict=None) -> GuidanceOutput:
+        """return_conflict(dz_m, vz_mps): whether some intruder would raise an RA were ownship dz_m higher and
+        flying at vz_mps (DaaCore.ra_threatened_if); None: a return after a vertical manoeuvre is not checked."""
         before = self.state
         commands: list = []
         self.own = own
@@ -272,6 +280,8 @@ class GuidanceStage:
             self.manoeuvre, self.target, self.clear_s = "level", 0.0, now_s
         if self.state == "holding" and self.held is not None and self._mission_track_in_conflict(now_s):
             self.clear_s, self.reason = now_s, "mission_track_in_conflict"  # the quiet time counts from its end
+        elif self.state == "holding" and self.held is None and self._mission_altitude_in_conflict(own, return_conflict):
+            self.clear_s, self.reason = now_s, "mission_altitude_in_conflict"
         if self.state == "holding" and interlock is None and now_s - self.clear_s >= self.config.quiet_time_s:
             self._return(now_s, "quiet_time_over", commands)
 
@@ -340,6 +350,7 @@ class GuidanceStage:
             self.horizontal = (own.north_mps, own.east_mps)
             self.speed = math.hypot(own.north_mps, own.east_mps)
             self.track_cmd = self.mission_track = math.degrees(math.atan2(own.east_mps, own.north_mps)) % 360.0
+            self.mission_height = own.height_above_home_m
             self.turned_s = now_s
             self.guided_confirmed = self.mode == c.command_mode
             if c.guided_commands is not None:
@@ -457,6 +468,20 @@ class GuidanceStage:
         order = {"FAR": 1, "MID": 2, "NEAR": 3}
         region = bands.region_at("track_deg", self.mission_track)
         return order.get(region, 0) >= order[self.turning.corrective_region]
+
+    def _mission_altitude_in_conflict(self, own: Ownship | None, return_conflict) -> bool:
+        """After a vertical manoeuvre: the mission given back now (AUTO climbs or descends to the mission's height
+        at the vehicle's rate) would raise an RA again, at the mission's height level or on the way to it at the
+        vehicle's rate. The vertical counterpart of _mission_track_in_conflict (ICAROUS returns to the mission
+        only when the way back is conflict free: TrafficMonitor::CheckSafeToTurn); without it a multirotor that
+        climbed clear of a loitering rotorcraft flew back down into it two seconds after each RA ended."""
+        if return_conflict is None or own is None or own.height_above_home_m is None or self.mission_height is None:
+            return False
+        dz = self.mission_height - own.height_above_home_m
+        if abs(dz) < MISSION_HEIGHT_TOLERANCE_M:
+            return False
+        rate = self.vehicle.climb_rate_mps if dz > 0 else -self.vehicle.descent_rate_mps
+        return return_conflict(dz, 0.0) or return_conflict(0.0, rate)
 
     def _turn(self, now_s: float) -> None:
         """The setpoint's track stepped toward the resolution at the turn rate, on the manoeuvre's side (the long

@@ -95,25 +95,8 @@ class Assessor:
         return ev
 
     def _evaluate(self, now_s, keys, xs, ps, own, level, ra_allowed, periodic) -> Evaluation:
-        cfg = self.config
-        tracks = [self.tracker.tracks[k] for k in keys]
-        own_alt = np.empty(len(keys))
-        mismatch = np.zeros(len(keys), bool)
-        has_alt = np.array([t.altitude_valid(now_s, cfg.tracking.max_coast_s) for t in tracks], bool)
-        for i, track in enumerate(tracks):
-            own_alt[i], mismatch[i] = ownship_altitude(own, track.datum)
-        mismatch &= has_alt
-        # Unknown intruder altitude: zeros keep the arithmetic finite; has_alt masks them in detect().
-        geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
-                                 np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
-        margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
-        threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
-        # which alerter judges each intruder (DAIDALUS's per-intruder alerter): one seen only by a sensor is
-        # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
-        sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
-        non_coop = sensed if self.alerter.non_cooperative is not None else False
-        encounter = Encounter(self._resolvable(geometry, sensed, ps, own), has_alt, margin, threat_eligible,
-                              self._pair_errors(keys, ps, own), non_coop)
+        tracks, has_alt, mismatch, own_alt, margin, geometry, threat_eligible, encounter = \
+            self._encounter(now_s, keys, xs, ps, own)
         candidates = self.alerter.alert(encounter, level, None if ra_allowed else self.alerter.highest_without_ra,
                                         previous=self.hysteresis.last(keys))
         pc_ta, pc_ra, pc = self._conflict_probabilities(now_s, keys, xs, ps, own, geometry, level, has_alt, margin,
@@ -138,6 +121,40 @@ class Assessor:
         return Evaluation(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, mismatch=mismatch, geometry=geometry,
                           threat_eligible=threat_eligible, encounter=encounter, candidates=candidates,
                           pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)
+
+    def _encounter(self, now_s, keys, xs, ps, own):
+        """What the alerter reads of each intruder against ownship `own`: the tracks, which have an altitude, the
+        datum mismatches, ownship's altitude in each one's datum and its margin, the geometry, which are eligible
+        threats, and the alerter's Encounter."""
+        cfg = self.config
+        tracks = [self.tracker.tracks[k] for k in keys]
+        own_alt = np.empty(len(keys))
+        mismatch = np.zeros(len(keys), bool)
+        has_alt = np.array([t.altitude_valid(now_s, cfg.tracking.max_coast_s) for t in tracks], bool)
+        for i, track in enumerate(tracks):
+            own_alt[i], mismatch[i] = ownship_altitude(own, track.datum)
+        mismatch &= has_alt
+        # Unknown intruder altitude: zeros keep the arithmetic finite; has_alt masks them in detect().
+        geometry = pair_geometry(xs[:, 0:2] - own.x[0:2], xs[:, 3:5] - own.x[3:5],
+                                 np.where(has_alt, xs[:, 2] - own_alt, 0.0), np.where(has_alt, xs[:, 5] - own.x[5], 0.0))
+        margin = np.where(mismatch, cfg.altitude.datum_mismatch_margin_m, 0.0)
+        threat_eligible = np.abs(xs[:, 5]) <= self.profile.max_threat_vertical_rate_mps
+        # which alerter judges each intruder (DAIDALUS's per-intruder alerter): one seen only by a sensor is
+        # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
+        sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
+        non_coop = sensed if self.alerter.non_cooperative is not None else False
+        encounter = Encounter(self._resolvable(geometry, sensed, ps, own), has_alt, margin, threat_eligible,
+                              self._pair_errors(keys, ps, own), non_coop)
+        return tracks, has_alt, mismatch, own_alt, margin, geometry, threat_eligible, encounter
+
+    def ra_threatened(self, now_s, keys, xs, ps, own, level) -> bool:
+        """Whether the alerter's detectors alone (no persistence, hysteresis, gate or inhibit: a geometry, not an
+        advisory) put any intruder at a level that raises an RA against ownship `own`; the guidance asks it of
+        the ownship it would fly back to its mission (GuidanceStage: mission_altitude_in_conflict)."""
+        if not len(keys):
+            return False
+        encounter = self._encounter(now_s, keys, xs, ps, own)[-1]
+        return bool((np.asarray(self.alerter.alert(encounter, level)) > self.alerter.highest_without_ra).any())
 
     @staticmethod
     def _resolvable(geometry: PairGeometry, sensed: np.ndarray, ps: np.ndarray, own) -> PairGeometry:
