@@ -21,9 +21,7 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import fly
 from tests.conftest import DEADLINE_S, ROOT, wait_for
 
-# live: a fresh venv (pip from the package index or its cache), a child process, UDP; one xdist group, so that the
-# module's wheel and venv (the `flight` fixture, 36 s) are built once, not once per worker
-pytestmark = [pytest.mark.live, pytest.mark.xdist_group("flight_install")]
+pytestmark = pytest.mark.live  # a fresh venv (pip from the package index or its cache), a child process, UDP
 
 # Not in a flight install: the lab (dask, matplotlib, filterpy), the ground monitor's terminal view (rich), the
 # Beast decoder (pyModeS), serial links (pyserial), the simulator and the evaluation. pyarrow stays: the onboard

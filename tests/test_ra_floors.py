@@ -24,9 +24,6 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from ra_sim import Encounter, Intruder, fly, to_scenario
 
-# one xdist group: the replays of the `flown` fixture (36 s) are flown once, not once per worker
-pytestmark = pytest.mark.xdist_group("ra_floors")
-
 PROFILES = ("small-uas", "f3442", "do365")
 TOLERANCE_M = 15 * FT  # the 0.1 s grids and ADS-B noise, as tests/test_ra_properties.py
 
