@@ -245,7 +245,7 @@ class Daa:
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
                                          sources.link_authenticated, bands,
-                                         return_conflict=lambda dz, vz: self._core.ra_threatened_if(now_s, dz, vz))
+                                         return_conflict=lambda moves: self._core.ra_threatened_if(now_s, moves))
         except Exception as exc:  # noqa: BLE001
             self._fault("guidance", exc)
             return None

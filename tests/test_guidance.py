@@ -205,8 +205,8 @@ def test_after_a_vertical_manoeuvre_the_mission_is_given_back_only_once_the_way_
     stage = _stage()
     asked, in_conflict = [], [True]
 
-    def return_conflict(dz_m, vz_mps):
-        asked.append((dz_m, vz_mps))
+    def return_conflict(moves):
+        asked.extend(moves)
         return in_conflict[0]
 
     assert stage.update(1.0, {KEY: _ra()}, None, Ownship(10.0, 0.0, 0.0, 100.0)).decision.state == "commanding"
@@ -220,7 +220,7 @@ def test_after_a_vertical_manoeuvre_the_mission_is_given_back_only_once_the_way_
         decision = step(t)
         assert decision.state == "holding" and decision.reason == "mission_altitude_in_conflict", t
         t = round(t + 0.5, 1)
-    assert asked[-1] == (-30.0, 0.0)  # the mission's height, level there
+    assert asked[-2] == (-30.0, 0.0)  # the mission's height, level there
     in_conflict[0], last_conflict = False, 9.5
     while step(t).state == "holding":
         t = round(t + 0.5, 1)
@@ -235,7 +235,7 @@ def test_a_vehicle_back_near_its_mission_height_is_given_back_after_the_quiet_ti
     asked = []
     near = Ownship(10.0, 0.0, 0.0, 102.0)  # within MISSION_HEIGHT_TOLERANCE_M: nothing to fly back through
     for t in (2.0, 3.0, 4.0):
-        out = stage.update(t, {}, None, near, [_guided(t)], return_conflict=lambda dz, vz: asked.append(dz) or True)
+        out = stage.update(t, {}, None, near, [_guided(t)], return_conflict=lambda moves: asked.extend(moves) or True)
     assert out.decision.state == "returning" and asked == []
 
 

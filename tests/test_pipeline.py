@@ -249,10 +249,11 @@ def test_the_way_back_check_reads_the_ra_thresholds_at_a_displaced_ownship():
     t_ra = onset(R0, 2 * V, 20, 0.35 * NM)
     core, _ = encounter.run(t_ra + 1.0)
     now = t_ra + 1.0
-    assert core.ra_threatened_if(now, 0.0, 0.0)
-    assert core.ra_threatened_if(now, 150.0, 0.0)
-    assert not core.ra_threatened_if(now, 250.0, 0.0)
-    assert not core.ra_threatened_if(now, 250.0, -10.0)
-    assert core.ra_threatened_if(now, 250.0, -20.0)
+    assert core.ra_threatened_if(now, [(0.0, 0.0)])
+    assert core.ra_threatened_if(now, [(150.0, 0.0)])
+    assert not core.ra_threatened_if(now, [(250.0, 0.0)])
+    assert not core.ra_threatened_if(now, [(250.0, -10.0)])
+    assert core.ra_threatened_if(now, [(250.0, -10.0), (0.0, 0.0)])  # any of the moves
+    assert core.ra_threatened_if(now, [(250.0, -20.0)])
     early, _ = encounter.run(t_ra - 5.0)  # outside RA tau: no geometry raises one
-    assert not early.ra_threatened_if(t_ra - 5.0, 0.0, 0.0)
+    assert not early.ra_threatened_if(t_ra - 5.0, [(0.0, 0.0)])

@@ -209,8 +209,9 @@ class GuidanceStage:
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
                autopilot_inputs: Iterable = (), spoofed: frozenset = frozenset(),
                link_authenticated: bool = False, bands=None, return_conflict=None) -> GuidanceOutput:
-        """return_conflict(dz_m, vz_mps): whether some intruder would raise an RA were ownship dz_m higher and
-        flying at vz_mps (DaaCore.ra_threatened_if); None: a return after a vertical manoeuvre is not checked."""
+        """return_conflict(moves): whether some intruder would raise an RA were ownship moved by any of the
+        (dz_m, vz_mps) moves, dz_m higher and flying at vz_mps (DaaCore.ra_threatened_if); None: a return after a
+        vertical manoeuvre is not checked."""
         before = self.state
         commands: list = []
         self.own = own
@@ -481,7 +482,7 @@ class GuidanceStage:
         if abs(dz) < MISSION_HEIGHT_TOLERANCE_M:
             return False
         rate = self.vehicle.climb_rate_mps if dz > 0 else -self.vehicle.descent_rate_mps
-        return return_conflict(dz, 0.0) or return_conflict(0.0, rate)
+        return return_conflict(((dz, 0.0), (0.0, rate)))
 
     def _turn(self, now_s: float) -> None:
         """The setpoint's track stepped toward the resolution at the turn rate, on the manoeuvre's side (the long

@@ -176,20 +176,24 @@ class DaaCore:
         that fails here fails as in step(); its failed-state advisory comes with the next step's changes."""
         return self.assessor.predicted(now_s, keys, self.containment.pending)
 
-    def ra_threatened_if(self, now_s: float, dz_m: float, vz_mps: float) -> bool:
-        """Whether some tracked intruder's geometry would raise an RA were ownship dz_m higher than now and flying
-        at vz_mps vertically (Assessor.ra_threatened): the guidance's check that a return to the mission's
-        altitude is clear of conflict. False without an ownship or a sensitivity level."""
+    def ra_threatened_if(self, now_s: float, moves) -> bool:
+        """Whether some tracked intruder's geometry would raise an RA were ownship moved by any of `moves`, each
+        (dz_m, vz_mps): dz_m higher than now and flying at vz_mps vertically (Assessor.ra_threatened); the tracks
+        are predicted once for all of them. The guidance's check that a return to the mission's altitude is clear
+        of conflict. False without an ownship or a sensitivity level."""
         own, level = self.intake.ownship_at(now_s), self.records.level
         if own is None or level is None:
             return False
-        x = own.x.copy()
-        x[2] += dz_m
-        x[5] = vz_mps
-        pressure = own.pressure_altitude_m + dz_m if own.pressure_altitude_m is not None else None
-        moved = replace(own, x=x, pressure_altitude_m=pressure, height_above_home_m=own.height_above_home_m + dz_m)
         keys, xs, ps = self.predict_tracks(list(self.tracker.tracks), now_s)
-        return self.assessor.ra_threatened(now_s, keys, xs, ps, moved, level)
+        for dz_m, vz_mps in moves:
+            x = own.x.copy()
+            x[2] += dz_m
+            x[5] = vz_mps
+            pressure = own.pressure_altitude_m + dz_m if own.pressure_altitude_m is not None else None
+            moved = replace(own, x=x, pressure_altitude_m=pressure, height_above_home_m=own.height_above_home_m + dz_m)
+            if self.assessor.ra_threatened(now_s, keys, xs, ps, moved, level):
+                return True
+        return False
 
     def end_all(self, now_s: float, reason: str) -> list[Advisory]:
         """End every active advisory now with reason (e.g. "shutdown"); the ended ones, for announcing."""
