@@ -21,6 +21,7 @@ from avionics.pipeline.containment import Containment
 from avionics.pipeline.intake import Intake
 from avionics.tracking.interface import Tracker
 from avionics.tracking.ownship import OwnshipState
+from avionics.tracking.range_tracker import horizontal_miss_m
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,8 +144,8 @@ class Assessor:
         # non-cooperative (tracking/surveillance.py); an ADS-B track, fused with a sensor's or not, is cooperative
         sensed = np.fromiter((k.source is SENSOR for k in keys), bool, len(keys))
         non_coop = sensed if self.alerter.non_cooperative is not None else False
-        encounter = Encounter(self._resolvable(geometry, sensed, ps, own), has_alt, margin, threat_eligible,
-                              self._pair_errors(keys, ps, own), non_coop)
+        encounter = Encounter(self._resolvable(now_s, keys, geometry, sensed, ps, own), has_alt, margin,
+                              threat_eligible, self._pair_errors(keys, ps, own), non_coop)
         return tracks, has_alt, mismatch, own_alt, margin, geometry, threat_eligible, encounter
 
     def ra_threatened(self, now_s, keys, xs, ps, own, level) -> bool:
@@ -156,18 +157,27 @@ class Assessor:
         encounter = self._encounter(now_s, keys, xs, ps, own)[-1]
         return bool((np.asarray(self.alerter.alert(encounter, level)) > self.alerter.highest_without_ra).any())
 
-    @staticmethod
-    def _resolvable(geometry: PairGeometry, sensed: np.ndarray, ps: np.ndarray, own) -> PairGeometry:
+    def _resolvable(self, now_s, keys, geometry: PairGeometry, sensed: np.ndarray, ps: np.ndarray,
+                    own) -> PairGeometry:
         """The geometry the alerter reads: an intruder seen only by the ownship's sensors (sensed) has its horizontal miss
         distance taken HMD_SIGMAS below the estimate (not below 0), so that TCAS's HMD filter (alerting.TCAS3D)
         suppresses an RA only on a miss the track resolves. Active surveillance measures bearing to 9-15 deg:
         its track's cross-range velocity is off by metres per second, its HMD by hundreds of metres, and the
-        filter fed the estimate held RAs back 4-8 s on NASA's encounters (avionics_eval.reports.noncoop). An
-        ADS-B track's miss is resolved to a few metres and is judged as DAIDALUS judges it, by the estimate."""
+        filter fed the estimate held RAs back 4-8 s on NASA's encounters (avionics_eval.reports.noncoop); a run
+        of bearing errors can make it kilometres too wide, with a covariance that does not say so. So an active-
+        surveillance track's miss is also the smaller of that and its range track's (range_tracker.py, TCAS II's
+        miss distance filter). An ADS-B track's miss is resolved to a few metres and is judged as DAIDALUS judges
+        it, by the estimate."""
         if not sensed.any():
             return geometry
-        lowered = np.maximum(geometry.hmd_m - HMD_SIGMAS * hmd_sigma_m(geometry, ps + own.p), 0.0)
-        return replace(geometry, hmd_m=np.where(sensed, lowered, geometry.hmd_m))
+        hmd = np.where(sensed, np.maximum(geometry.hmd_m - HMD_SIGMAS * hmd_sigma_m(geometry, ps + own.p), 0.0),
+                       geometry.hmd_m)
+        rows = np.flatnonzero(sensed)
+        ranging = self.tracker.ranging([keys[i] for i in rows], now_s)
+        for i, range_x in zip(rows, ranging):
+            if np.isfinite(range_x).all():
+                hmd[i] = min(hmd[i], horizontal_miss_m(range_x, geometry.sz_m[i], geometry.vz_mps[i]))
+        return replace(geometry, hmd_m=hmd)
 
     def _pair_errors(self, keys: list[IntruderKey], ps: np.ndarray, own) -> np.ndarray | None:
         """(N, 4) ownship's + each intruder's errors for a SUM detector (Encounter.uncertainty): the stated ones

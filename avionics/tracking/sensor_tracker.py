@@ -32,6 +32,7 @@ from avionics.tracking.imm import ImmBank, spd_inverse
 from avionics.tracking.imm_tracker import assemble
 from avionics.tracking.measurement import (PolarMeasurement, about_prediction, ground_polar,
                                            range_rate_about_prediction, to_tracking_frame)
+from avionics.tracking.range_tracker import RangeTrack, along_line_of_sight
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS, UNKNOWN_VRATE_SIGMA_MPS
 
 
@@ -45,6 +46,7 @@ class SensorTrack:
     n_updates: int = 1
     address: int | None = None  # a Mode S reply's address, if any report carried one
     detection_cov: np.ndarray | None = None  # (3, 3) [e, n, alt] covariance its last detection declared
+    ranging: RangeTrack | None = None  # active surveillance: its slant range alone (range_tracker.py)
 
 
 class SensorTracker:
@@ -73,6 +75,7 @@ class SensorTracker:
         self.tracks: dict[int, SensorTrack] = {}
         self._free = list(range(capacity - 1, -1, -1))
         self._ids = itertools.count(1)
+        self._own: tuple | None = None  # (t_s, [e, n, alt, ve, vn, vu]) of the ownship at the last scan
 
     @property
     def confirmed(self) -> list[SensorTrack]:
@@ -92,6 +95,8 @@ class SensorTracker:
             else:
                 self.counters["sensor.rejected"] += 1
         out: list = [None] * len(measurements)
+        if own_velocity is not None:
+            self._own = (t_s, np.concatenate([np.asarray(own_enu, float), np.asarray(own_velocity, float)]))
         meas = [measurements[i] for i in good]
         tracks = [t for t in self.tracks.values() if t.t_s < t_s]
         pairs = []
@@ -108,6 +113,8 @@ class SensorTracker:
                              rates)
                 for i, j in pairs:
                     out[good[j]] = tracks[i].track_id
+                    if tracks[i].ranging is not None:
+                        tracks[i].ranging.update(t_s, meas[j].range_m, meas[j].range_sigma_m)
                     if meas[j].address is not None:
                         tracks[i].address = meas[j].address
             new = [j for j in range(len(meas)) if j not in taken]
@@ -115,6 +122,8 @@ class SensorTracker:
                 for j, trk in zip(new, self._start(t_s, *(a[new] for a in (z_h, r_h, z_v, r_v)))):
                     trk.address = meas[j].address
                     out[good[j]] = trk.track_id
+                    if meas[j].elevation_rad is None:
+                        trk.ranging = RangeTrack.start(t_s, meas[j].range_m, meas[j].range_sigma_m)
         hit = {tracks[i].track_id for i, _ in pairs}
         for trk in tracks:
             trk.hits.append(trk.track_id in hit)
@@ -238,6 +247,23 @@ class SensorTracker:
         self._free.append(trk.slot)
         self.counters[counter] += 1
 
+    def ranging(self, track_ids, t_s: float) -> np.ndarray:
+        """(N, 3) each track's range track [r, r_dot, r_ddot] predicted to t_s; NaN for a track without one."""
+        out = np.full((len(track_ids), 3), np.nan)
+        for k, track_id in enumerate(track_ids):
+            ranging = self.tracks[track_id].ranging
+            if ranging is not None:
+                out[k] = ranging.predicted(t_s)[0]
+        return out
+
+    def reframe(self, change) -> None:
+        """Carry the tracks and the ownship kept from the last scan into a new tangent plane (base/frame.py)."""
+        self.bank_h.reframe(change, np.array([t.slot for t in self.tracks.values()], int))
+        if self._own is not None:
+            t_own, own = self._own
+            h, _, _ = change.carry(own[[0, 1, 3, 4]], np.zeros((4, 4)), vectors=(2,))
+            self._own = (t_own, np.array([h[0], h[1], own[2], h[2], h[3], own[5]]))
+
     # -- outputs ---------------------------------------------------------------------------------------------
     def predict(self, track_ids, t_s: float, consider_bias: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """States (N, 6) [east, north, alt, v_east, v_north, v_up] and covariances (N, 6, 6) at t_s.
@@ -257,6 +283,12 @@ class SensorTracker:
         xh, ph, _ = self.bank_h.predict(slots, dt)
         xv, pv, _ = self.bank_v.predict(slots, dt)
         x, p = assemble(xh, ph, xv, pv)
+        if self._own is not None:
+            t_own, own = self._own
+            own = np.concatenate([own[:3] + own[3:] * (t_s - t_own), own[3:]])
+            for k, trk in enumerate(trks):
+                if trk.ranging is not None:
+                    x[k], p[k] = along_line_of_sight(x[k], p[k], *trk.ranging.predicted(t_s), own)
         if consider_bias:
             p[:, :3, :3] += np.array([t.detection_cov for t in trks])
         return x, p

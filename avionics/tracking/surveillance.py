@@ -219,6 +219,16 @@ class SurveillanceTracker:
                 xs[rows], ps[rows] = tracker.predict([self._where[keys[i]][1] for i in rows], t_s, consider_bias)
         return xs, ps
 
+    def ranging(self, keys: list[IntruderKey], t_s: float) -> np.ndarray:
+        """(N, 3) the range track [r, r_dot, r_ddot] at t_s of each key's sensor track (active surveillance,
+        range_tracker.py); NaN rows for the others (ADS-B, fused with a sensor or not, and radar tracks)."""
+        out = np.full((len(keys), 3), np.nan)
+        for kind, tracker in self.sensors.items():
+            rows = [i for i, k in enumerate(keys) if k.source is AddressSource.SENSOR and self._where[k][0] == kind]
+            if rows:
+                out[rows] = tracker.ranging([self._where[keys[i]][1] for i in rows], t_s)
+        return out
+
     def prune(self, now_s: float) -> list[IntruderKey]:
         """ADS-B's silent tracks, the sensor tracks silent for delete_after_s (a sensor that stopped sending scans
         deletes none in its own review), and the sensor keys that left the published set (paired or deleted)."""
@@ -241,8 +251,7 @@ class SurveillanceTracker:
     def reframe(self, change) -> None:
         self.adsb.reframe(change)
         for tracker in self.sensors.values():
-            slots = np.array([t.slot for t in tracker.tracks.values()], int)
-            tracker.bank_h.reframe(change, slots)
+            tracker.reframe(change)
 
     def mode_infos(self, keys: list[IntruderKey], t_s: float | None = None) -> list[dict | None]:
         adsb = [k for k in keys if k.source is not AddressSource.SENSOR]
