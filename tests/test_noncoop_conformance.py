@@ -55,7 +55,8 @@ ACTIVE_ARGS = ("--sensor", "active", "--set", "advisory.profile=daidalus-tcas3d"
 
 
 @pytest.mark.parametrize("case_file, seed", [("daidalus_H0_0_120.daa", 0), ("daidalus_C1_0_120.daa", 0),
-                                             ("daadisplays_sim3.daa", 0), ("daidalus_H0_0_120.daa", 1)])
+                                             ("daadisplays_sim3.daa", 0), ("daidalus_H0_0_120.daa", 1),
+                                             ("daadisplays_scenario_6_ver.daa", 0)])
 def test_active_surveillance_raises_the_ta_and_ra_within_3_s_of_tcas3d(case_file, seed):
     """Active surveillance (Appendix Q: 1 Hz, bearing to 9 deg, Mode C altitude) against DAIDALUS's TCAS3D on the
     true states (issue 30's acceptance for active surveillance). What held these back: the track read the range
@@ -68,7 +69,9 @@ def test_active_surveillance_raises_the_ta_and_ra_within_3_s_of_tcas3d(case_file
     range track too (tracking/range_tracker.py, TCAS II's parabolic range tracker). sim3: two aircraft on the
     ground beside the taxiing ownship, a TA each from the start and no RA; the replay names each sensor track
     after the aircraft nearest its estimated position (range alone, with the sensor's 76 m range bias, gave both
-    tracks one name)."""
+    tracks one name). scenario_6_ver: an intruder overtaking 280 m below, climbing at 2.4 m/s; a Kalman filter
+    taking Mode C's 100 ft steps as white noise read a young track's climb at 10 m/s, the TA 7.5 s and the RA
+    10 s early; its vertical now comes from TCAS II's level-transition tracker (tracking/altitude_tracker.py)."""
     require(TCAS3D)
     words = {1: "first_level1_sim_s", 2: "first_level2_sim_s"}
     reference = {(row["intruder"], n): float(row[w]) for row in TCAS3D[case_file] for n, w in words.items() if row[w]}

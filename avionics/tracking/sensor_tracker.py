@@ -27,6 +27,7 @@ import numpy as np
 
 from avionics.base.chi2 import chi2_quantile
 from avionics.tracking import models
+from avionics.tracking.altitude_tracker import QuantisedAltitudeTrack, mode_c_quantum
 from avionics.tracking.association import gnn
 from avionics.tracking.imm import ImmBank, spd_inverse
 from avionics.tracking.imm_tracker import assemble
@@ -47,6 +48,7 @@ class SensorTrack:
     address: int | None = None  # a Mode S reply's address, if any report carried one
     detection_cov: np.ndarray | None = None  # (3, 3) [e, n, alt] covariance its last detection declared
     ranging: RangeTrack | None = None  # active surveillance: its slant range alone (range_tracker.py)
+    vertical: QuantisedAltitudeTrack | None = None  # ... and its Mode C altitudes (altitude_tracker.py)
 
 
 class SensorTracker:
@@ -115,6 +117,8 @@ class SensorTracker:
                     out[good[j]] = tracks[i].track_id
                     if tracks[i].ranging is not None:
                         tracks[i].ranging.update(t_s, meas[j].range_m, meas[j].range_sigma_m)
+                    if tracks[i].vertical is not None:
+                        tracks[i].vertical.update(t_s, meas[j].altitude_m)
                     if meas[j].address is not None:
                         tracks[i].address = meas[j].address
             new = [j for j in range(len(meas)) if j not in taken]
@@ -124,6 +128,9 @@ class SensorTracker:
                     out[good[j]] = trk.track_id
                     if meas[j].elevation_rad is None:
                         trk.ranging = RangeTrack.start(t_s, meas[j].range_m, meas[j].range_sigma_m)
+                        quantum = mode_c_quantum(meas[j].altitude_sigma_m)
+                        if quantum is not None:
+                            trk.vertical = QuantisedAltitudeTrack.start(t_s, meas[j].altitude_m, quantum)
         hit = {tracks[i].track_id for i, _ in pairs}
         for trk in tracks:
             trk.hits.append(trk.track_id in hit)
@@ -283,6 +290,9 @@ class SensorTracker:
         xh, ph, _ = self.bank_h.predict(slots, dt)
         xv, pv, _ = self.bank_v.predict(slots, dt)
         x, p = assemble(xh, ph, xv, pv)
+        for k, trk in enumerate(trks):
+            if trk.vertical is not None:
+                x[k], p[k] = trk.vertical.into(x[k], p[k], t_s)
         if self._own is not None:
             t_own, own = self._own
             own = np.concatenate([own[:3] + own[3:] * (t_s - t_own), own[3:]])
