@@ -213,20 +213,24 @@ class SurveillanceTracker:
 
     def _predict_sensor(self, keys: list[IntruderKey], t_s: float, consider_bias: bool = False):
         xs, ps = np.empty((len(keys), 6)), np.empty((len(keys), 6, 6))
-        for kind, tracker in self.sensors.items():
-            rows = [i for i, k in enumerate(keys) if self._where[k][0] == kind]
-            if rows:
-                xs[rows], ps[rows] = tracker.predict([self._where[keys[i]][1] for i in rows], t_s, consider_bias)
+        for tracker, rows, track_ids in self._by_sensor(keys):
+            xs[rows], ps[rows] = tracker.predict(track_ids, t_s, consider_bias)
         return xs, ps
+
+    def _by_sensor(self, keys: list[IntruderKey]):
+        """(sensor tracker, rows of keys, their track ids) for each sensor kind with a track among keys (sensor keys
+        only)."""
+        for kind, tracker in self.sensors.items():
+            rows = [i for i, k in enumerate(keys) if k.source is AddressSource.SENSOR and self._where[k][0] == kind]
+            if rows:
+                yield tracker, rows, [self._where[keys[i]][1] for i in rows]
 
     def ranging(self, keys: list[IntruderKey], t_s: float) -> np.ndarray:
         """(N, 3) the range track [r, r_dot, r_ddot] at t_s of each key's sensor track (active surveillance,
         range_tracker.py); NaN rows for the others (ADS-B, fused with a sensor or not, and radar tracks)."""
         out = np.full((len(keys), 3), np.nan)
-        for kind, tracker in self.sensors.items():
-            rows = [i for i, k in enumerate(keys) if k.source is AddressSource.SENSOR and self._where[k][0] == kind]
-            if rows:
-                out[rows] = tracker.ranging([self._where[keys[i]][1] for i in rows], t_s)
+        for tracker, rows, track_ids in self._by_sensor(keys):
+            out[rows] = tracker.ranging(track_ids, t_s)
         return out
 
     def prune(self, now_s: float) -> list[IntruderKey]:
