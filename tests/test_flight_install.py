@@ -21,7 +21,8 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import fly
 from tests.conftest import DEADLINE_S, ROOT, wait_for
 
-pytestmark = pytest.mark.live  # a fresh venv (pip from the package index or its cache), a child process, UDP
+# a fresh venv (pip from the package index or its cache), a child process, UDP; one worker builds the venv once
+pytestmark = [pytest.mark.live, pytest.mark.xdist_group("flight-install")]
 
 # Not in a flight install: the lab (dask, matplotlib, filterpy), the ground monitor's terminal view (rich), the
 # Beast decoder (pyModeS), serial links (pyserial), the simulator and the evaluation. pyarrow stays: the onboard

@@ -24,6 +24,9 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from ra_sim import Encounter, Intruder, fly, to_scenario
 
+# one worker builds `flown` (every case and profile flown closed loop) once, not once per xdist worker
+pytestmark = pytest.mark.xdist_group("ra-floors")
+
 PROFILES = ("small-uas", "f3442", "do365")
 TOLERANCE_M = 15 * FT  # the 0.1 s grids and ADS-B noise, as tests/test_ra_properties.py
 
