@@ -133,3 +133,29 @@ def test_the_sensor_tracker_publishes_the_mode_c_track_s_vertical():
         published[sigma] = (trk.vertical is not None, max(rates))
     assert published[Q / math.sqrt(12.0)][0] and published[Q / math.sqrt(12.0)][1] <= GUESRATE_MPS + 1e-9
     assert not published[9.0][0]
+
+
+def test_a_detection_with_an_elevation_instead_of_an_altitude_leaves_the_mode_c_track_as_it_was():
+    """A scan source may mix kinds (a zenoh client sending one sensor id's returns with elevations after Mode C
+    replies): the detection updates the banks and leaves the Mode C track, which has no altitude to take, as it
+    was; nothing raises."""
+    mount = ACTIVE_MODE_C.mount("1")
+    tracker = SensorTracker(h_modes(), v_modes())
+    target = lambda t: straight([300.0, 4000.0, 730.0], [0.0, -20.0, 0.0], t)  # noqa: E731
+    for t in np.arange(1.0, 8.0 + 1e-9, 1.0):
+        own, tgt = own_at(t), target(t)
+        rel = tgt[:3] - own[:3]
+        common = dict(range_m=float(np.linalg.norm(rel)), azimuth_rad=math.atan2(rel[0], rel[1]),
+                      range_sigma_m=15.24, azimuth_sigma_rad=math.radians(9.0))
+        if t < 6.0:
+            meas = PolarMeasurement(mount, float(t), **common, altitude_m=mode_c(float(tgt[2])),
+                                    altitude_sigma_m=Q / math.sqrt(12.0))
+        else:
+            meas = PolarMeasurement(mount, float(t), **common, elevation_rad=math.asin(rel[2] / np.linalg.norm(rel)),
+                                    elevation_sigma_rad=math.radians(1.0))
+        tracker.scan(float(t), [meas], own[:3], 0.0, own[3:6])
+        if t == 5.0:
+            (trk,) = tracker.confirmed
+            before = (trk.vertical.t_last, trk.vertical.z, trk.vertical.zd)
+    (trk,) = tracker.confirmed
+    assert (trk.vertical.t_last, trk.vertical.z, trk.vertical.zd) == before

@@ -117,7 +117,7 @@ class SensorTracker:
                     out[good[j]] = tracks[i].track_id
                     if tracks[i].ranging is not None:
                         tracks[i].ranging.update(t_s, meas[j].range_m, meas[j].range_sigma_m)
-                    if tracks[i].vertical is not None:
+                    if tracks[i].vertical is not None and meas[j].altitude_m is not None:
                         tracks[i].vertical.update(t_s, meas[j].altitude_m)
                     if meas[j].address is not None:
                         tracks[i].address = meas[j].address
