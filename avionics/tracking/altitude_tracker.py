@@ -2,7 +2,7 @@
 
 Why: a Mode C reply gives the 100 ft level the intruder is in, not its altitude. Taken as a white 8.8 m error
 (the quantum's q / sqrt(12)) by a Kalman filter, a few level steps of a young track read as a fast climb: on NASA's
-`scenario_6` (an intruder 290 m below, climbing at 2.4 m/s) the sensor track's vertical rate read 10.2 m/s at its
+`scenario_6` (an intruder 280 m below, climbing at 2.4 m/s) the sensor track's vertical rate read 10.2 m/s at its
 first confirmed second, its vertical tau 26 s instead of 105, and the TA came 7.5-8.5 s before TCAS3D's
 (docs/tracking.md). Neither does a quantum behave like white noise: the error is the altitude's place inside its
 level, the same from one reply to the next while the aircraft stays in it.
@@ -13,8 +13,10 @@ simulation/tcasConstant.py): the rate comes from the *times of level transitions
 t_bin seconds being a rate of q / t_bin, and the altitude from the level and the time since the last transition.
 A track is in one of five states:
 - new: no transition yet. Rate 0; it is bounded by +-q / (time since the first reply).
-- guess: one transition (or a jump of several levels). Rate GUESRATE in its direction, decaying by ZDDECAY a reply
-  without another; with no second transition within TGOLEV, level.
+- guess: one transition (or a jump of several levels). Rate GUESRATE in its direction; with no second transition
+  within TGOLEV, level. TCAS decays the guess by ZDDECAY = 0.9 a reply without a second transition; here it is held,
+  capped by what the replies allow (no second transition for s seconds: at most q / s), which put NASA's
+  scenario_6 TA within 3 s of TCAS3D where the decay left it 4.5 s late (docs/tracking.md, measured).
 - trend: a second transition the same way. t_bin is the time spent in the level just left (at least TBINMIN once
   the track is TINITZD old), then averaged over the last levels (up to MAXBINS, within MAXZDTIME): each expected
   transition moves t_bin by (levels crossed / levels averaged) of the difference (EARLYLATE off schedule restarts
@@ -39,13 +41,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from avionics.base.units import FPM, FT
 from avionics.tracking.record import UNKNOWN_VRATE_SIGMA_MPS
 
-FT = 0.3048
 # TCAS II Version 7 CAS logic, vertical tracking (DO-185B; values as transcribed in tcas_simulator's tcasConstant.py)
-GUESRATE_MPS = 480.0 * FT / 60.0  # the rate assumed after a single transition
-ZDLIKELY_MPS = 3000.0 * FT / 60.0  # the fastest likely rate: a guess's outer bound once the track is TINITZD old
-ZDDECAY = 0.9  # a guess's rate, kept a reply without a second transition
+GUESRATE_MPS = 480.0 * FPM  # the rate assumed after a single transition
+ZDLIKELY_MPS = 3000.0 * FPM  # the fastest likely rate: a guess's outer bound once the track is TINITZD old
 TGOLEV_S = 20.5  # a guess with no second transition for this long is level
 TINITZD_S = 5.5  # a track younger than this may cross its first levels in less than TBINMIN
 TBINMIN_S = 2.0

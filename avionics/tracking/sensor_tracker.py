@@ -5,7 +5,10 @@ Each scan's measurements (measurement.PolarMeasurement, one sensor, one time) ar
 global nearest neighbour (association.py) and applied to the same IMM banks as ADS-B's (imm.ImmBank: horizontal
 [x, y, vx, vy, ax, ay], vertical [z, vz]) with the converted measurement's full 2 x 2 covariance (ImmBank.update's
 r_cov); a measurement without an elevation (active surveillance) updates as the EKF linearised at the track's
-prediction (measurement.about_prediction), whose range is not biased by a wide bearing error.
+prediction (measurement.about_prediction), whose range is not biased by a wide bearing error. An active-
+surveillance track also keeps a range track (range_tracker.py: its published range and closure) and, when its
+altitudes are Mode C's 100 ft levels, a level-transition altitude track (altitude_tracker.py: its published
+altitude and vertical rate), as TCAS II reads them.
 
 Lifecycle (Blackman & Popoli 1999, Sec. 3.3, M-of-N confirmation):
 - an unassociated measurement starts a tentative track (position at its converted covariance, velocity at the
