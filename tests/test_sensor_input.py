@@ -346,3 +346,19 @@ def test_sitl_live_sensors_serve_measurements_on_both_links_and_no_adsb_vehicle(
         assert len(decoded) == len(scan.measurements)
         assert all(same(d, m, 1e-12) and d.mount == m.mount for d, m in zip(decoded, scan.measurements))
     assert [k for k in decoder_counters if not k.startswith("rx.")] == []
+
+
+def test_a_mode_c_altitude_s_declared_sigma_survives_the_wire_as_its_quantum():
+    """The simulator (and DEGAS) declares a Mode C altitude's error as 100 ft / sqrt(12); after the wire's float32
+    (DAA_SENSOR_MEASUREMENT) it still names the 100 ft quantum, so the tracker reads that track's vertical rate
+    from its level transitions (tracking/altitude_tracker.py), on MAVLink as in the replay."""
+    from dataclasses import replace
+
+    from avionics.tracking.altitude_tracker import MODE_C_QUANTUM_M, mode_c_quantum
+    from avionics_sitl.sensors import ACTIVE_MODE_C
+
+    reply = replace(mode_s_reply(), altitude_sigma_m=ACTIVE_MODE_C.altitude_quantum_m / math.sqrt(12.0), address=None)
+    (frame,) = _framed(sensor_message(reply, 3.0, 0, 1))
+    got = SensorMessageDecoder(Counter(), {"1": ACTIVE}).decode(frame, 5.0)
+    assert got.altitude_sigma_m != reply.altitude_sigma_m  # float32 on the wire
+    assert mode_c_quantum(got.altitude_sigma_m) == MODE_C_QUANTUM_M
