@@ -182,7 +182,7 @@ class QuantisedAltitudeTrack:
         self.level = altitude_m
         self.z = self._in_level(self.z + self.zd * dt)
         span = self.bins * self.t_bin  # the averaged levels' time, known to within a reply interval
-        self.zd_lo, self.zd_hi = _ordered(self.zd * (span - dt) / span, self.zd * (span + dt) / span)
+        self.zd_lo, self.zd_hi = _ordered(self.zd * span / (span + dt), self.zd * span / max(span - dt, dt))
         self.state = "trend"
 
     def _oscillating(self, altitude_m, s) -> None:
