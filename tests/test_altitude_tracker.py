@@ -65,7 +65,8 @@ def test_a_steady_climb_or_descent_is_read_from_its_level_transitions(z0, speed,
     - from the first transition on, the rate has the climb's sign;
     - at every transition of a confirmed trend, the rate is q / t_bin with t_bin the time per level between
       transitions, each seen up to one reply late: t_bin within q/|v| +- 1 s, so |rate| within
-      [q / (q/|v| + 1), q / (q/|v| - 1)] (q/|v| is at least 2.5 s here)."""
+      [q / (q/|v| + 1), q / (q/|v| - 1)] (q/|v| is at least 2.5 s here); and the true rate lies within the
+      bounds the tracker publishes its variance from."""
     rate = sign * speed
     lo, hi = Q / (Q / speed + 1.0), Q / (Q / speed - 1.0)
     levels = mode_c(z0 + rate * phase)
@@ -78,6 +79,7 @@ def test_a_steady_climb_or_descent_is_read_from_its_level_transitions(z0, speed,
             if track.state == "trend":
                 trends += 1
                 assert lo - 1e-9 <= abs(track.zd) <= hi + 1e-9, (track.zd, lo, hi)
+                assert track.zd_lo - 1e-9 <= rate <= track.zd_hi + 1e-9, (rate, track.zd_lo, track.zd_hi)
     assert trends >= 2
 
 
