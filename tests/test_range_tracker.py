@@ -11,7 +11,7 @@ from filterpy.common import Q_continuous_white_noise
 from filterpy.kalman import KalmanFilter
 from hypothesis import assume, given, settings, strategies as st
 
-from avionics.tracking.measurement import PolarMeasurement
+from avionics.tracking.measurement import GROUND_RANGE_FLOOR, PolarMeasurement
 from avionics.tracking.range_tracker import (RANGE_JERK_PSD_M2PS5, RangeTrack, along_line_of_sight,
                                              horizontal_miss_m)
 from avionics.tracking.sensor_tracker import SensorTracker
@@ -58,7 +58,7 @@ def test_the_range_tracks_miss_is_the_straight_line_miss(miss_m, speed, heading,
     r_ddot = (float(v @ v) - r_dot**2) / r
     # nearly overhead (ground range under a tenth of the slant range) measurement.ground_range floors the ground
     # range at 0.1 r, by design: the geometry's miss is not expected there (hypothesis found 0.3 m at 597 m above)
-    assume(float(s_h @ s_h) >= (0.1 * r) ** 2)
+    assume(float(s_h @ s_h) >= (GROUND_RANGE_FLOOR * r) ** 2)
     assert math.isclose(horizontal_miss_m([r, r_dot, r_ddot], h0, h_dot), miss_m, rel_tol=1e-6, abs_tol=0.05)
 
 

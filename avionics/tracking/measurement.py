@@ -157,12 +157,15 @@ def convert_horizontal(ground_range_m, bearing_rad, range_sigma_m, bearing_sigma
     return z[:, :2], r[:, :2, :2]
 
 
+GROUND_RANGE_FLOOR = 0.1  # ground_range's floor near overhead, as a share of the slant range
+
+
 def ground_range(slant_range_m, height_m, slant_sigma_m):
     """Horizontal range and its 1-sigma from a slant range and the height difference (active surveillance: the
     altitude reply gives the height): rho = sqrt(r^2 - h^2), sigma_rho = sigma_r r / rho to first order (floored
     where the geometry is near overhead: rho at least 10 % of r)."""
     r, h = np.asarray(slant_range_m, float), np.asarray(height_m, float)
-    rho = np.sqrt(np.maximum(r**2 - h**2, (0.1 * r) ** 2))
+    rho = np.sqrt(np.maximum(r**2 - h**2, (GROUND_RANGE_FLOOR * r) ** 2))
     return rho, np.asarray(slant_sigma_m, float) * r / rho
 
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avionics.tracking.measurement import ground_range
+from avionics.tracking.measurement import GROUND_RANGE_FLOOR, ground_range
 from avionics.tracking.record import UNKNOWN_SPEED_SIGMA_MPS
 
 # The parabolic range tracker's jerk (Bar-Shalom et al. 2001, Sec. 6.2.3, the Wiener-process acceleration model:
@@ -119,7 +119,8 @@ def along_line_of_sight(x: np.ndarray, p: np.ndarray, range_x: np.ndarray, range
     h, h_dot = x[2] - own_x[2], x[5] - own_x[5]
     rho = float(ground_range(r, h, 0.0)[0])
     rho_dot = (r * r_dot - h * h_dot) / rho
-    d_rho = 0.1 if r * r - h * h < (0.1 * r) ** 2 else r / rho  # on the floor: rho = 0.1 r
+    floored = r * r - h * h < (GROUND_RANGE_FLOOR * r) ** 2  # ground_range's floor: rho = GROUND_RANGE_FLOOR r
+    d_rho = GROUND_RANGE_FLOOR if floored else r / rho
     j = np.array([[d_rho, 0.0], [r_dot / rho - rho_dot * d_rho / rho, r / rho]])
     p_along = j @ range_p @ j.T
 
