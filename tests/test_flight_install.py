@@ -21,8 +21,7 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.live import fly
 from tests.conftest import DEADLINE_S, ROOT, wait_for
 
-# a fresh venv (pip from the package index or its cache), a child process, UDP; one worker builds the venv once
-pytestmark = [pytest.mark.live, pytest.mark.xdist_group("flight-install")]
+pytestmark = pytest.mark.live  # a fresh venv (pip from the package index or its cache), a child process, UDP
 
 # Not in a flight install: the lab (dask, matplotlib, filterpy), the ground monitor's terminal view (rich), the
 # Beast decoder (pyModeS), serial links (pyserial), the simulator and the evaluation. pyarrow stays: the onboard
@@ -32,7 +31,8 @@ NOT_FLIGHT = {"dask", "distributed", "matplotlib", "filterpy", "rich", "pymodes"
 START_S, END_S = 46.0, 72.0  # head-on: TA ~55 s, RA ~65 s (tests/test_integration_live.py)
 
 
-@pytest.fixture(scope="module")
+# session, not module: a worker that runs other modules' tests between this module's would build it again
+@pytest.fixture(scope="session")
 def flight(tmp_path_factory):
     """(the fresh environment's python, its bin folder) with the flight wheel installed, and the wheel's path."""
     where = tmp_path_factory.mktemp("flight")

@@ -24,9 +24,6 @@ from avionics_sitl.impairments import PRESETS
 from avionics_sitl.replay import replay
 from ra_sim import Encounter, Intruder, fly, to_scenario
 
-# one worker builds `flown` (every case and profile flown closed loop) once, not once per xdist worker
-pytestmark = pytest.mark.xdist_group("ra-floors")
-
 PROFILES = ("small-uas", "f3442", "do365")
 TOLERANCE_M = 15 * FT  # the 0.1 s grids and ADS-B noise, as tests/test_ra_properties.py
 
@@ -65,7 +62,8 @@ CASES = [
 ]
 
 
-@pytest.fixture(scope="module")
+# session, not module: a worker that runs other modules' tests between this module's would build it again
+@pytest.fixture(scope="session")
 def flown() -> dict:
     """Each case, each profile, flown closed loop through the whole stack (ADS-B noise, seed 3): the replay."""
     out = {}
