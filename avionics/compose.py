@@ -74,13 +74,15 @@ def build_surveillance(tracking_params: TrackingConfig, counters: Counter) -> Tr
     from avionics.tracking.surveillance import SurveillanceTracker
 
     return SurveillanceTracker(build_tracker(tracking_params, counters),
-                               lambda period_s: motion_models(tracking_params, period_s),
+                               lambda period_s: motion_models(tracking_params, period_s,
+                                                              tracking_params.sensor_horizontal_modes),
                                tracking_params, counters)
 
 
-def motion_models(t: TrackingConfig, period_s: float = 1.0) -> tuple[list, list]:
-    """The IMM's horizontal and vertical mode filters (tracking/models.py) of tracking.imm_horizontal_modes and
-    imm_vertical_modes, their noise from [tracking]. Those sigmas are per step and were chosen for ADS-B's 1 s
+def motion_models(t: TrackingConfig, period_s: float = 1.0, horizontal=None) -> tuple[list, list]:
+    """The IMM's horizontal and vertical mode filters (tracking/models.py) of tracking.imm_horizontal_modes (or
+    the names `horizontal`: the sensor tracks' tracking.sensor_horizontal_modes) and imm_vertical_modes, their
+    noise from [tracking]. Those sigmas are per step and were chosen for ADS-B's 1 s
     report period; period_s: the period of the measurements the filters will take (a 10 Hz radar: 0.1 s), for
     which each per-step sigma is rescaled to put the same noise into a second of flight: a per-step velocity
     increment of sigma T (CV's piecewise-constant acceleration, Baek & Bang eq 5; CAD, eq 8) adds sigma^2 T^2
@@ -99,10 +101,14 @@ def motion_models(t: TrackingConfig, period_s: float = 1.0) -> tuple[list, list]
         "ca": lambda: models.ConstantAcceleration(t.imm_ca_sigma_mps2 * slower, heading_noise=True),  # eq 6, 31
         "ct": lambda: models.CoordinatedTurn(t.imm_ct_sigma_mps2 * slower),  # Hwang eq 18
         "cs": lambda: models.CurrentStatistical(t.imm_cs_alpha_per_s, t.imm_cs_max_accel_mps2),  # Dai eqs 8-12
+        # Bar-Shalom et al. eq 11.7.1-4 at +-imm_turn_rate_dps; white acceleration as CV's
+        "turn_left": lambda: models.KnownRateTurn(math.radians(t.imm_turn_rate_dps), t.imm_turn_sigma_mps2 * faster),
+        "turn_right": lambda: models.KnownRateTurn(-math.radians(t.imm_turn_rate_dps), t.imm_turn_sigma_mps2 * faster),
         "ch": lambda: models.ConstantHeight(t.imm_ch_sigma_mps * slower),  # Baek & Bang eq 7
         "cad": lambda: models.ConstantAltitudeChange(t.imm_cad_sigma_mps2 * faster),  # Baek & Bang eq 8
     }
-    return [motion[k]() for k in t.imm_horizontal_modes], [motion[k]() for k in t.imm_vertical_modes]
+    horizontal = t.imm_horizontal_modes if horizontal is None else horizontal
+    return [motion[k]() for k in horizontal], [motion[k]() for k in t.imm_vertical_modes]
 
 
 def build_tracker(tracking_params: TrackingConfig, counters: Counter, capacity: int = 16) -> Tracker:

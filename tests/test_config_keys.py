@@ -104,7 +104,8 @@ ENUMS: dict[str, tuple[str, ...]] = {
     "guidance.mode": GUIDANCE_MODES,
 }
 # Mode-set keys: each mode alone and all of them together.
-MODE_SETS = {"tracking.imm_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
+MODE_SETS = {"tracking.imm_horizontal_modes": IMM_HORIZONTAL_MODES,
+             "tracking.sensor_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
 
 ADSB_COMPONENT = 156  # MAV_COMP_ID_ADSB: the simulated receiver's component (avionics_sitl.autopilot.AutopilotConfig)
 
@@ -138,6 +139,8 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     "tracking.vertical_accel_sigma_mps2": ("tracking.filter=cv",),
     "tracking.imm_ca_sigma_mps2": ('tracking.imm_horizontal_modes=["cv", "ca"]',),
     "tracking.imm_cs_alpha_per_s": ('tracking.imm_horizontal_modes=["cv", "cs"]',),
+    "tracking.imm_turn_rate_dps": ('tracking.imm_horizontal_modes=["cv", "turn_left", "turn_right"]',),
+    "tracking.imm_turn_sigma_mps2": ('tracking.imm_horizontal_modes=["cv", "turn_left", "turn_right"]',),
     "tracking.imm_cs_max_accel_mps2": ('tracking.imm_horizontal_modes=["cv", "cs"]',),
     "tracking.rmimm_floor": ("tracking.filter=rmimm",),
     "tracking.vb_iterations": ("tracking.filter=vb-imm",),

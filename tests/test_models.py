@@ -159,3 +159,34 @@ def test_model_objects_are_the_model_functions():
         assert model.dim == models.V_DIM and all(np.array_equal(g, r) for g, r in zip(model.matrices(dt, None), want))
     assert [m.name for m in (models.ConstantVelocity(1.0), models.CurrentStatistical(0.1, 20.0))] == ["cv", "cs"]
     assert not models.ConstantVelocity(1.0).accelerates and models.CoordinatedTurn(1.0).estimates_turn
+
+
+@given(rate_dps=st.floats(0.5, 25.0), left=st.booleans(), dt=st.floats(0.01, 30.0),
+       heading=st.floats(-math.pi, math.pi), speed=st.floats(1.0, 300.0))
+def test_known_rate_turn_flies_the_circle_exactly(rate_dps, left, dt, heading, speed):
+    """The turn at a known rate (Bar-Shalom, Li & Kirubarajan eq 11.7.1-4) against the circle written in complex
+    numbers, an independent form: the velocity v = vx + i vy turns to v e^{i w T}, the position moves by
+    v (e^{i w T} - 1) / (i w), and the acceleration is i w v'. The noise is CV's (Baek & Bang eq 5)."""
+    w = math.radians(rate_dps) * (1.0 if left else -1.0)
+    v0 = speed * complex(math.sin(heading), math.cos(heading))  # heading clockwise from north, x east
+    p0 = complex(120.0, -40.0)
+    v1 = v0 * complex(math.cos(w * dt), math.sin(w * dt))
+    p1 = p0 + v0 * (complex(math.cos(w * dt), math.sin(w * dt)) - 1.0) / complex(0.0, w)
+    a1 = complex(0.0, w) * v1
+    f, f_cov, q = models.known_rate_turn(dt, w, 0.3)
+    got = f[0] @ np.array([p0.real, p0.imag, v0.real, v0.imag, 0.0, 0.0])
+    want = np.array([p1.real, p1.imag, v1.real, v1.imag, a1.real, a1.imag])
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * (1.0 + speed * dt))
+    assert np.array_equal(f, f_cov)
+    assert np.array_equal(q, models.cv(dt, 0.3)[2])
+
+
+def test_known_rate_turn_composes_and_names_its_side():
+    f = models.known_rate_turn(np.array([0.3, 1.4, 1.7]), math.radians(3.0), 0.3)[0]
+    np.testing.assert_allclose(f[1] @ f[0], f[2], atol=1e-12)
+    left, right = models.KnownRateTurn(0.05, 0.3), models.KnownRateTurn(-0.05, 0.3)
+    assert (left.name, right.name, left.dim) == ("turn_left", "turn_right", models.H_DIM)
+    assert isinstance(left, models.MotionModel)
+    assert np.array_equal(left.matrices(2.0)[0], models.known_rate_turn(2.0, 0.05, 0.3)[0])
+    with pytest.raises(ValueError):
+        models.known_rate_turn(1.0, 0.0, 0.3)

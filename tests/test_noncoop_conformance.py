@@ -50,6 +50,25 @@ def test_radar_only_first_levels_within_1_s_of_daidalus_dwc_non_coop(case_file):
     assert not found, f"{case_file}: " + "; ".join(found)
 
 
+@pytest.mark.parametrize("seed", [1, 3])
+def test_radar_with_its_errors_raises_no_alert_for_an_intruder_turning_away(seed):
+    """scenario_5 seen by the Appendix Q radar (errors, missed detections, false returns): from 70 s the intruder
+    turns away from north to east at about 3.5 deg/s, and DAIDALUS (DWC_Non_Coop, true states) raises nothing
+    past level 2. A track that follows the turn's onset about 2 s late projects the intruder into the 2200 ft
+    cylinder under the warning's 25 s, and on these two draws raised an extra level 3 at 80-82 s (issue 30 asks
+    for none); the sensor tracks' fixed-rate turn modes (tracking.sensor_horizontal_modes: standard-rate turns
+    either way, models.known_rate_turn) follow it. The report's own judgement: within 3 s, none missed or extra,
+    where the radar sees the intruder."""
+    from avionics_eval.reports.noncoop import RUNS, compare, first_levels
+
+    require(GOLDEN)
+    case_file = "daadisplays_scenario_5.daa"
+    sensor, exact, profile, *_ = RUNS["radar"]
+    ours = first_levels(CONFORMANCE / case_file, sensor, exact, profile, seed)
+    lines = compare("radar", case_file, GOLDEN[case_file], ours, CONFORMANCE)
+    assert lines and all(line["verdict"] in ("ok", "not seen") for line in lines), lines
+
+
 TCAS3D = golden("TCAS3D")
 ACTIVE_ARGS = ("--sensor", "active", "--set", "advisory.profile=daidalus-tcas3d")
 

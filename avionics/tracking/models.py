@@ -15,6 +15,7 @@ sampling period T; here T = dt of each step (an irregular ADS-B interval or a pr
 | CA  | Baek & Bang eq 6 with eq 31 | constant acceleration | B Q_CA(psi) B^T, B = [T^2/2, T, 1], eq 31 heading-rotated |
 | CT  | Hwang eq 18 (Wiener-sequence acceleration) | constant acceleration | G G^T sigma^2, G = [T^2/2, T, 1] |
 | CS  | Dai eqs 8-12 (Zhou's current statistical model) | eq 10 | 2 alpha sigma_a^2 q(T), eq 11-12 |
+| turn | Bar-Shalom, Li & Kirubarajan 2001 eq 11.7.1-4 (coordinated turn at a known rate omega) | velocity rotated by omega T | as CV |
 | CH  | Baek & Bang eq 7 | [[1, T], [0, 1]] | sigma^2 [T, 1][T, 1]^T |
 | CAD | Baek & Bang eq 8 | [[1, T], [0, 1]] | sigma^2 [T^2, T][T^2, T]^T |
 
@@ -32,7 +33,7 @@ import numpy as np
 
 H_DIM = 6  # [x, y, vx, vy, ax, ay]
 V_DIM = 2  # [z, vz]
-HORIZONTAL_MODES = ("cv", "ca", "ct", "cs")
+HORIZONTAL_MODES = ("cv", "ca", "ct", "cs", "turn_left", "turn_right")
 VERTICAL_MODES = ("ch", "cad")
 CV_ACCEL_FLOOR_MPS2 = 1e-3  # CV zeroes the acceleration states; this floor keeps the covariance positive definite
 
@@ -155,6 +156,35 @@ def _cs_phi_column(s: np.ndarray, alpha: float) -> np.ndarray:
     u = alpha * s
     em1 = np.expm1(-u)  # e^-u - 1
     return np.stack([(u + em1) / alpha**2, -em1 / alpha, em1 + 1.0], axis=-1)
+
+
+def known_rate_turn(dt, rate_rps: float, sigma_mps2: float):
+    """A coordinated turn at the known rate omega (rad/s, positive counter-clockwise, i.e. to the left with x east
+    and y north): Bar-Shalom, Li & Kirubarajan, Estimation with Applications to Tracking and Navigation (2001),
+    eq 11.7.1-4 (Li & Jilkov, Survey of Maneuvering Target Tracking Part I, 2003, eq 58), per axis pair
+
+        x' = x + sin(wT)/w vx - (1 - cos wT)/w vy      vx' = cos(wT) vx - sin(wT) vy
+        y' = y + (1 - cos wT)/w vx + sin(wT)/w vy      vy' = sin(wT) vx + cos(wT) vy
+
+    and the acceleration states set to the turn's own, a' = w x v' (ax' = -w vy', ay' = w vx'), so that the
+    mixed and combined states carry it. Linear for a given omega, so an IMM holds one mode per rate (Blom's
+    fixed-rate turn modes). Process noise: CV's white acceleration (Baek & Bang eq 5's B = [T^2/2, T, 0]) with
+    its floor on the acceleration states: it absorbs a rate other than omega."""
+    t = _dt(dt)
+    w = float(rate_rps)
+    if w == 0.0:
+        raise ValueError("a known-rate turn needs a non-zero rate (the straight line is CV)")
+    s, c = np.sin(w * t), np.cos(w * t)
+    f = np.zeros(t.shape + (H_DIM, H_DIM))
+    f[:, 0, 0] = f[:, 1, 1] = 1.0
+    f[:, 0, 2], f[:, 0, 3] = s / w, -(1.0 - c) / w
+    f[:, 1, 2], f[:, 1, 3] = (1.0 - c) / w, s / w
+    f[:, 2, 2], f[:, 2, 3] = c, -s
+    f[:, 3, 2], f[:, 3, 3] = s, c
+    f[:, 4, 2], f[:, 4, 3] = -w * s, -w * c  # -w vy'
+    f[:, 5, 2], f[:, 5, 3] = w * c, -w * s  # w vx'
+    q = sigma_mps2**2 * _Q_CV(t) + _CV_FLOOR
+    return f, f, q
 
 
 def cs_transition(dt, alpha: float) -> np.ndarray:
@@ -385,6 +415,23 @@ class CoordinatedTurn(_Model):
 
     def matrices(self, dt, x=None, heading=None):
         return ct(dt, self.sigma_mps2)
+
+
+@dataclass(frozen=True)
+class KnownRateTurn(_Model):
+    """A coordinated turn at a known rate (known_rate_turn): rate in rad/s, positive to the left (counter-clockwise
+    seen from above); sigma in m/s^2 (white acceleration, as CV's)."""
+
+    rate_rps: float
+    sigma_mps2: float
+    dim = H_DIM
+
+    @property
+    def name(self) -> str:
+        return "turn_left" if self.rate_rps > 0.0 else "turn_right"
+
+    def matrices(self, dt, x=None, heading=None):
+        return known_rate_turn(dt, self.rate_rps, self.sigma_mps2)
 
 
 @dataclass(frozen=True)

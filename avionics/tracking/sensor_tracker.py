@@ -60,9 +60,11 @@ class SensorTracker:
     gate_probability: the chi-square gate of a report against a track's prediction (3 dof: east, north, altitude);
     switch_probability, gate_probability, delete_after_s and initial_accel_sigma_mps2 default to [tracking]'s
     imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
-    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing)."""
+    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing); h_switch_probability: the
+    horizontal bank's ([tracking] sensor_switch_probability; None: switch_probability)."""
 
-    def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05, confirm: tuple[int, int] = (3, 5),
+    def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05,
+                 h_switch_probability: float | None = None, confirm: tuple[int, int] = (3, 5),
                  gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
                  counters: Counter | None = None, capacity: int = 16):
         m, n = confirm
@@ -73,7 +75,8 @@ class SensorTracker:
         self.delete_after_s = delete_after_s
         self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
         self.counters = counters if counters is not None else Counter()
-        self.bank_h = ImmBank(list(h_modes), 4, models.switching_matrix(len(h_modes), switch_probability),
+        h_switch = switch_probability if h_switch_probability is None else h_switch_probability
+        self.bank_h = ImmBank(list(h_modes), 4, models.switching_matrix(len(h_modes), h_switch),
                               capacity=capacity)
         self.bank_v = ImmBank(list(v_modes), 2, models.switching_matrix(len(v_modes), switch_probability),
                               capacity=capacity)

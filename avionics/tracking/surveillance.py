@@ -119,7 +119,8 @@ class SurveillanceTracker:
         t = self.config
         return SensorTracker(
             *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1])),
-            switch_probability=t.imm_switch_probability, gate_probability=t.gate_probability,
+            switch_probability=t.imm_switch_probability, h_switch_probability=t.sensor_switch_probability,
+            gate_probability=t.gate_probability,
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
             counters=self.counters)
 
