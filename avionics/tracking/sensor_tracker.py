@@ -296,15 +296,15 @@ class SensorTracker:
         xh, ph, _ = self.bank_h.predict(slots, dt)
         xv, pv, _ = self.bank_v.predict(slots, dt)
         x, p = assemble(xh, ph, xv, pv)
-        for k, trk in enumerate(trks):
-            if trk.vertical is not None:
-                x[k], p[k] = trk.vertical.into(x[k], p[k], t_s)
+        own = None
         if self._own is not None:
             t_own, own = self._own
             own = np.concatenate([own[:3] + own[3:] * (t_s - t_own), own[3:]])
-            for k, trk in enumerate(trks):
-                if trk.ranging is not None:
-                    x[k], p[k] = along_line_of_sight(x[k], p[k], *trk.ranging.predicted(t_s), own)
+        for k, trk in enumerate(trks):
+            if trk.vertical is not None:  # first: the line of sight reads the height and its rate
+                x[k], p[k] = trk.vertical.into(x[k], p[k], t_s)
+            if trk.ranging is not None and own is not None:
+                x[k], p[k] = along_line_of_sight(x[k], p[k], *trk.ranging.predicted(t_s), own)
         if consider_bias:
             p[:, :3, :3] += np.array([t.detection_cov for t in trks])
         return x, p
