@@ -33,8 +33,6 @@ import numpy as np
 
 H_DIM = 6  # [x, y, vx, vy, ax, ay]
 V_DIM = 2  # [z, vz]
-HORIZONTAL_MODES = ("cv", "ca", "ct", "cs", "turn_left", "turn_right")
-VERTICAL_MODES = ("ch", "cad")
 CV_ACCEL_FLOOR_MPS2 = 1e-3  # CV zeroes the acceleration states; this floor keeps the covariance positive definite
 
 # Gauss-Legendre nodes on [0, 1] for the CS process-noise integral (exact to degree 15; the integrand is smooth)
