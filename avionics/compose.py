@@ -74,14 +74,13 @@ def build_surveillance(tracking_params: TrackingConfig, counters: Counter) -> Tr
     from avionics.tracking.surveillance import SurveillanceTracker
 
     return SurveillanceTracker(build_tracker(tracking_params, counters),
-                               lambda period_s: motion_models(tracking_params, period_s,
-                                                              tracking_params.sensor_horizontal_modes),
+                               lambda period_s, horizontal: motion_models(tracking_params, period_s, horizontal),
                                tracking_params, counters)
 
 
 def motion_models(t: TrackingConfig, period_s: float = 1.0, horizontal=None) -> tuple[list, list]:
     """The IMM's horizontal and vertical mode filters (tracking/models.py) of tracking.imm_horizontal_modes (or
-    the names `horizontal`: the sensor tracks' tracking.sensor_horizontal_modes) and imm_vertical_modes, their
+    the names `horizontal`: the radar tracks' tracking.radar_horizontal_modes) and imm_vertical_modes, their
     noise from [tracking]. Those sigmas are per step and were chosen for ADS-B's 1 s
     report period; period_s: the period of the measurements the filters will take (a 10 Hz radar: 0.1 s), for
     which each per-step sigma is rescaled to put the same noise into a second of flight: a per-step velocity

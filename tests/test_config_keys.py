@@ -105,7 +105,7 @@ ENUMS: dict[str, tuple[str, ...]] = {
 }
 # Mode-set keys: each mode alone and all of them together.
 MODE_SETS = {"tracking.imm_horizontal_modes": IMM_HORIZONTAL_MODES,
-             "tracking.sensor_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
+             "tracking.radar_horizontal_modes": IMM_HORIZONTAL_MODES, "tracking.imm_vertical_modes": IMM_VERTICAL_MODES}
 
 ADSB_COMPONENT = 156  # MAV_COMP_ID_ADSB: the simulated receiver's component (avionics_sitl.autopilot.AutopilotConfig)
 
@@ -141,6 +141,7 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     "tracking.imm_cs_alpha_per_s": ('tracking.imm_horizontal_modes=["cv", "cs"]',),
     "tracking.imm_turn_rate_dps": ('tracking.imm_horizontal_modes=["cv", "turn_left", "turn_right"]',),
     "tracking.imm_turn_sigma_mps2": ('tracking.imm_horizontal_modes=["cv", "turn_left", "turn_right"]',),
+    "tracking.imm_turn_exit_probability": ('tracking.imm_horizontal_modes=["cv", "turn_left", "turn_right"]',),
     "tracking.imm_cs_max_accel_mps2": ('tracking.imm_horizontal_modes=["cv", "cs"]',),
     "tracking.rmimm_floor": ("tracking.filter=rmimm",),
     "tracking.vb_iterations": ("tracking.filter=vb-imm",),

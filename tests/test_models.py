@@ -190,3 +190,20 @@ def test_known_rate_turn_composes_and_names_its_side():
     assert np.array_equal(left.matrices(2.0)[0], models.known_rate_turn(2.0, 0.05, 0.3)[0])
     with pytest.raises(ValueError):
         models.known_rate_turn(1.0, 0.0, 0.3)
+
+
+def test_a_turn_mode_is_left_at_its_exit_probability_and_a_long_coast_drifts_to_straight_flight():
+    """models.mode_switching: CV and CT leave at p = 0.01 a second, each turn at e = 0.2, evenly to the others.
+    Hand computation of the stationary distribution: a turn's inflow (2 a p/3 + b e/3) equals its outflow (b e),
+    so b/a = p/e, and 2a + 2b = 1: a = 1/(2 (1 + p/e)) = 0.4762, b = 0.0238. A track that coasts long enough
+    (a radar's blind zone) ends there, whatever mode it was in."""
+    modes = [models.ConstantVelocity(0.3), models.CoordinatedTurn(2.0), models.KnownRateTurn(0.05, 0.3),
+             models.KnownRateTurn(-0.05, 0.3)]
+    m1 = models.mode_switching(modes, 0.01, 0.2)
+    np.testing.assert_allclose(m1.sum(axis=1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(np.diag(m1), [0.99, 0.99, 0.8, 0.8])
+    np.testing.assert_allclose(m1[2], [0.2 / 3, 0.2 / 3, 0.8, 0.2 / 3])
+    a = 1.0 / (2.0 * (1.0 + 0.01 / 0.2))
+    far = models.MarkovChain(m1).at(2000.0)[0]
+    np.testing.assert_allclose(far, np.full((4, 1), 1.0) * [a, a, 0.5 - a, 0.5 - a], atol=1e-9)
+    assert np.array_equal(models.mode_switching(modes[:2], 0.05, 0.2), models.switching_matrix(2, 0.05))

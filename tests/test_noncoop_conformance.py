@@ -56,7 +56,7 @@ def test_radar_with_its_errors_raises_no_alert_for_an_intruder_turning_away(seed
     turns away from north to east at about 3.5 deg/s, and DAIDALUS (DWC_Non_Coop, true states) raises nothing
     past level 2. A track that follows the turn's onset about 2 s late projects the intruder into the 2200 ft
     cylinder under the warning's 25 s, and on these two draws raised an extra level 3 at 80-82 s (issue 30 asks
-    for none); the sensor tracks' fixed-rate turn modes (tracking.sensor_horizontal_modes: standard-rate turns
+    for none); the radar tracks' fixed-rate turn modes (tracking.radar_horizontal_modes: standard-rate turns
     either way, models.known_rate_turn) follow it. The report's own judgement: within 3 s, none missed or extra,
     where the radar sees the intruder."""
     from avionics_eval.reports.noncoop import RUNS, compare, first_levels

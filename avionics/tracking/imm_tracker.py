@@ -82,7 +82,8 @@ class ImmTracker(TrackLifecycle):
         p = params.imm_switch_probability
         kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=params.rmimm_floor, capacity=capacity,
                   yaw_time_constant_s=params.yaw_rate_time_constant_s, compiled=compiled)
-        self.bank_h = ImmBank(self.h_modes, H_MEAS, models.switching_matrix(len(self.h_modes), p), **kw)
+        self.bank_h = ImmBank(self.h_modes, H_MEAS,
+                              models.mode_switching(self.h_modes, p, params.imm_turn_exit_probability), **kw)
         self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))

@@ -286,6 +286,21 @@ def switching_matrix(n_modes: int, switch_probability: float) -> np.ndarray:
     return m
 
 
+def mode_switching(modes, switch_probability: float, turn_exit_probability: float) -> np.ndarray:
+    """switching_matrix for these modes, except that a fixed-rate turn (KnownRateTurn) is left with
+    turn_exit_probability per second, spread evenly over the other modes: a turn has an end, so its mean sojourn
+    (1 / turn_exit_probability) is short beside a straight line's, and a track that stops seeing its aircraft (a
+    radar's blind zone near the closest approach) drifts back to straight flight instead of coasting round the
+    circle (docs/tracking.md, "Turns seen by a radar"). Without turn modes this is switching_matrix."""
+    m = switching_matrix(len(modes), switch_probability)
+    if len(modes) > 1:
+        for i, mode in enumerate(modes):
+            if isinstance(mode, KnownRateTurn):
+                m[i, :] = turn_exit_probability / (len(modes) - 1)
+                m[i, i] = 1.0 - turn_exit_probability
+    return m
+
+
 class MarkovChain:
     """Mode transition matrix M[from, to] for any interval dt, from the matrix M1 of one reference period T0:
     M(dt) = expm(dt / T0 * logm(M1)), the continuous-time chain that M1 samples (so coasting over 3 s is three

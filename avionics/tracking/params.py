@@ -59,16 +59,18 @@ class TrackingConfig:
     imm_ct_sigma_mps2: float = 2.0  # CT acceleration increment per step (Hwang eq 18)
     imm_turn_rate_dps: float = 3.0  # turn_left/turn_right: the standard-rate turn (FAA-H-8083-15B, 3 deg/s)
     imm_turn_sigma_mps2: float = 0.3  # their white acceleration (as CV's, Baek & Bang eq 5)
+    imm_turn_exit_probability: float = 0.2  # per second, out of each of them (models.mode_switching)
     imm_cs_alpha_per_s: float = 0.1  # CS manoeuvre frequency (Dai eq 10)
     imm_cs_max_accel_mps2: float = 20.0  # CS acceleration bound (Dai eq 12)
     imm_ch_sigma_mps: float = 0.1  # CH vertical-speed increment per step (Baek & Bang eq 7)
     imm_cad_sigma_mps2: float = 1.0  # CAD vertical acceleration (Baek & Bang eq 8)
     imm_initial_accel_sigma_mps2: float = 3.0  # prior on an intruder's acceleration at track initiation
     gate_probability: float = 0.9999  # chi-square validation gate (Radosavljevic eq 17)
-    # Range/bearing sensor tracks (tracking/sensor_tracker.py; docs/tracking.md "Turns seen by a radar"): their
-    # own mode set and switching, for measurements that do not carry a velocity.
-    sensor_horizontal_modes: tuple[str, ...] = ("cv", "ct", "turn_left", "turn_right")
-    sensor_switch_probability: float = 0.01  # per second, out of each mode
+    # Radar tracks (tracking/sensor_tracker.py; docs/tracking.md "Turns seen by a radar"): their own horizontal
+    # modes and switching, for positions without a velocity that are dense enough to show a turn. Active
+    # surveillance's tracks keep imm_horizontal_modes and imm_switch_probability.
+    radar_horizontal_modes: tuple[str, ...] = ("cv", "ct", "turn_left", "turn_right")
+    radar_switch_probability: float = 0.01  # per second, out of each mode but the turns
     rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
     yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
     vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
@@ -85,7 +87,7 @@ class TrackingConfig:
         if t.filter not in TRACK_FILTERS:
             raise ConfigError(f"tracking.filter: {t.filter!r} is not one of {', '.join(TRACK_FILTERS)}")
         for name, modes, allowed in (("imm_horizontal_modes", t.imm_horizontal_modes, IMM_HORIZONTAL_MODES),
-                                     ("sensor_horizontal_modes", t.sensor_horizontal_modes, IMM_HORIZONTAL_MODES),
+                                     ("radar_horizontal_modes", t.radar_horizontal_modes, IMM_HORIZONTAL_MODES),
                                      ("imm_vertical_modes", t.imm_vertical_modes, IMM_VERTICAL_MODES)):
             if not modes or len(set(modes)) != len(modes) or not set(modes) <= set(allowed):
                 raise ConfigError(f"tracking.{name}: {list(modes)} must be distinct modes out of {list(allowed)}")
@@ -95,7 +97,7 @@ class TrackingConfig:
                                          "imm_cad_sigma_mps2", "imm_initial_accel_sigma_mps2", "rmimm_floor",
                                          "yaw_rate_time_constant_s"))
         require_non_negative("tracking", t, ("vb_c1", "vb_c2", "vb_c3"))
-        for name in ("imm_switch_probability", "sensor_switch_probability"):
+        for name in ("imm_switch_probability", "radar_switch_probability", "imm_turn_exit_probability"):
             if not 0.0 < getattr(t, name) < 0.5:
                 raise ConfigError(f"tracking.{name}: must be in (0, 0.5), got {getattr(t, name)}")
         if not 0.5 < t.gate_probability < 1.0:

@@ -61,10 +61,12 @@ class SensorTracker:
     switch_probability, gate_probability, delete_after_s and initial_accel_sigma_mps2 default to [tracking]'s
     imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
     outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing); h_switch_probability: the
-    horizontal bank's ([tracking] sensor_switch_probability; None: switch_probability)."""
+    horizontal bank's (a radar's: [tracking] radar_switch_probability; None: switch_probability);
+    turn_exit_probability: a fixed-rate turn mode's ([tracking] imm_turn_exit_probability, models.mode_switching)."""
 
     def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05,
-                 h_switch_probability: float | None = None, confirm: tuple[int, int] = (3, 5),
+                 h_switch_probability: float | None = None, turn_exit_probability: float = 0.2,
+                 confirm: tuple[int, int] = (3, 5),
                  gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
                  counters: Counter | None = None, capacity: int = 16):
         m, n = confirm
@@ -76,7 +78,7 @@ class SensorTracker:
         self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
         self.counters = counters if counters is not None else Counter()
         h_switch = switch_probability if h_switch_probability is None else h_switch_probability
-        self.bank_h = ImmBank(list(h_modes), 4, models.switching_matrix(len(h_modes), h_switch),
+        self.bank_h = ImmBank(list(h_modes), 4, models.mode_switching(h_modes, h_switch, turn_exit_probability),
                               capacity=capacity)
         self.bank_v = ImmBank(list(v_modes), 2, models.switching_matrix(len(v_modes), switch_probability),
                               capacity=capacity)

@@ -63,8 +63,9 @@ class _Tracks(Mapping):
 
 class SurveillanceTracker:
     """A Tracker (interface.py) over the ADS-B tracker and the sensors' trackers. adsb: the ADS-B tracker;
-    motion_models: (measurement period s) -> (horizontal, vertical) IMM mode filters for a sensor's tracks
-    (compose.motion_models, called once a kind's first two scans give its period); tracking: [tracking]."""
+    motion_models: (measurement period s, horizontal mode names) -> (horizontal, vertical) IMM mode filters for a
+    sensor's tracks (compose.motion_models, called once a kind's first two scans give its period); tracking:
+    [tracking]."""
 
     def __init__(self, adsb: Tracker, motion_models, tracking, counters: Counter):
         self.adsb = adsb
@@ -110,17 +111,21 @@ class SurveillanceTracker:
             if period_s <= 1e-6 and len(held) < 63:
                 held.append((scan, own_enu, own_heading_rad, own_velocity))
                 return set()
-            tracker = self.sensors[kind] = self._tracker(period_s)
+            tracker = self.sensors[kind] = self._tracker(kind, period_s)
         dirty = set().union(*(self._apply(tracker, *h) for h in self._held.pop(kind, [])))
         return dirty | self._apply(tracker, scan, own_enu, own_heading_rad, own_velocity)
 
-    def _tracker(self, period_s: float) -> SensorTracker:
-        """A kind's tracker, its motion noise for scans period_s apart (within SCAN_PERIOD_BOUNDS_S)."""
+    def _tracker(self, kind: str, period_s: float) -> SensorTracker:
+        """A kind's tracker, its motion noise for scans period_s apart (within SCAN_PERIOD_BOUNDS_S); a radar's
+        with [tracking]'s radar modes and switching (docs/tracking.md, "Turns seen by a radar")."""
         t = self.config
+        radar = kind == "radar"
         return SensorTracker(
-            *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1])),
-            switch_probability=t.imm_switch_probability, h_switch_probability=t.sensor_switch_probability,
-            gate_probability=t.gate_probability,
+            *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1]),
+                                t.radar_horizontal_modes if radar else t.imm_horizontal_modes),
+            switch_probability=t.imm_switch_probability,
+            h_switch_probability=t.radar_switch_probability if radar else None,
+            turn_exit_probability=t.imm_turn_exit_probability, gate_probability=t.gate_probability,
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
             counters=self.counters)
 

@@ -16,7 +16,8 @@ reaches its closest point at 100 s (0-150 m horizontally, +-30 m vertically) fro
 the nose; 130 s per run, truth every 0.1 s, a new geometry and new error draws per run.
 
 **Local filters** are the project's IMM banks (imm.ImmBank; [tracking] defaults: CV + CT horizontally, CH + CAD
-vertically; Dai run CV, CA and CS with VB noise) sampled as Dai sample them: every sampling period each filter
+vertically, the radar's also with the standard-rate turns, as the live tracker's; Dai run CV, CA and CS with VB
+noise) sampled as Dai sample them: every sampling period each filter
 takes its newest measurement (ADS-B: DO-260B's 2 Hz position with sitl's DEFAULT errors, NACp 9 / NACv 2, 5 %
 dropouts; active surveillance: 1 Hz, every 5 s while tau >= 60 s; radar: 10 Hz scans) at its own time of
 applicability. The sensor's measurement is the converted one of tracking/measurement.py. The ADS-B reports all
@@ -42,11 +43,10 @@ import datetime
 import json
 import math
 import time
-from collections import Counter
 
 import numpy as np
 
-from avionics.compose import build_tracker
+from avionics.compose import motion_models
 from avionics.config import load_config
 from avionics.tracking import fusion, models
 from avionics.tracking.imm import ImmBank
@@ -128,14 +128,18 @@ def adsb_fault(kind: str, rng, times) -> tuple[np.ndarray, np.ndarray]:
 
 
 class Local:
-    """One local filter per run (bank slot = run): the IMM banks, sampled by period, fed a run's measurements."""
+    """One local filter per run (bank slot = run): the IMM banks, sampled by period, fed a run's measurements.
+    radar: the radar tracks' horizontal modes and switching ([tracking] radar_horizontal_modes,
+    radar_switch_probability, as the live SensorTracker), else the ADS-B and active-surveillance tracks'."""
 
-    def __init__(self, runs: int, cfg):
-        modes = build_tracker(cfg, Counter())  # the configured filter's motion models (compose.py)
-        h, v = modes.h_modes, modes.v_modes  # at [tracking]'s 1 s values: fixed sampling takes one a second
-        p = cfg.imm_switch_probability
-        self.bank_h = ImmBank(h, 4, models.switching_matrix(len(h), p), capacity=runs, compiled=False)
-        self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), p), capacity=runs, compiled=False)
+    def __init__(self, runs: int, cfg, radar: bool = False):
+        # the configured motion models (compose.py) at [tracking]'s 1 s values: fixed sampling takes one a second
+        h, v = motion_models(cfg, 1.0, cfg.radar_horizontal_modes if radar else None)
+        p_h = cfg.radar_switch_probability if radar else cfg.imm_switch_probability
+        self.bank_h = ImmBank(h, 4, models.mode_switching(h, p_h, cfg.imm_turn_exit_probability), capacity=runs,
+                              compiled=False)
+        self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), cfg.imm_switch_probability), capacity=runs,
+                              compiled=False)
         self.t = np.full(runs, np.nan)  # time of each run's last update (NaN: not started)
         self.accel0 = cfg.imm_initial_accel_sigma_mps2
 
@@ -244,12 +248,12 @@ def simulate_adsb(truths, fault: str, seed: int, cfg):
     return out
 
 
-def run_local(meas, sampling: str, cfg, monitor: IntegrityMonitor | None = None):
+def run_local(meas, sampling: str, cfg, monitor: IntegrityMonitor | None = None, radar: bool = False):
     """Sample each run's measurements with the fixed or variable period; returns the filter's predictions on the
     evaluation grid: times (G,), x (G, R, 6), P (G, R, 6, 6) and, with the integrity monitor (ADS-B), each run's
     degraded flag (G, R) (P then widened by the monitor's fault size, IntegrityMonitor.widen)."""
     runs = len(meas)
-    local = Local(runs, cfg)
+    local = Local(runs, cfg, radar)
     grid_t = np.arange(EVAL_FROM_S, DURATION_S + 1e-9, 1.0)
     next_t = np.zeros(runs)
     ptr = np.zeros(runs, int)  # first measurement not yet used
@@ -341,7 +345,7 @@ def report(runs: int = 60, seed: int = 2017) -> dict:
     for kind in ("active", "radar"):
         meas = simulate_sensor(kind, truths, seed)
         for sampling in SAMPLING:
-            grid_t, xs, ps, _ = run_local(meas, sampling, cfg)
+            grid_t, xs, ps, _ = run_local(meas, sampling, cfg, radar=kind == "radar")
             for fault in FAULTS:
                 _, xa, pa, deg = adsb_runs[sampling, fault]
                 cell = {"sensor": scores(grid_t, xs, truths), "adsb": scores(grid_t, xa, truths)}
