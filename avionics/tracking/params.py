@@ -78,6 +78,14 @@ class TrackingConfig:
     vb_c2: float = 500.0
     vb_c3: float = 5000.0
 
+    def horizontal_for(self, kind: str) -> tuple[tuple[str, ...], float]:
+        """The horizontal IMM modes of a surveillance kind's tracks ("radar", "active" or "adsb") and how often a
+        track leaves each of them but the turns (those at imm_turn_exit_probability): the radar's own, else the
+        ADS-B tracks' (docs/tracking.md, "Turns seen by a radar")."""
+        if kind == "radar":
+            return self.radar_horizontal_modes, self.radar_switch_probability
+        return self.imm_horizontal_modes, self.imm_switch_probability
+
     def validate(self) -> None:
         t = self
         require_positive("tracking", t, ("position_sigma_1090es_m", "position_sigma_uat_m", "velocity_sigma_mps",

@@ -129,13 +129,13 @@ def adsb_fault(kind: str, rng, times) -> tuple[np.ndarray, np.ndarray]:
 
 class Local:
     """One local filter per run (bank slot = run): the IMM banks, sampled by period, fed a run's measurements.
-    radar: the radar tracks' horizontal modes and switching ([tracking] radar_horizontal_modes,
-    radar_switch_probability, as the live SensorTracker), else the ADS-B and active-surveillance tracks'."""
+    kind: "adsb", "radar" or "active", whose horizontal modes and switching the live tracks of that kind have
+    (TrackingConfig.horizontal_for)."""
 
-    def __init__(self, runs: int, cfg, radar: bool = False):
+    def __init__(self, runs: int, cfg, kind: str):
         # the configured motion models (compose.py) at [tracking]'s 1 s values: fixed sampling takes one a second
-        h, v = motion_models(cfg, 1.0, cfg.radar_horizontal_modes if radar else None)
-        p_h = cfg.radar_switch_probability if radar else cfg.imm_switch_probability
+        modes, p_h = cfg.horizontal_for(kind)
+        h, v = motion_models(cfg, 1.0, modes)
         self.bank_h = ImmBank(h, 4, models.mode_switching(h, p_h, cfg.imm_turn_exit_probability), capacity=runs,
                               compiled=False)
         self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), cfg.imm_switch_probability), capacity=runs,
@@ -248,12 +248,12 @@ def simulate_adsb(truths, fault: str, seed: int, cfg):
     return out
 
 
-def run_local(meas, sampling: str, cfg, monitor: IntegrityMonitor | None = None, radar: bool = False):
-    """Sample each run's measurements with the fixed or variable period; returns the filter's predictions on the
-    evaluation grid: times (G,), x (G, R, 6), P (G, R, 6, 6) and, with the integrity monitor (ADS-B), each run's
+def run_local(meas, sampling: str, cfg, kind: str, monitor: IntegrityMonitor | None = None):
+    """Sample each run's measurements (of surveillance `kind`: "adsb", "radar", "active") with the fixed or
+    variable period; returns the filter's predictions on the evaluation grid: times (G,), x (G, R, 6), P (G, R, 6, 6) and, with the integrity monitor (ADS-B), each run's
     degraded flag (G, R) (P then widened by the monitor's fault size, IntegrityMonitor.widen)."""
     runs = len(meas)
-    local = Local(runs, cfg, radar)
+    local = Local(runs, cfg, kind)
     grid_t = np.arange(EVAL_FROM_S, DURATION_S + 1e-9, 1.0)
     next_t = np.zeros(runs)
     ptr = np.zeros(runs, int)  # first measurement not yet used
@@ -341,11 +341,12 @@ def report(runs: int = 60, seed: int = 2017) -> dict:
     for sampling in SAMPLING:
         for fault in FAULTS:
             monitor = IntegrityMonitor(cfg.velocity_sigma_mps, runs)
-            adsb_runs[sampling, fault] = run_local(simulate_adsb(truths, fault, seed, cfg), sampling, cfg, monitor)
+            adsb_runs[sampling, fault] = run_local(simulate_adsb(truths, fault, seed, cfg), sampling, cfg, "adsb",
+                                                   monitor)
     for kind in ("active", "radar"):
         meas = simulate_sensor(kind, truths, seed)
         for sampling in SAMPLING:
-            grid_t, xs, ps, _ = run_local(meas, sampling, cfg, radar=kind == "radar")
+            grid_t, xs, ps, _ = run_local(meas, sampling, cfg, kind)
             for fault in FAULTS:
                 _, xa, pa, deg = adsb_runs[sampling, fault]
                 cell = {"sensor": scores(grid_t, xs, truths), "adsb": scores(grid_t, xa, truths)}
