@@ -123,6 +123,27 @@ def test_a_run_of_bearing_errors_leaves_the_closure_and_the_miss_to_the_ranges()
     assert horizontal_miss_m(ranging, 0.0, 0.0) < 150.0, ranging
 
 
+def test_only_a_track_with_coarse_bearings_keeps_a_range_track():
+    """tracking.range_track_bearing_sigma_deg (2 deg): a detection without an elevation or a range rate whose
+    declared bearing sigma is Appendix Q active surveillance's 9 deg starts a range track (its closure and miss
+    then come from the ranges); one as fine as a radar's 1 deg does not, and its track publishes the IMM's own
+    closure and miss (sensor_tracker.ranging: NaN)."""
+    mount = ACTIVE_MODE_C.mount("1")
+    target = lambda t: straight([1000.0, 9000.0, 1000.0], [0.0, -100.0, 0.0], t)  # noqa: E731
+    finite = {}
+    for sigma_deg in (9.0, 1.0):
+        tracker = SensorTracker(h_modes(), v_modes())
+        for t in np.arange(1.0, 6.0 + 1e-9, 1.0):
+            own, tgt = own_at(t), target(t)
+            rel = tgt[:3] - own[:3]
+            meas = PolarMeasurement(mount, float(t), float(np.linalg.norm(rel)), math.atan2(rel[0], rel[1]), 15.24,
+                                    math.radians(sigma_deg), altitude_m=float(tgt[2]), altitude_sigma_m=9.0)
+            tracker.scan(float(t), [meas], own[:3], 0.0, own[3:6])
+        (trk,) = tracker.confirmed
+        finite[sigma_deg] = bool(np.isfinite(tracker.ranging([trk.track_id], 6.0)).all())
+    assert finite == {9.0: True, 1.0: False}
+
+
 def test_a_new_tangent_plane_leaves_the_published_range_and_closure_as_they_were():
     """The process moves its tangent plane as the ownship travels (base/frame.py); the range track is relative, but
     the ownship kept from the last scan is not, and must move with the tracks: after a reframe 30 km away, the

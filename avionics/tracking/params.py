@@ -71,6 +71,10 @@ class TrackingConfig:
     # surveillance's tracks keep imm_horizontal_modes and imm_switch_probability.
     radar_horizontal_modes: tuple[str, ...] = ("cv", "ct", "turn_left", "turn_right")
     radar_switch_probability: float = 0.01  # per second, out of each mode but the turns
+    # A sensor track without a range rate keeps a range track (range_tracker.py: closure and miss from the ranges,
+    # TCAS II's) when its detections' bearings are this coarse: Appendix Q's active surveillance (9-15 deg) needs
+    # one, a bearing as fine as the radar's 1 deg does not (docs/tracking.md, "Active surveillance's range track").
+    range_track_bearing_sigma_deg: float = 2.0
     rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
     yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
     vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
@@ -103,7 +107,7 @@ class TrackingConfig:
                                          "imm_cs_alpha_per_s", "imm_cs_max_accel_mps2",
                                          "imm_turn_rate_dps", "imm_turn_sigma_mps2", "imm_ch_sigma_mps",
                                          "imm_cad_sigma_mps2", "imm_initial_accel_sigma_mps2", "rmimm_floor",
-                                         "yaw_rate_time_constant_s"))
+                                         "yaw_rate_time_constant_s", "range_track_bearing_sigma_deg"))
         require_non_negative("tracking", t, ("vb_c1", "vb_c2", "vb_c3"))
         for name in ("imm_switch_probability", "radar_switch_probability", "imm_turn_exit_probability"):
             if not 0.0 < getattr(t, name) < 0.5:

@@ -6,9 +6,9 @@ global nearest neighbour (association.py) and applied to the same IMM banks as A
 [x, y, vx, vy, ax, ay], vertical [z, vz]) with the converted measurement's full 2 x 2 covariance (ImmBank.update's
 r_cov); a measurement without an elevation (active surveillance) updates as the EKF linearised at the track's
 prediction (measurement.about_prediction), whose range is not biased by a wide bearing error. An active-
-surveillance track also keeps a range track (range_tracker.py: its published range and closure) and, when its
-altitudes are Mode C's 100 ft levels, a level-transition altitude track (altitude_tracker.py: its published
-altitude and vertical rate), as TCAS II reads them.
+surveillance track with coarse bearings also keeps a range track (range_tracker.py: its published range and
+closure) and, when its altitudes are Mode C's 100 ft levels, a level-transition altitude track
+(altitude_tracker.py: its published altitude and vertical rate), as TCAS II reads them.
 
 Lifecycle (Blackman & Popoli 1999, Sec. 3.3, M-of-N confirmation):
 - an unassociated measurement starts a tentative track (position at its converted covariance, velocity at the
@@ -23,6 +23,7 @@ A measurement that fails PolarMeasurement.problem() is counted `sensor.rejected`
 from __future__ import annotations
 
 import itertools
+import math
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
@@ -62,13 +63,15 @@ class SensorTracker:
     imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
     outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing); h_switch_probability: the
     horizontal bank's (a radar's: [tracking] radar_switch_probability; None: switch_probability);
-    turn_exit_probability: a fixed-rate turn mode's ([tracking] imm_turn_exit_probability, models.mode_switching)."""
+    turn_exit_probability: a fixed-rate turn mode's ([tracking] imm_turn_exit_probability, models.mode_switching);
+    range_track_bearing_sigma_deg: a track started by a detection without an elevation whose declared bearing sigma
+    is at least this keeps a range track ([tracking]'s)."""
 
     def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05,
                  h_switch_probability: float | None = None, turn_exit_probability: float = 0.2,
                  confirm: tuple[int, int] = (3, 5),
                  gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
-                 counters: Counter | None = None, capacity: int = 16):
+                 range_track_bearing_sigma_deg: float = 2.0, counters: Counter | None = None, capacity: int = 16):
         m, n = confirm
         if not 1 <= m <= n:
             raise ValueError(f"confirmation needs 1 <= M <= N, got {confirm}")
@@ -76,6 +79,7 @@ class SensorTracker:
         self.gate = chi2_quantile(gate_probability, 3)
         self.delete_after_s = delete_after_s
         self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
+        self.range_track_bearing_rad = math.radians(range_track_bearing_sigma_deg)
         self.counters = counters if counters is not None else Counter()
         h_switch = switch_probability if h_switch_probability is None else h_switch_probability
         self.bank_h = ImmBank(list(h_modes), 4, models.mode_switching(h_modes, h_switch, turn_exit_probability),
@@ -134,7 +138,7 @@ class SensorTracker:
                 for j, trk in zip(new, self._start(t_s, *(a[new] for a in (z_h, r_h, z_v, r_v)))):
                     trk.address = meas[j].address
                     out[good[j]] = trk.track_id
-                    if meas[j].elevation_rad is None:
+                    if meas[j].elevation_rad is None and meas[j].azimuth_sigma_rad >= self.range_track_bearing_rad:
                         trk.ranging = RangeTrack.start(t_s, meas[j].range_m, meas[j].range_sigma_m)
                         quantum = mode_c_quantum(meas[j].altitude_sigma_m)
                         if quantum is not None:

@@ -1,7 +1,7 @@
 """Traffic that does not broadcast, against DAIDALUS (issue 30's acceptance): first alerts from the ownship's own
 sensors on NASA's published scenarios, beside DAIDALUS v2.0.4's on the true states.
 
-Three runs per file (`sitl replay FILE --sensor ...`, no ADSB_VEHICLE):
+Four runs per file (`sitl replay FILE --sensor ...`, no ADSB_VEHICLE):
 - `radar exact`: the radar measuring exactly, all round (`--noise none`), profile daidalus-do365b-no-sum (its
   per-intruder alerter judges a sensor-only track by DWC_Non_Coop), against `first_alerts_noncoop.csv` (every
   intruder on DO-365B's DWC_Non_Coop): levels 1-3 within 1 s;
@@ -12,6 +12,9 @@ Three runs per file (`sitl replay FILE --sensor ...`, no ADSB_VEHICLE):
 - `active`: active surveillance (TCAS-like Mode C interrogation, Appendix Q: 1 Hz, 9-15 deg bearing), profile
   daidalus-tcas3d, against the TCAS3D rows of `first_alerts.csv`: TA and RA within 3 s, counted, as the radar's,
   only for intruders inside its field of regard (-15 to +20 deg elevation) and range for those 10 s.
+- `active exact`: active surveillance measuring exactly, all round (`--noise none`: range, bearing and altitude
+  exact, every scan detected), the same references and tolerance: what the tracks and the logic do where the
+  sensor's errors are not in the way.
 A first alert with no reference is "extra"; a reference with none of ours is "missed".
 
     python -m avionics_eval.reports.noncoop [--jobs 2] [--seed 0] [--markdown]
@@ -32,6 +35,7 @@ RUNS = {  # name -> (sensor, exact, profile, reference table, reference config, 
                     (1, 2, 3), 1.0),
     "radar": ("radar", False, "daidalus-do365b-no-sum", "first_alerts_noncoop.csv", "DO_365B_no_SUM_non_coop",
               (1, 2, 3), 3.0),
+    "active exact": ("active", True, "daidalus-tcas3d", "first_alerts.csv", "TCAS3D", (1, 2), 3.0),
     "active": ("active", False, "daidalus-tcas3d", "first_alerts.csv", "TCAS3D", (1, 2), 3.0),
 }
 SEEN_BEFORE_S = 10.0  # `radar`: the intruder in the field of regard this long before DAIDALUS's first level 1
