@@ -137,16 +137,20 @@ def test_a_sensor_s_tracks_take_the_noise_per_second_the_1_s_values_were_set_for
 
 def test_the_radar_tracks_have_the_turn_modes_and_active_surveillance_the_adsb_modes():
     """[tracking] radar_horizontal_modes for a radar's tracks, with a turn left at imm_turn_exit_probability and
-    the other modes at radar_switch_probability (models.mode_switching); active surveillance's keep the ADS-B
-    tracks' imm_horizontal_modes and imm_switch_probability (docs/tracking.md, "Turns seen by a radar")."""
+    the other modes, vertical ones too, at radar_switch_probability (models.mode_switching); active
+    surveillance's keep the ADS-B tracks' imm_horizontal_modes and imm_switch_probability (docs/tracking.md,
+    "Turns seen by a radar")."""
     from collections import Counter
 
     from avionics.compose import build_surveillance
 
     config = load_config().tracking
     surveillance = build_surveillance(config, Counter())
-    radar, active = surveillance._tracker("radar", 0.1).bank_h, surveillance._tracker("active", 1.0).bank_h
+    radar_tracker, active_tracker = surveillance._tracker("radar", 0.1), surveillance._tracker("active", 1.0)
+    radar, active = radar_tracker.bank_h, active_tracker.bank_h
     assert radar.names == list(config.radar_horizontal_modes) == ["cv", "ct", "turn_left", "turn_right"]
     np.testing.assert_allclose(np.diag(radar.chain.at(1.0)[0]), [0.99, 0.99, 0.8, 0.8], atol=1e-12)
+    np.testing.assert_allclose(np.diag(radar_tracker.bank_v.chain.at(1.0)[0]), 0.99, atol=1e-12)
     assert active.names == list(config.imm_horizontal_modes)
-    np.testing.assert_allclose(np.diag(active.chain.at(1.0)[0]), 1.0 - config.imm_switch_probability, atol=1e-12)
+    for bank in (active, active_tracker.bank_v):
+        np.testing.assert_allclose(np.diag(bank.chain.at(1.0)[0]), 1.0 - config.imm_switch_probability, atol=1e-12)

@@ -67,10 +67,11 @@ class TrackingConfig:
     imm_initial_accel_sigma_mps2: float = 3.0  # prior on an intruder's acceleration at track initiation
     gate_probability: float = 0.9999  # chi-square validation gate (Radosavljevic eq 17)
     # Radar tracks (tracking/sensor_tracker.py; docs/tracking.md "Turns seen by a radar"): their own horizontal
-    # modes and switching, for positions without a velocity that are dense enough to show a turn. Active
-    # surveillance's tracks keep imm_horizontal_modes and imm_switch_probability.
+    # modes and switching, for positions without a velocity that are dense enough to show a turn, and elevations
+    # too noisy at 20 km to show a climb. Active surveillance's tracks keep imm_horizontal_modes and
+    # imm_switch_probability.
     radar_horizontal_modes: tuple[str, ...] = ("cv", "ct", "turn_left", "turn_right")
-    radar_switch_probability: float = 0.01  # per second, out of each mode but the turns
+    radar_switch_probability: float = 0.01  # per second, out of each mode but the turns, in both banks
     # A sensor track without a range rate keeps a range track (range_tracker.py: closure and miss from the ranges,
     # TCAS II's) when its detections' bearings are this coarse: Appendix Q's active surveillance (9-15 deg) needs
     # one, a bearing as fine as the radar's 1 deg does not (docs/tracking.md, "Active surveillance's range track").
@@ -82,10 +83,10 @@ class TrackingConfig:
     vb_c2: float = 500.0
     vb_c3: float = 5000.0
 
-    def horizontal_for(self, kind: str) -> tuple[tuple[str, ...], float]:
+    def modes_for(self, kind: str) -> tuple[tuple[str, ...], float]:
         """The horizontal IMM modes of a surveillance kind's tracks ("radar", "active" or "adsb") and how often a
-        track leaves each of them but the turns (those at imm_turn_exit_probability): the radar's own, else the
-        ADS-B tracks' (docs/tracking.md, "Turns seen by a radar")."""
+        track leaves each mode of either bank but the turns (those at imm_turn_exit_probability): the radar's own,
+        else the ADS-B tracks' (docs/tracking.md, "Turns seen by a radar")."""
         if kind == "radar":
             return self.radar_horizontal_modes, self.radar_switch_probability
         return self.imm_horizontal_modes, self.imm_switch_probability

@@ -61,14 +61,13 @@ class SensorTracker:
     gate_probability: the chi-square gate of a report against a track's prediction (3 dof: east, north, altitude);
     switch_probability, gate_probability, delete_after_s and initial_accel_sigma_mps2 default to [tracking]'s
     imm_switch_probability, gate_probability, delete_after_s and imm_initial_accel_sigma_mps2 (a radar track must
-    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing); h_switch_probability: the
-    horizontal bank's (a radar's: [tracking] radar_switch_probability; None: switch_probability);
+    outlive the radar's 4000 ft blind zone, about 12 s of a head-on closing; a radar's switching is [tracking]
+    radar_switch_probability, TrackingConfig.modes_for);
     turn_exit_probability: a fixed-rate turn mode's ([tracking] imm_turn_exit_probability, models.mode_switching);
     range_track_bearing_sigma_deg: a track started by a detection without an elevation whose declared bearing sigma
     is at least this keeps a range track ([tracking]'s)."""
 
-    def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05,
-                 h_switch_probability: float | None = None, turn_exit_probability: float = 0.2,
+    def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05, turn_exit_probability: float = 0.2,
                  confirm: tuple[int, int] = (3, 5),
                  gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
                  range_track_bearing_sigma_deg: float = 2.0, counters: Counter | None = None, capacity: int = 16):
@@ -81,8 +80,8 @@ class SensorTracker:
         self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
         self.range_track_bearing_rad = math.radians(range_track_bearing_sigma_deg)
         self.counters = counters if counters is not None else Counter()
-        h_switch = switch_probability if h_switch_probability is None else h_switch_probability
-        self.bank_h = ImmBank(list(h_modes), 4, models.mode_switching(h_modes, h_switch, turn_exit_probability),
+        self.bank_h = ImmBank(list(h_modes), 4,
+                              models.mode_switching(h_modes, switch_probability, turn_exit_probability),
                               capacity=capacity)
         self.bank_v = ImmBank(list(v_modes), 2, models.switching_matrix(len(v_modes), switch_probability),
                               capacity=capacity)

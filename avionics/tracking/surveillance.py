@@ -119,10 +119,10 @@ class SurveillanceTracker:
         """A kind's tracker, its motion noise for scans period_s apart (within SCAN_PERIOD_BOUNDS_S); a radar's
         with [tracking]'s radar modes and switching (docs/tracking.md, "Turns seen by a radar")."""
         t = self.config
-        modes, h_switch = t.horizontal_for(kind)
+        modes, switch = t.modes_for(kind)
         return SensorTracker(
             *self.motion_models(min(max(period_s, SCAN_PERIOD_BOUNDS_S[0]), SCAN_PERIOD_BOUNDS_S[1]), modes),
-            switch_probability=t.imm_switch_probability, h_switch_probability=h_switch,
+            switch_probability=switch,
             turn_exit_probability=t.imm_turn_exit_probability, gate_probability=t.gate_probability,
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
             range_track_bearing_sigma_deg=t.range_track_bearing_sigma_deg, counters=self.counters)

@@ -130,16 +130,15 @@ def adsb_fault(kind: str, rng, times) -> tuple[np.ndarray, np.ndarray]:
 class Local:
     """One local filter per run (bank slot = run): the IMM banks, sampled by period, fed a run's measurements.
     kind: "adsb", "radar" or "active", whose horizontal modes and switching the live tracks of that kind have
-    (TrackingConfig.horizontal_for)."""
+    (TrackingConfig.modes_for)."""
 
     def __init__(self, runs: int, cfg, kind: str):
         # the configured motion models (compose.py) at [tracking]'s 1 s values: fixed sampling takes one a second
-        modes, p_h = cfg.horizontal_for(kind)
+        modes, switch = cfg.modes_for(kind)
         h, v = motion_models(cfg, 1.0, modes)
-        self.bank_h = ImmBank(h, 4, models.mode_switching(h, p_h, cfg.imm_turn_exit_probability), capacity=runs,
+        self.bank_h = ImmBank(h, 4, models.mode_switching(h, switch, cfg.imm_turn_exit_probability), capacity=runs,
                               compiled=False)
-        self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), cfg.imm_switch_probability), capacity=runs,
-                              compiled=False)
+        self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), switch), capacity=runs, compiled=False)
         self.t = np.full(runs, np.nan)  # time of each run's last update (NaN: not started)
         self.accel0 = cfg.imm_initial_accel_sigma_mps2
 
