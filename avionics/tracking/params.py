@@ -72,9 +72,10 @@ class TrackingConfig:
     # imm_switch_probability.
     radar_horizontal_modes: tuple[str, ...] = ("cv", "ct", "turn_left", "turn_right")
     radar_switch_probability: float = 0.01  # per second, out of each mode but the turns, in both banks
-    # A sensor track without a range rate keeps a range track (range_tracker.py: closure and miss from the ranges,
-    # TCAS II's) when its detections' bearings are this coarse: Appendix Q's active surveillance (9-15 deg) needs
-    # one, a bearing as fine as the radar's 1 deg does not (docs/tracking.md, "Active surveillance's range track").
+    # A sensor track started without an elevation (active surveillance) keeps a range track (range_tracker.py:
+    # closure and miss from the ranges, TCAS II's) when its detections' bearings are this coarse: Appendix Q's
+    # active surveillance (9-15 deg) needs one, a bearing as fine as the radar's 1 deg does not (docs/tracking.md,
+    # "Active surveillance's range track").
     range_track_bearing_sigma_deg: float = 2.0
     rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
     yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
