@@ -419,6 +419,7 @@ def test_validation_only_keys(tmp_path):
     "tracking.max_coast_s=0", "tracking.filter=kf", "tracking.gate_probability=1.0", "altitude.baro_noise_sigma_m=0",
     'tracking.radar_horizontal_modes=["cv", "zz"]', "tracking.radar_switch_probability=0.5",
     "tracking.imm_turn_exit_probability=0", "tracking.imm_turn_rate_dps=0", "tracking.range_track_bearing_sigma_deg=0",
+    "tracking.range_rate_correlation_s=-1",
     "altitude.baro_offset_min_m=2000", "advisory.assessment_hz=0", "advisory.criterion=x", "advisory.profile=nope",
     "conflict.method=x", "conflict.step_s=0", "conflict.n_blocks=0",
 ])

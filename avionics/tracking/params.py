@@ -77,6 +77,10 @@ class TrackingConfig:
     # active surveillance (9-15 deg) needs one, a bearing as fine as the radar's 1 deg does not (docs/tracking.md,
     # "Active surveillance's range track").
     range_track_bearing_sigma_deg: float = 2.0
+    # A sensor's measured range rates are taken as one error draw over this long (sensor_tracker.py _range_rates:
+    # Appendix Q's radar has a bias for the run under its white error; docs/tracking.md, "A radar track's range
+    # rates"). 0: white.
+    range_rate_correlation_s: float = 1.0
     rmimm_floor: float = 1.0  # RMIMM: floor of the residual-mean norm (Hwang eq 14), in sigmas
     yaw_rate_time_constant_s: float = 11.9  # turn-rate low-pass 1/(T s + 1) (Hwang)
     vb_iterations: int = 5  # VB fixed-point iterations per report (Dai eqs 22-25)
@@ -110,7 +114,7 @@ class TrackingConfig:
                                          "imm_turn_rate_dps", "imm_turn_sigma_mps2", "imm_ch_sigma_mps",
                                          "imm_cad_sigma_mps2", "imm_initial_accel_sigma_mps2", "rmimm_floor",
                                          "yaw_rate_time_constant_s", "range_track_bearing_sigma_deg"))
-        require_non_negative("tracking", t, ("vb_c1", "vb_c2", "vb_c3"))
+        require_non_negative("tracking", t, ("vb_c1", "vb_c2", "vb_c3", "range_rate_correlation_s"))
         for name in ("imm_switch_probability", "radar_switch_probability", "imm_turn_exit_probability"):
             if not 0.0 < getattr(t, name) < 0.5:
                 raise ConfigError(f"tracking.{name}: must be in (0, 0.5), got {getattr(t, name)}")

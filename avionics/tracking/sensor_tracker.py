@@ -46,6 +46,7 @@ class SensorTrack:
     track_id: int
     slot: int
     t_s: float  # time of the last detection applied
+    started_s: float  # time of its first detection
     hits: deque = field(default_factory=deque)  # detected (True) or missed in each of the last N scans
     confirmed: bool = False
     n_updates: int = 1
@@ -65,12 +66,15 @@ class SensorTracker:
     radar_switch_probability, TrackingConfig.modes_for);
     turn_exit_probability: a fixed-rate turn mode's ([tracking] imm_turn_exit_probability, models.mode_switching);
     range_track_bearing_sigma_deg: a track started by a detection without an elevation whose declared bearing sigma
-    is at least this keeps a range track ([tracking]'s)."""
+    is at least this keeps a range track ([tracking]'s);
+    range_rate_correlation_s: a measured range rate's declared error is taken as one draw over this long
+    ([tracking]'s; _range_rates)."""
 
     def __init__(self, h_modes, v_modes, *, switch_probability: float = 0.05, turn_exit_probability: float = 0.2,
                  confirm: tuple[int, int] = (3, 5),
                  gate_probability: float = 0.9999, delete_after_s: float = 20.0, initial_accel_sigma_mps2: float = 3.0,
-                 range_track_bearing_sigma_deg: float = 2.0, counters: Counter | None = None, capacity: int = 16):
+                 range_track_bearing_sigma_deg: float = 2.0, range_rate_correlation_s: float = 1.0,
+                 counters: Counter | None = None, capacity: int = 16):
         m, n = confirm
         if not 1 <= m <= n:
             raise ValueError(f"confirmation needs 1 <= M <= N, got {confirm}")
@@ -79,6 +83,7 @@ class SensorTracker:
         self.delete_after_s = delete_after_s
         self.initial_accel_sigma_mps2 = initial_accel_sigma_mps2
         self.range_track_bearing_rad = math.radians(range_track_bearing_sigma_deg)
+        self.range_rate_correlation_s = range_rate_correlation_s
         self.counters = counters if counters is not None else Counter()
         self.bank_h = ImmBank(list(h_modes), 4,
                               models.mode_switching(h_modes, switch_probability, turn_exit_probability),
@@ -121,7 +126,9 @@ class SensorTracker:
             taken = {j for _, j in pairs}
             if pairs:
                 self._relinearise(pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad)
-                rates = self._range_rates(pairs, xh, xv, ph, meas, own_enu, own_velocity)
+                since = t_s - np.array([tracks[i].t_s for i, _ in pairs])
+                age = t_s - np.array([tracks[i].started_s for i, _ in pairs])
+                rates = self._range_rates(pairs, since, age, xh, xv, ph, meas, own_enu, own_velocity)
                 self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)),
                              rates)
                 for i, j in pairs:
@@ -163,10 +170,21 @@ class SensorTracker:
         d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
         return d_h + d_v, xh, xv, ph
 
-    def _range_rates(self, pairs, xh, xv, ph, meas, own_enu, own_velocity):
+    def _range_rates(self, pairs, since_s, age_s, xh, xv, ph, meas, own_enu, own_velocity):
         """The paired measurements' range rates (the radar's) as horizontal velocity measurements linearised at the
         tracks' predictions (measurement.range_rate_about_prediction): (rows of pairs that have one, z, R), or
-        None. Without the ownship's velocity a range rate cannot be turned into the intruder's, and is unused."""
+        None. Without the ownship's velocity a range rate cannot be turned into the intruder's, and is unused.
+
+        since_s, age_s (pairs,): each track's time since its last detection and since its first. A range rate's
+        declared sigma covers a white error and a bias that lasts (Appendix Q's radar: 3.0 m/s white, up to
+        2.4 m/s for the run); taken as white at 10 Hz, ten a second average to 1.2 m/s, under the bias, and the
+        track runs tens of metres behind its detections until one falls out of the gate and the track splits
+        (docs/tracking.md, "A radar track's range rates"). So the range rates of one correlation time
+        (range_rate_correlation_s) are taken as one draw: each one's variance is scaled by the number of them
+        the track has had in that time, min(range_rate_correlation_s, age_s) / since_s, at least 1 (a variance
+        inflation factor in place of a state for the correlated error: Kermarrec, Jain & Schoen, "Kalman filter
+        and correlated measurement noise: the variance inflation factor", IEEE Trans. AES 58(2), 2022). A young
+        track's first range rates keep their weight: its velocity comes from little else in its first second."""
         if own_velocity is None:
             return None
         rows = [k for k, (_, j) in enumerate(pairs) if meas[j].range_rate_mps is not None
@@ -176,8 +194,11 @@ class SensorTracker:
         ts, js = [pairs[k][0] for k in rows], [pairs[k][1] for k in rows]
         own = np.asarray(own_enu, float)
         v_own = np.asarray(own_velocity, float)
+        shared = np.minimum(self.range_rate_correlation_s, age_s[rows])  # the track's own range rates of one draw
+        inflation = np.maximum(shared / np.maximum(since_s[rows], 1e-6), 1.0)
+        sigma = np.array([meas[j].range_rate_sigma_mps for j in js]) * np.sqrt(inflation)
         z, r = range_rate_about_prediction(
-            [meas[j].range_rate_mps for j in js], [meas[j].range_rate_sigma_mps for j in js],
+            [meas[j].range_rate_mps for j in js], sigma,
             [meas[j].elevation_rad for j in js], xh[ts, :2] - own[:2], np.broadcast_to(v_own[:2], (len(js), 2)),
             xv[ts, 1] - v_own[2], xh[ts, 2:4], ph[ts, :2, :2])
         return np.array(rows), z, r
@@ -243,7 +264,8 @@ class SensorTracker:
         self.bank_v.init(slots, xv, pv)
         out = []
         for s, cov in zip(slots, _position_covariances(r_h, r_v)):
-            trk = SensorTrack(next(self._ids), int(s), t_s, deque([True]), confirmed=self.m == 1, detection_cov=cov)
+            trk = SensorTrack(next(self._ids), int(s), t_s, t_s, deque([True]), confirmed=self.m == 1,
+                              detection_cov=cov)
             self.tracks[trk.track_id] = trk
             self.counters["sensor.track_started"] += 1
             out.append(trk)

@@ -125,7 +125,8 @@ class SurveillanceTracker:
             switch_probability=switch,
             turn_exit_probability=t.imm_turn_exit_probability, gate_probability=t.gate_probability,
             delete_after_s=t.delete_after_s, initial_accel_sigma_mps2=t.imm_initial_accel_sigma_mps2,
-            range_track_bearing_sigma_deg=t.range_track_bearing_sigma_deg, counters=self.counters)
+            range_track_bearing_sigma_deg=t.range_track_bearing_sigma_deg,
+            range_rate_correlation_s=t.range_rate_correlation_s, counters=self.counters)
 
     def _apply(self, tracker: SensorTracker, scan: SensorScan, own_enu, own_heading_rad: float,
                own_velocity=None) -> set[IntruderKey]:
