@@ -1,6 +1,7 @@
-"""The Cramér-Rao bound on a horizontal miss (avionics_eval/reports/miss_bound.py) against a Monte Carlo of the
-maximum-likelihood fit, which for Gaussian errors reaches the bound as the information grows (Kay 1993, Thm 7.3):
-the spread of the miss fitted by scipy's least squares to noisy ranges and bearings of a straight pass."""
+"""The Cramér-Rao bound on a miss distance (avionics_eval/reports/miss_bound.py). Horizontally against a Monte
+Carlo of the maximum-likelihood fit, which for Gaussian errors reaches the bound as the information grows (Kay
+1993, Thm 7.3): the spread of the miss fitted by scipy's least squares to noisy ranges and bearings of a straight
+pass. Vertically against numpy's weighted least-squares covariance."""
 
 from __future__ import annotations
 
@@ -8,10 +9,11 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 from scipy.optimize import least_squares
 
-from avionics_eval.reports.miss_bound import miss_m, miss_sigma_bound, straight_fit
+from avionics_eval.reports.miss_bound import (miss_m, miss_sigma_bound, straight_fit,
+                                              vertical_miss_sigma_bound)
 
 
 def measure(theta, offsets):
@@ -60,3 +62,16 @@ def test_bearings_only_add_information(miss, speed, heading, t_cpa):
     assert math.isclose(miss_m(theta), miss, rel_tol=1e-9, abs_tol=1e-6)
     both = miss_sigma_bound(theta, offsets, 15.24, math.radians(9.0))
     assert both <= miss_sigma_bound(theta, offsets, 15.24, None) * (1 + 1e-6)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(1.0, 1000.0), st.floats(0.0, 120.0), st.floats(1.0, 200.0), st.floats(0.1, 1.0))
+def test_the_vertical_bound_is_numpys_weighted_least_squares_covariance(sigma_z, t_cpa, window, period):
+    """Heights measured with a sigma growing along the window (a radar's elevation at a closing range): the bound
+    on z0 + z_dot t_cpa is numpy.polyfit's unscaled weighted covariance carried to t_cpa."""
+    offsets = np.arange(-window, 1e-9, period)
+    assume(len(offsets) >= 3)
+    sigma = sigma_z * (1.0 + np.linspace(1.0, 0.0, len(offsets)))
+    _, cov = np.polyfit(offsets, np.zeros(len(offsets)), 1, w=1.0 / sigma, cov="unscaled")
+    g = np.array([t_cpa, 1.0])  # polyfit's order: slope, intercept
+    assert math.isclose(vertical_miss_sigma_bound(offsets, sigma, t_cpa), math.sqrt(g @ cov @ g), rel_tol=1e-6)

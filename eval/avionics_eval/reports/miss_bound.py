@@ -1,5 +1,6 @@
-"""How well any estimator can know a horizontal miss distance from a sensor's ranges and bearings: the Cramér-Rao
-lower bound over a straight stretch of relative flight.
+"""How well any estimator can know a miss distance from a sensor's measurements: the Cramér-Rao lower bound over
+a straight stretch of relative flight, horizontally from ranges and bearings, vertically from elevations or
+reported altitudes.
 
 Why: TCAS's HMD filter lets an RA through unless the miss is resolved outside the HMD threshold
 (pipeline/assessment.py Assessor._resolvable: the miss two sigmas low). Whether a sensor can resolve a miss at the
@@ -11,8 +12,13 @@ second over the `window` seconds up to t_at by a range r = |p| (sigma_r) and a b
 white and unbiased. The Fisher information is sum_k J_k^T R^-1 J_k with J_k the Jacobian of (r, bearing) in theta
 (Kay, "Fundamentals of Statistical Signal Processing: Estimation Theory", 1993, eq 3.31 for Gaussian data); the
 miss d(theta) = |p0 x v| / |v| has var(d_hat) >= grad d^T I^-1 grad d for any unbiased estimator (Kay eq 3.30).
-The white errors alone: a sensor's bias and a model that must allow for manoeuvres only widen it, so the bound is
-the best any tracker could do.
+A radar's range rates are left out: for a radar the horizontal figure is the bound without them, above the true
+one (the vertical figure does not depend on them).
+Vertically, z(t) = z0 + z_dot (t - t_at) measured with sigma_z (the radar: the ground range times the elevation
+sigma; active surveillance: the reported altitude's), the vertical miss z0 + z_dot t_cpa: the same bound, which
+for this linear model is the weighted least-squares covariance (A^T W A)^-1. Measured at the sensor's rate over
+the window. The white errors alone: a sensor's bias and a model that must allow for manoeuvres only widen it, so
+the bound is the best any tracker could do.
 
     python -m avionics_eval.reports.miss_bound FILE --at T [--window S] [--sensor active|radar]
 """
@@ -68,26 +74,44 @@ def miss_sigma_bound(theta, offsets_s, sigma_r_m: float, sigma_b_rad: float | No
                                                    hermitian=True) @ grad))
 
 
+def vertical_miss_sigma_bound(offsets_s, sigma_z_m, t_cpa_s: float) -> float:
+    """The bound on the vertical miss z0 + z_dot t_cpa's standard deviation (m) from heights z0 + z_dot t (t:
+    offsets_s) measured with sigma_z_m each."""
+    a = np.stack([np.ones(len(offsets_s)), np.asarray(offsets_s, float)], axis=1)
+    info = (a / np.asarray(sigma_z_m, float)[:, None] ** 2).T @ a
+    g = np.array([1.0, t_cpa_s])
+    return float(math.sqrt(g @ np.linalg.solve(info, g)))
+
+
 def report(case_file: str, at_s: float, window_s: float, sensor: str) -> dict:
     from avionics_eval.reports.noncoop import CONFORMANCE
     from avionics_sitl.encounters import load_scenario
     from avionics_sitl.sensors import MODELS
 
     own, intruders = load_scenario(str(CONFORMANCE / case_file)).trajectories()
-    times = np.arange(at_s - window_s, at_s + 1e-9, 1.0)
+    errors = MODELS[sensor]
+    times = np.arange(at_s - window_s, at_s + 1e-9, 1.0 / errors.rate_hz)
     rel = np.array([np.subtract(intruders[0].enu_at(t), own.enu_at(t)) for t in times])
     p0, v = straight_fit(times, rel[:, :2])
     residual = float(np.abs(rel[:, :2] - (p0 + np.outer(times - at_s, v))).max())
-    errors = MODELS[sensor]
-    elevation = math.atan2(rel[-1, 2], float(np.hypot(*rel[-1, :2])))
+    ground = np.hypot(rel[:, 0], rel[:, 1])
+    elevation = math.atan2(rel[-1, 2], float(ground[-1]))
     sigma_b = float(errors.bearing_sigma_rad(elevation))
     theta, offsets = np.concatenate([p0, v]), times - at_s
+    t_cpa = max(-float(p0 @ v) / float(v @ v), 0.0)
+    z_dot = float(np.polyfit(offsets, rel[:, 2], 1)[0])
+    if errors.elevation_sigma_deg is not None:  # a radar: the height from the elevation
+        sigma_z = ground * math.radians(errors.elevation_sigma_deg)
+    else:  # active surveillance: the reported altitude, in its quantum
+        sigma_z = np.full(len(times), errors.altitude_quantum_m / math.sqrt(12.0))
     return {"file": case_file, "at_s": at_s, "window_s": window_s, "sensor": sensor,
             "range_m": round(float(np.hypot(*p0)), 1), "straight_line_residual_m": round(residual, 1),
-            "miss_m": round(miss_m(theta), 1), "range_sigma_m": errors.range_sigma_m,
-            "bearing_sigma_deg": round(math.degrees(sigma_b), 2),
+            "t_cpa_s": round(t_cpa, 1), "miss_m": round(miss_m(theta), 1),
+            "vertical_miss_m": round(float(rel[-1, 2]) + z_dot * t_cpa, 1),
+            "range_sigma_m": errors.range_sigma_m, "bearing_sigma_deg": round(math.degrees(sigma_b), 2),
             "miss_sigma_bound_m": round(miss_sigma_bound(theta, offsets, errors.range_sigma_m, sigma_b), 1),
-            "miss_sigma_bound_ranges_only_m": round(miss_sigma_bound(theta, offsets, errors.range_sigma_m, None), 1)}
+            "miss_sigma_bound_ranges_only_m": round(miss_sigma_bound(theta, offsets, errors.range_sigma_m, None), 1),
+            "vertical_miss_sigma_bound_m": round(vertical_miss_sigma_bound(offsets, sigma_z, t_cpa), 1)}
 
 
 def main(argv=None) -> int:
