@@ -79,12 +79,12 @@ class ImmTracker(TrackLifecycle):
         self.model = name
         self.h_modes = list(horizontal)
         self.v_modes = list(vertical)
-        p = params.imm_switch_probability
         kw = dict(likelihood=likelihood, vb=vb, rmimm_floor=params.rmimm_floor, capacity=capacity,
                   yaw_time_constant_s=params.yaw_rate_time_constant_s, compiled=compiled)
-        self.bank_h = ImmBank(self.h_modes, H_MEAS,
-                              models.mode_switching(self.h_modes, p, params.imm_turn_exit_probability), **kw)
-        self.bank_v = ImmBank(self.v_modes, V_MEAS, models.switching_matrix(len(self.v_modes), p), **kw)
+        m_h, m_v = models.bank_switching(self.h_modes, self.v_modes, params.imm_switch_probability,
+                                         params.imm_turn_exit_probability)
+        self.bank_h = ImmBank(self.h_modes, H_MEAS, m_h, **kw)
+        self.bank_v = ImmBank(self.v_modes, V_MEAS, m_v, **kw)
         self._t = np.zeros(capacity)  # time of each slot's last accepted report
         self._free = list(range(capacity - 1, -1, -1))
         self._gate = np.array([0.0] + [chi2_quantile(params.gate_probability, k) for k in range(1, H_MEAS + V_MEAS + 1)])

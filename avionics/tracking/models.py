@@ -301,6 +301,15 @@ def mode_switching(modes, switch_probability: float, turn_exit_probability: floa
     return m
 
 
+def bank_switching(h_modes, v_modes, switch_probability: float,
+                   turn_exit_probability: float) -> tuple[np.ndarray, np.ndarray]:
+    """The switching matrices of a track's horizontal bank (mode_switching: its turns left at
+    turn_exit_probability) and its vertical bank, both leaving every other mode at switch_probability: the one
+    place the trackers (ADS-B, sensor) and the fusion report's local filters build them."""
+    return (mode_switching(h_modes, switch_probability, turn_exit_probability),
+            switching_matrix(len(v_modes), switch_probability))
+
+
 class MarkovChain:
     """Mode transition matrix M[from, to] for any interval dt, from the matrix M1 of one reference period T0:
     M(dt) = expm(dt / T0 * logm(M1)), the continuous-time chain that M1 samples (so coasting over 3 s is three

@@ -85,11 +85,9 @@ class SensorTracker:
         self.range_track_bearing_rad = math.radians(range_track_bearing_sigma_deg)
         self.range_rate_correlation_s = range_rate_correlation_s
         self.counters = counters if counters is not None else Counter()
-        self.bank_h = ImmBank(list(h_modes), 4,
-                              models.mode_switching(h_modes, switch_probability, turn_exit_probability),
-                              capacity=capacity)
-        self.bank_v = ImmBank(list(v_modes), 2, models.switching_matrix(len(v_modes), switch_probability),
-                              capacity=capacity)
+        m_h, m_v = models.bank_switching(h_modes, v_modes, switch_probability, turn_exit_probability)
+        self.bank_h = ImmBank(list(h_modes), 4, m_h, capacity=capacity)
+        self.bank_v = ImmBank(list(v_modes), 2, m_v, capacity=capacity)
         self.tracks: dict[int, SensorTrack] = {}
         self._free = list(range(capacity - 1, -1, -1))
         self._ids = itertools.count(1)

@@ -136,9 +136,9 @@ class Local:
         # the configured motion models (compose.py) at [tracking]'s 1 s values: fixed sampling takes one a second
         modes, switch = cfg.modes_for(kind)
         h, v = motion_models(cfg, 1.0, modes)
-        self.bank_h = ImmBank(h, 4, models.mode_switching(h, switch, cfg.imm_turn_exit_probability), capacity=runs,
-                              compiled=False)
-        self.bank_v = ImmBank(v, 2, models.switching_matrix(len(v), switch), capacity=runs, compiled=False)
+        m_h, m_v = models.bank_switching(h, v, switch, cfg.imm_turn_exit_probability)
+        self.bank_h = ImmBank(h, 4, m_h, capacity=runs, compiled=False)
+        self.bank_v = ImmBank(v, 2, m_v, capacity=runs, compiled=False)
         self.t = np.full(runs, np.nan)  # time of each run's last update (NaN: not started)
         self.accel0 = cfg.imm_initial_accel_sigma_mps2
 
