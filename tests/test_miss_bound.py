@@ -1,6 +1,6 @@
 """The Cramér-Rao bound on a miss distance (avionics_eval/reports/miss_bound.py). Horizontally against a Monte
 Carlo of the maximum-likelihood fit, which for Gaussian errors reaches the bound as the information grows (Kay
-1993, Thm 7.3): the spread of the miss fitted by scipy's least squares to noisy ranges and bearings of a straight
+1993, ch. 7): the spread of the miss fitted by scipy's least squares to noisy ranges and bearings of a straight
 pass. Vertically against numpy's weighted least-squares covariance."""
 
 from __future__ import annotations

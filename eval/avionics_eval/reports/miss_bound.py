@@ -7,18 +7,17 @@ Why: TCAS's HMD filter lets an RA through unless the miss is resolved outside th
 moment the RA is due is a property of the sensor and the geometry, not of our tracks; this bound says it, from
 nothing we wrote but the Fisher information.
 
-Model: the relative horizontal position p(t) = p0 + v (t - t_at), theta = (p0, v) in 4 dimensions, measured once a
-second over the `window` seconds up to t_at by a range r = |p| (sigma_r) and a bearing atan2(e, n) (sigma_b),
-white and unbiased. The Fisher information is sum_k J_k^T R^-1 J_k with J_k the Jacobian of (r, bearing) in theta
-(Kay, "Fundamentals of Statistical Signal Processing: Estimation Theory", 1993, eq 3.31 for Gaussian data); the
-miss d(theta) = |p0 x v| / |v| has var(d_hat) >= grad d^T I^-1 grad d for any unbiased estimator (Kay eq 3.30).
-A radar's range rates are left out: for a radar the horizontal figure is the bound without them, above the true
-one (the vertical figure does not depend on them).
-Vertically, z(t) = z0 + z_dot (t - t_at) measured with sigma_z (the radar: the ground range times the elevation
-sigma; active surveillance: the reported altitude's), the vertical miss z0 + z_dot t_cpa: the same bound, which
-for this linear model is the weighted least-squares covariance (A^T W A)^-1. Measured at the sensor's rate over
-the window. The white errors alone: a sensor's bias and a model that must allow for manoeuvres only widen it, so
-the bound is the best any tracker could do.
+Model: the relative horizontal position p(t) = p0 + v (t - t_at), theta = (p0, v) in 4 dimensions, measured at
+the sensor's rate over the `window` seconds up to t_at by a range r = |p| (sigma_r) and a bearing atan2(e, n)
+(sigma_b), white and unbiased. The Fisher information is sum_k J_k^T R^-1 J_k with J_k the Jacobian of
+(r, bearing) in theta (Kay, "Fundamentals of Statistical Signal Processing: Estimation Theory", 1993, ch. 3,
+Gaussian data); the miss d(theta) = |p0 x v| / |v| has var(d_hat) >= grad d^T I^-1 grad d for any unbiased
+estimator (Kay ch. 3, a function of a vector parameter). A radar's range rates are left out: for a radar the
+horizontal figure is the bound without them, above the true one. Vertically, z(t) = z0 + z_dot (t - t_at)
+measured with sigma_z (the radar: the ground range times the elevation sigma; active surveillance: the reported
+altitude's), the vertical miss z0 + z_dot t_cpa: the same bound, which for this linear model is the weighted
+least-squares covariance (A^T W A)^-1. The white errors alone: a sensor's bias and a model that must allow for
+manoeuvres only widen it, so the bound is the best any tracker could do.
 
     python -m avionics_eval.reports.miss_bound FILE --at T [--window S] [--sensor active|radar]
 """
@@ -66,7 +65,7 @@ def fisher(theta, offsets_s, sigma_r_m: float, sigma_b_rad: float | None) -> np.
 def miss_sigma_bound(theta, offsets_s, sigma_r_m: float, sigma_b_rad: float | None) -> float:
     """The Cramér-Rao bound on the miss's standard deviation (m). Ranges alone cannot see the geometry turned
     about the ownship (the information is singular along that rotation), which leaves the miss unchanged: the
-    pseudo-inverse gives the bound of a function blind to that direction (Kay Sec. 3.9's reparameterisation)."""
+    pseudo-inverse gives the bound of a function blind to that direction."""
     theta = np.asarray(theta, float)
     step = 1e-3
     grad = np.array([(miss_m(theta + h) - miss_m(theta - h)) / (2 * step) for h in np.eye(4) * step])
