@@ -75,3 +75,25 @@ def test_the_vertical_bound_is_numpys_weighted_least_squares_covariance(sigma_z,
     _, cov = np.polyfit(offsets, np.zeros(len(offsets)), 1, w=1.0 / sigma, cov="unscaled")
     g = np.array([t_cpa, 1.0])  # polyfit's order: slope, intercept
     assert math.isclose(vertical_miss_sigma_bound(offsets, sigma, t_cpa), math.sqrt(g @ cov @ g), rel_tol=1e-6)
+
+
+def test_no_tracker_resolves_s_1_turn_r_outside_the_hmd_when_its_ra_is_due():
+    """docs/tracking.md's reading of the noisy active run's one extra RA: on NASA's s_1_turn_R (6,480 ft, SL 5),
+    DAIDALUS's HMD filter rejects the RA on the true miss (1,246 m against TCASTable's SL 5 RA HMD, 3,342 ft =
+    1,019 m; config/profiles/daidalus-tcas3d.toml). At 72 s, when ours is raised, the bound from 44 s of Appendix
+    Q's active surveillance (15.24 m, 9-15 deg) over the straight stretch since the relative turn leaves the miss,
+    read two sigmas low as the alerter reads a sensor-only miss, inside that HMD; by 76 s it is resolved."""
+    import tomllib
+    from pathlib import Path
+
+    from avionics_eval.reports.miss_bound import report
+    from tests.golden.first_alerts import golden, require
+
+    require(golden("TCAS3D"))
+    profile = tomllib.loads((Path(__file__).parents[1] / "config/profiles/daidalus-tcas3d.toml").read_text())
+    hmd_m = next(level["ra_hmd_ft"] for level in profile["levels"] if level["sl"] == 5) * 0.3048
+    at_ra = report("daadisplays_s_1_turn_R_wind_0_-50.daa", 72.0, 44.0, "active")
+    assert at_ra["straight_line_residual_m"] < 1.0 and at_ra["miss_m"] > hmd_m + 200.0
+    assert at_ra["miss_m"] - 2.0 * at_ra["miss_sigma_bound_m"] < hmd_m
+    later = report("daadisplays_s_1_turn_R_wind_0_-50.daa", 76.0, 48.0, "active")
+    assert later["miss_m"] - 2.0 * later["miss_sigma_bound_m"] > hmd_m
