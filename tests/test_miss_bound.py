@@ -97,3 +97,20 @@ def test_no_tracker_resolves_s_1_turn_r_outside_the_hmd_when_its_ra_is_due():
     assert at_ra["miss_m"] - 2.0 * at_ra["miss_sigma_bound_m"] < hmd_m
     later = report("daadisplays_s_1_turn_R_wind_0_-50.daa", 76.0, 48.0, "active")
     assert later["miss_m"] - 2.0 * later["miss_sigma_bound_m"] > hmd_m
+
+
+def test_the_radar_cannot_hold_h1s_vertical_miss_inside_dwc_non_coop_55_s_out():
+    """docs/tracking.md's reading of seed 16's late H1 levels: the head-on seen by the Appendix Q radar from
+    22.7 km, level (true vertical miss 0) and 55 s from the closest point when DAIDALUS's DWC_Non_Coop levels
+    come (450 ft = 137 m vertically, DO_365B_no_SUM.conf). From the last 45 s of 1 deg elevations at 10 Hz the
+    vertical miss is known to no better than that threshold; only an estimator that knew the intruder flew level
+    for the whole 145 s would have it within half of it."""
+    from avionics_eval.reports.miss_bound import report
+    from tests.golden.first_alerts import golden, require
+
+    require(golden("DO_365B_no_SUM_non_coop", "first_alerts_noncoop.csv"))
+    threshold_m = 450 * 0.3048
+    recent = report("daidalus_H1.daa", 145.0, 45.0, "radar")
+    assert abs(recent["vertical_miss_m"]) < 1.0 and 50.0 < recent["t_cpa_s"] < 60.0
+    assert recent["vertical_miss_sigma_bound_m"] > threshold_m
+    assert report("daidalus_H1.daa", 145.0, 145.0, "radar")["vertical_miss_sigma_bound_m"] < threshold_m / 2
