@@ -124,11 +124,9 @@ class SensorTracker:
             taken = {j for _, j in pairs}
             if pairs:
                 self._relinearise(pairs, xh, meas, z_h, r_h, own_enu, own_heading_rad)
-                since = t_s - np.array([tracks[i].t_s for i, _ in pairs])
-                age = t_s - np.array([tracks[i].started_s for i, _ in pairs])
-                rates = self._range_rates(pairs, since, age, xh, xv, ph, meas, own_enu, own_velocity)
-                self._update([tracks[i] for i, _ in pairs], t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)),
-                             rates)
+                paired = [tracks[i] for i, _ in pairs]
+                rates = self._range_rates(t_s, pairs, paired, xh, xv, ph, meas, own_enu, own_velocity)
+                self._update(paired, t_s, *(a[[j for _, j in pairs]] for a in (z_h, r_h, z_v, r_v)), rates)
                 for i, j in pairs:
                     out[good[j]] = tracks[i].track_id
                     if tracks[i].ranging is not None:
@@ -168,21 +166,21 @@ class SensorTracker:
         d_v = (xv[:, None, 0] - z_v[None, :]) ** 2 / (pv[:, None, 0, 0] + r_v[None, :])
         return d_h + d_v, xh, xv, ph
 
-    def _range_rates(self, pairs, since_s, age_s, xh, xv, ph, meas, own_enu, own_velocity):
+    def _range_rates(self, t_s, pairs, paired, xh, xv, ph, meas, own_enu, own_velocity):
         """The paired measurements' range rates (the radar's) as horizontal velocity measurements linearised at the
         tracks' predictions (measurement.range_rate_about_prediction): (rows of pairs that have one, z, R), or
         None. Without the ownship's velocity a range rate cannot be turned into the intruder's, and is unused.
 
-        since_s, age_s (pairs,): each track's time since its last detection and since its first. A range rate's
-        declared sigma covers a white error and a bias that lasts (Appendix Q's radar: 3.0 m/s white, up to
-        2.4 m/s for the run); taken as white at 10 Hz, ten a second average to 1.2 m/s, under the bias, and the
-        track runs tens of metres behind its detections until one falls out of the gate and the track splits
-        (docs/tracking.md, "A radar track's range rates"). So the range rates of one correlation time
-        (range_rate_correlation_s) are taken as one draw: each one's variance is scaled by the number of them
-        the track has had in that time, min(range_rate_correlation_s, age_s) / since_s, at least 1 (a variance
-        inflation factor in place of a state for the correlated error: Kermarrec, Jain & Schoen, "Kalman filter
-        and correlated measurement noise: the variance inflation factor", IEEE Trans. AES 58(2), 2022). A young
-        track's first range rates keep their weight: its velocity comes from little else in its first second."""
+        paired: the pairs' tracks, not yet updated at t_s. A range rate's declared sigma covers a white error and a
+        bias that lasts (Appendix Q's radar: 3.0 m/s white, up to 2.4 m/s for the run); taken as white at 10 Hz, ten
+        a second average to 1.2 m/s, under the bias, and the track runs tens of metres behind its detections until
+        one falls out of the gate and the track splits (docs/tracking.md, "A radar track's range rates"). So the
+        range rates of one correlation time (range_rate_correlation_s) are taken as one draw: each one's variance is
+        scaled by the number of them the track has had in that time, min(range_rate_correlation_s, age) / since, at
+        least 1 (age and since: the time since its first and its last detection; a variance inflation factor in
+        place of a state for the correlated error: Kermarrec, Jain & Schoen, "Kalman filter and correlated
+        measurement noise: the variance inflation factor", IEEE Trans. AES 58(2), 2022). A young track's first range
+        rates keep their weight: its velocity comes from little else in its first second."""
         if own_velocity is None:
             return None
         rows = [k for k, (_, j) in enumerate(pairs) if meas[j].range_rate_mps is not None
@@ -192,8 +190,10 @@ class SensorTracker:
         ts, js = [pairs[k][0] for k in rows], [pairs[k][1] for k in rows]
         own = np.asarray(own_enu, float)
         v_own = np.asarray(own_velocity, float)
-        shared = np.minimum(self.range_rate_correlation_s, age_s[rows])  # the track's own range rates of one draw
-        inflation = np.maximum(shared / np.maximum(since_s[rows], 1e-6), 1.0)
+        since = t_s - np.array([paired[k].t_s for k in rows])
+        age = t_s - np.array([paired[k].started_s for k in rows])
+        shared = np.minimum(self.range_rate_correlation_s, age)  # the track's own range rates of one draw
+        inflation = np.maximum(shared / np.maximum(since, 1e-6), 1.0)
         sigma = np.array([meas[j].range_rate_sigma_mps for j in js]) * np.sqrt(inflation)
         z, r = range_rate_about_prediction(
             [meas[j].range_rate_mps for j in js], sigma,
