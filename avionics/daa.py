@@ -31,6 +31,7 @@ from avionics.advisory.inhibits import RaInhibitWatch
 from avionics.base.units import FT
 from avionics.io.diagnostics import Diagnostic
 from avionics.pipeline.daa_core import DaaCore
+from avionics.pipeline.views import ViewRound
 
 STARTUP = "startup"  # availability before the first ownship fix: unavailable, but not announced
 _UNSET = object()
@@ -115,7 +116,9 @@ class DaaResult:
     # no_traffic_source
     fault_detail: str
     sensitivity_level: int | None
-    tracks: tuple[TrackView, ...] | None = None  # when asked for: every track, predicted to time_s
+    # when asked for, at the step that completes their round (step's tracks_within_s): every track, each
+    # predicted to the step that built its view (TrackView.time_s)
+    tracks: tuple[TrackView, ...] | None = None
     status: Mapping | None = None  # when asked for: the status topic's body (docs/zenoh.md, Status)
     counters: Mapping[str, int] | None = None  # when asked for (with the status): a snapshot
     final: bool = False  # the last result: the process stops
@@ -167,6 +170,7 @@ class Daa:
                 self._guidance = ModeLadder(config.guidance, config.mavlink.source_system)
             self._ownship = Ownship  # imported only with guidance (start-up, issue 13)
         self._autopilot_inputs: list = []  # HEARTBEAT and COMMAND_ACK of this step, for the guidance
+        self._views = ViewRound(config.advisory.assessment_slice)  # the track views asked for, a slice a step
 
     @property
     def profile(self):
@@ -179,9 +183,11 @@ class Daa:
         return self._core.profile.response
 
     def step(self, now_s: float, inputs: Iterable[Input] = (), *, sources: SourceStatus = NO_SOURCE_STATUS,
-             tracks: bool = False, status: bool = False) -> DaaResult:
+             tracks: bool = False, status: bool = False, tracks_within_s: float = 0.0) -> DaaResult:
         """One step of the core at now_s with the inputs received since the last one. tracks / status: include
-        the track states and the status (the output ports ask for them at their own rates)."""
+        the track states and the status (the output ports ask for them at their own rates); the tracks' views
+        are built in slices over the steps of the next tracks_within_s (0: in this step) and come with the
+        result of the step that completes them (pipeline/views.py ViewRound)."""
         if self._guidance is not None:
             inputs = list(inputs)
             self._autopilot_inputs = [i for i in inputs if isinstance(i, AUTOPILOT_INPUTS)]
@@ -189,7 +195,7 @@ class Daa:
                 inputs = [i for i in inputs if not isinstance(i, AUTOPILOT_INPUTS)]
         core_result = self._core.step(now_s, inputs)  # contains its own faults (pipeline/containment.py)
         return self._result(now_s, tuple(core_result.changes), core_result.assessed, sources, tracks, status,
-                            bands=core_result.bands)
+                            bands=core_result.bands, tracks_within_s=tracks_within_s)
 
     def shutdown(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> DaaResult:
         """The process stops: every active advisory ends with reason `shutdown`, DAA is unavailable (shutdown);
@@ -203,14 +209,18 @@ class Daa:
         return self._result(now_s, ended, (), sources, False, True, final=True)
 
     # -- the result ------------------------------------------------------------------------------------------
-    def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None) -> DaaResult:
+    def _result(self, now_s, changes, assessed, sources, tracks, status, final=False, bands=None,
+                tracks_within_s=0.0) -> DaaResult:
         changed = False
         if final or self._availability.due(now_s) or any(a.reason in UNAVAILABLE_REASONS for a in changes):
             changed = self._check_availability(now_s, sources)
             self._watch_ra_inhibit(now_s)
         track_views = body = None
         try:  # a publication's fault must not stop the advisories
-            track_views = self.tracks(now_s, sources) if tracks else None
+            if tracks or self._views.running:
+                track_views = self._views.step(now_s, tracks, tracks_within_s,
+                                               lambda: sorted(self._core.tracker.tracks),
+                                               lambda keys: self.tracks(now_s, sources, keys))
             body = self.status(now_s, sources) if status else None
         except Exception as exc:  # noqa: BLE001
             self._fault("output", exc)
@@ -323,10 +333,12 @@ class Daa:
         return True
 
     # -- tracks and status -----------------------------------------------------------------------------------
-    def tracks(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS) -> tuple[TrackView, ...]:
-        """Every track predicted to now_s (as DaaResult.tracks; a query: the core does not step)."""
+    def tracks(self, now_s: float, sources: SourceStatus = NO_SOURCE_STATUS,
+               keys: Sequence[IntruderKey] | None = None) -> tuple[TrackView, ...]:
+        """Every track (or those of keys that are still tracks, in their order) predicted to now_s (a query: the
+        core does not step)."""
         core = self._core
-        keys = sorted(core.tracker.tracks)
+        keys = sorted(core.tracker.tracks) if keys is None else [k for k in keys if k in core.tracker.tracks]
         if not keys or core.frame.plane is None:
             return ()
         keys, xs, ps = core.predict_tracks(keys, now_s)  # an intruder that fails here fails as in a step
@@ -345,7 +357,7 @@ class Daa:
         for i, key in enumerate(keys):
             record = core.tracker.tracks[key]
             level, advisory, assessment = core.advisory_reader(key)
-            out.append(TrackView.of(record, xs[i], ps[i], float(lats[i]), float(lons[i]),
+            out.append(TrackView.of(record, now_s, xs[i], ps[i], float(lats[i]), float(lons[i]),
                                     record.altitude_valid(now_s, max_coast_s), advisory, modes[i],
                                     key in sources.spoof_suspected, level, assessment))
         return tuple(out)

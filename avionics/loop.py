@@ -134,7 +134,7 @@ class Loop:
             demand |= port.wants(batch.now_s)
         self.now_s = batch.now_s
         result = self.daa.step(batch.now_s, batch.inputs, sources=self.source.status(), tracks=demand.tracks,
-                               status=demand.status)
+                               status=demand.status, tracks_within_s=demand.tracks_within_s)
         self._publish(result)
         return result
 

@@ -31,16 +31,24 @@ from avionics.io.traffic import TrafficBatch
 
 @dataclass(frozen=True, slots=True)
 class Demand:
-    """The result's costly parts a port needs in the coming step."""
+    """The result's costly parts a port needs: the status in the coming step; the track views within
+    tracks_within_s (they are built in slices and come with the result of the step that completes them: a port
+    that asks for them takes the next result that has them)."""
 
     tracks: bool = False
     status: bool = False
+    tracks_within_s: float = 0.0
 
     def __or__(self, other: "Demand") -> "Demand":
-        return Demand(self.tracks or other.tracks, self.status or other.status)
+        within = min((d.tracks_within_s for d in (self, other) if d.tracks), default=0.0)
+        return Demand(self.tracks or other.tracks, self.status or other.status, within)
 
 
 NOTHING = Demand()
+
+# the track views a port asks for are built over at most this share of its period (pipeline/views.py ViewRound):
+# a slice a step, so a fresh report never waits behind all of them, and done well before the next demand
+VIEWS_WITHIN_PERIODS = 0.5
 
 
 class OutputPort(Protocol):
@@ -212,7 +220,7 @@ class MavlinkOut:
         self._rebroadcast = Every(1.0 / m.traffic_rebroadcast_hz) if m.traffic_rebroadcast else None
         self._rebroadcast_component = m.traffic_rebroadcast_component
         self._send_as = send_as if send_as is not None else (lambda msg, _component: send(msg))
-        self._rebroadcast_now = False
+        self._rebroadcast_wanted = False  # asked for the track views, not rebroadcast yet
         self._heartbeat = Every(1.0 / config.mavlink.heartbeat_hz)
         self._advisories = advisories or AdvisoryAnnouncements.of(config)
         self._rejected = RejectedSenders(REJECTED_SENDER_REPEAT_S)
@@ -222,8 +230,10 @@ class MavlinkOut:
         self._wiring = Announcements()
 
     def wants(self, now_s: float) -> Demand:
-        self._rebroadcast_now = self._rebroadcast is not None and self._rebroadcast.due(now_s)
-        return Demand(tracks=True) if self._rebroadcast_now else NOTHING
+        if self._rebroadcast is None or not self._rebroadcast.due(now_s):
+            return NOTHING
+        self._rebroadcast_wanted = True
+        return Demand(tracks=True, tracks_within_s=VIEWS_WITHIN_PERIODS * self._rebroadcast.period_s)
 
     def publish(self, result: DaaResult) -> None:
         now = result.time_s
@@ -263,14 +273,14 @@ class MavlinkOut:
                                          else encode.mavlink2.MAV_SEVERITY_NOTICE))
         if self._heartbeat.due(now) or result.final:
             self._send(encode.heartbeat(encode.system_status(result.available, result.starting, result.final)))
-        if self._rebroadcast_now and result.tracks is not None and not result.final:
-            self._rebroadcast_now = False
+        if self._rebroadcast_wanted and result.tracks is not None and not result.final:
+            self._rebroadcast_wanted = False
             # alerting intruders first, then the most recently heard; a sensor's track has no ICAO address to
             # put in ADSB_VEHICLE (the ground sees it on the zenoh tracks topic)
             tracks = sorted((t for t in result.tracks if t.key.source is not AddressSource.SENSOR),
                             key=lambda t: (-int(t.advisory_level), -t.last_report_s))
             for track in tracks[:REBROADCAST_MAX]:
-                self._send_as(encode.adsb_vehicle(track, now), self._rebroadcast_component)
+                self._send_as(encode.adsb_vehicle(track), self._rebroadcast_component)
 
     def _advisory(self, advisory: Advisory, callsign: str | None) -> None:
         self._send(encode.collision(advisory, self._request_action))
@@ -307,7 +317,8 @@ class ZenohOut:
         self._cursor = 0  # round-robin position in the sorted tracks
 
     def wants(self, now_s: float) -> Demand:
-        self._wanted = Demand(self._tracks.due(now_s), self._status.due(now_s))
+        self._wanted = Demand(self._tracks.due(now_s), self._status.due(now_s),
+                              VIEWS_WITHIN_PERIODS * self._tracks.period_s)
         return self._wanted
 
     def publish(self, result: DaaResult) -> None:
@@ -317,7 +328,7 @@ class ZenohOut:
         if result.guidance is not None and (result.guidance_changed or result.status is not None):
             self._publish("guidance", guidance_payload(self.vehicle, result.guidance))  # on change and with status
         if result.tracks is not None:
-            self._traffic(result.tracks, result.time_s)
+            self._traffic(result.tracks, result.time_s)  # the views of a round this step completed
         if result.bands is not None:
             self._publish("bands", bands_payload(self.vehicle, self._profile, result.bands))
         if result.status is not None:
@@ -341,7 +352,7 @@ class ZenohOut:
             self._cursor = start + size
         self._keyed = {t.key for t in tracks}
         for track in due:
-            self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track, now_s))
+            self._publish(f"tracks/{track.key}", track_payload(self.vehicle, track))
 
     def close(self) -> None:
         pass

@@ -50,4 +50,4 @@ class Harness:
 
     def track_messages(self, now_s: float) -> list[tuple[str, dict]]:
         vehicle = self.config.vehicle.id
-        return [(f"tracks/{t.key}", track_payload(vehicle, t, now_s)) for t in self.daa.tracks(now_s, self.input.status())]
+        return [(f"tracks/{t.key}", track_payload(vehicle, t)) for t in self.daa.tracks(now_s, self.input.status())]

@@ -24,6 +24,7 @@ from avionics.base.types import (
     AddressSource, AdvisoryLevel, AltitudeDatum, IntruderKey, IntruderReport, OwnshipFix, OwnshipPressure,
 )
 from avionics.pipeline.daa_core import DaaCore
+from avionics.pipeline.views import ViewRound
 
 PLANE = LocalTangentPlane(47.0, 8.0)
 ALT_M = 1500.0
@@ -171,3 +172,45 @@ def test_a_tracks_assessment_columns_are_its_advisorys_fields(seed, n):
             advisory = track.advisory
             assert track.advisory_level is advisory.level
             assert _same_values(track.assessment, tuple(getattr(advisory, f) for f in ASSESSMENT_FIELDS))
+
+
+@settings(max_examples=150, deadline=None)
+@given(n=st.integers(0, 600), slice_=st.integers(1, 256), data=st.data())
+def test_the_track_views_of_a_round_come_once_each_in_order_by_its_deadline_a_slice_a_step(n, slice_, data):
+    """pipeline/views.py ViewRound, over random step times, demands (with their within), and tracks deleted during
+    a round: a round delivers each of its starting tracks still tracked when its slice is built, once, in id
+    order; it is complete at the first step at or after its deadline (start + the tightest within asked during
+    it); and a step builds more than a slice only when the round's pace needs it."""
+    tracks = set(range(n))
+    round_ = ViewRound(slice_)
+    t, start, delivered = 0.0, None, []
+    for _ in range(data.draw(st.integers(1, 40))):
+        t += data.draw(st.floats(0.001, 0.3))
+        wanted = data.draw(st.booleans())
+        within = data.draw(st.sampled_from([0.0, 0.05, 0.25, 0.5, 1.0]))
+        tracks -= set(data.draw(st.lists(st.integers(0, max(n - 1, 0)), max_size=5)))
+        if wanted and start is None:
+            start, deadline, size, done, expected = t, t + within, len(tracks), 0, sorted(tracks)
+        elif wanted:
+            deadline = min(deadline, t + within)
+        built: list = []
+
+        def build(keys, built=built):
+            built.extend(keys)
+            kept = [k for k in keys if k in tracks]  # Daa.tracks: the keys that are still tracks
+            delivered.extend(kept)
+            return kept
+
+        views = round_.step(t, wanted, within, lambda: sorted(tracks), build)
+        if start is None:
+            assert views is None and not built
+            continue
+        assert built == expected[done:done + len(built)]  # in order, each once
+        paced = math.ceil(size * min(1.0, (t - start) / (deadline - start)) - 1e-6) if deadline > start else size
+        assert len(built) <= slice_ or done + len(built) == paced
+        done += len(built)
+        if t >= deadline - 1e-9:
+            assert views is not None
+        if views is not None:
+            assert done == size and list(views) == delivered == sorted(delivered)
+            start, delivered = None, []

@@ -206,8 +206,8 @@ def test_track_payload_carries_the_imm_outputs():
     fly(tr, 5)
     track = tr.tracks[KEY]
     xs, ps = tr.predict([KEY], 6.0)
-    payload = track_payload("uav1", TrackView.of(track, xs[0], ps[0], 47.0, 8.0, True, None,
-                                                 tr.mode_infos([KEY], 6.0)[0]), 6.0)
+    payload = track_payload("uav1", TrackView.of(track, 6.0, xs[0], ps[0], 47.0, 8.0, True, None,
+                                                 tr.mode_infos([KEY], 6.0)[0]))
     assert tr.mode_infos([KEY], 6.0)[0] == tr.mode_info(KEY, 6.0)
     assert payload["model"] == "vb-rmimm" and payload["most_likely_mode"] in ("cv", "ct")
     assert set(payload["mode_probabilities"]) == {"cv", "ct"} and payload["vb_noise"]["position_sigma_m"] > 0
@@ -215,8 +215,8 @@ def test_track_payload_carries_the_imm_outputs():
     cv = build_tracker(load_config(overrides=["tracking.filter=cv"]).tracking, Counter())
     cv.ingest(report(0.0), 0.0, 0.0)
     xs, ps = cv.predict([KEY], 1.0)
-    assert track_payload("uav1", TrackView.of(cv.tracks[KEY], xs[0], ps[0], 47.0, 8.0, True, None,
-                                              cv.mode_infos([KEY], 1.0)[0]), 1.0)["model"] == "cv-kalman"
+    assert track_payload("uav1", TrackView.of(cv.tracks[KEY], 1.0, xs[0], ps[0], 47.0, 8.0, True, None,
+                                              cv.mode_infos([KEY], 1.0)[0]))["model"] == "cv-kalman"
 
 
 def test_pipeline_alerts_at_the_hand_computed_onsets_with_the_imm():

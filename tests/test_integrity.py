@@ -164,7 +164,8 @@ def test_the_flag_reaches_the_zenoh_payloads_and_the_monitor_accepts_them():
     track = track_tracker.tracks[KEY]
     assert track.integrity.label == "degraded:inconsistent"
     x, p = track_tracker.predict([KEY], 20.0)
-    payload = track_payload("uav1", TrackView.of(track, x[0], p[0], 0.0, 0.0, True, _advisory(track.integrity.label)), 20.0)
+    payload = track_payload("uav1", TrackView.of(track, 20.0, x[0], p[0], 0.0, 0.0, True,
+                                                 _advisory(track.integrity.label)))
     assert payload["integrity"] == "degraded:inconsistent" and payload["integrity_fault_m"] >= im.RC_NIC7_M
     assert clean_sample("tracks", payload)["integrity"] == "degraded:inconsistent"
     adv = advisory_payload("uav1", _advisory("degraded:inconsistent"))

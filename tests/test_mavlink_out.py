@@ -175,7 +175,7 @@ def test_rebroadcast_goes_out_on_the_link_from_its_own_component_and_comes_back_
     (track,) = node.daa.tracks(20.0)
     from avionics.io import encode
 
-    msg = encode.adsb_vehicle(track, 20.0)
+    msg = encode.adsb_vehicle(track)
     counters: Counter = Counter()
     receiver = MavlinkLink(f"udpin:127.0.0.1:{udp_port}", counters, 1, 191)
     sender = MavlinkLink(f"udpout:127.0.0.1:{udp_port}", Counter(), 1, 191)

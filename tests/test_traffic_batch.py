@@ -71,7 +71,10 @@ def endpoint():
 
 
 @pytest.mark.live
-def test_batched_sample_carries_every_track_as_its_per_track_payload(endpoint):
+@pytest.mark.parametrize("n", [N, 300])
+def test_batched_sample_carries_every_track_as_its_per_track_payload(endpoint, n):
+    """300 tracks are more than a slice (advisory.assessment_slice, 128): their views are built over the steps of
+    a quarter second (ports.VIEWS_WITHIN_PERIODS of the 2 Hz period), each row at its own time; 40 in one step."""
     config = load_config(overrides=[f'zenoh.listen=["{endpoint}"]'])
     bus = ZenohBus(config.zenoh, "uav1")
     sub = open_session(monitor_zenoh_config([endpoint], mode="peer"))
@@ -92,19 +95,22 @@ def test_batched_sample_carries_every_track_as_its_per_track_payload(endpoint):
     try:
         # the subscription must reach the bus's session before the run counts: a probe batch until one arrives
         assert wait_for(lambda: bus.publish("traffic", TrafficBatch("uav1", -1.0, ())) or -1.0 in got)
-        for t, inputs in traffic_inputs(N, seconds=4.0):
+        for t, inputs in traffic_inputs(n, seconds=4.0):
             loop.step(Batch(t, inputs))
         ticks = sorted(recorder.views)
-        assert len(ticks) >= 8 and len(recorder.views[ticks[-1]]) == N  # 2 Hz for 4 s, every intruder tracked
+        assert len(ticks) >= 7 and len(recorder.views[ticks[-1]]) == n  # 2 Hz for 4 s, every intruder tracked
         assert wait_for(lambda: all(t in got for t in ticks)), sorted(set(ticks) - set(got))
         for t in ticks:
             encoding, header, rows = got[t]
             views = recorder.views[t]
             assert encoding == ARROW_STREAM
-            assert header["schema"] == 2 and header["layout"] == 1 and header["vehicle"] == "uav1"
+            assert header["schema"] == 2 and header["layout"] == 2 and header["vehicle"] == "uav1"
             assert len(rows) == len(views)
+            times = [row["time_s"] for row in rows]  # the round's slices: built at most a quarter second apart
+            assert max(times) == t and t - min(times) <= 0.25 + 1e-9
+            assert (min(times) < t) == (n > config.advisory.assessment_slice and len(rows) > 128)
             for view, row in zip(views, rows):
-                expected = wire(track_payload("uav1", view, t))
+                expected = wire(track_payload("uav1", view))
                 assert set(row) == set(expected)
                 bad = {k: (row[k], expected[k]) for k in expected if not same(row[k], expected[k])}
                 assert not bad, (t, str(view.key), bad)
@@ -115,7 +121,7 @@ def test_batched_sample_carries_every_track_as_its_per_track_payload(endpoint):
                 assert row["updates"] == view.n_updates and row["callsign"] == view.callsign
         # per-track keys are still there, but not every track at every tick
         assert wait_for(lambda: {p["intruder"] for p in per_track} == {str(v.key) for v in recorder.views[ticks[-1]]})
-        assert len(per_track) < N * len(ticks) / 2
+        assert len(per_track) < n * len(ticks) / 2
     finally:
         subscriber.undeclare()
         sub.close()
@@ -142,7 +148,7 @@ def test_monitor_picture_from_batches_equals_picture_from_per_track_samples(endp
                 views = daa.tracks(t)
                 bus_b.publish("traffic", TrafficBatch("b", t, views))
                 for view in views:
-                    bus_p.publish(f"tracks/{view.key}", track_payload("p", view, t))
+                    bus_p.publish(f"tracks/{view.key}", track_payload("p", view))
                 last = (t, views)
         t_end, views = last
 

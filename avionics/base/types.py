@@ -225,10 +225,11 @@ ASSESSMENT_FIELDS = ("range_m", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s", "mod
 @dataclass(frozen=True, slots=True)
 class TrackView:
     """One intruder track as the facade publishes it (avionics/daa.py): identity, report bookkeeping, and the
-    state predicted to the result's time: x = (east, north, altitude, v_east, v_north, v_up) with the position in
-    the tracking plane (metres) and the velocity in true east/north at the aircraft; p its covariance (read-only)."""
+    state predicted to time_s: x = (east, north, altitude, v_east, v_north, v_up) with the position in the
+    tracking plane (metres) and the velocity in true east/north at the aircraft; p its covariance (read-only)."""
 
     key: IntruderKey
+    time_s: float  # the step that built the view: x, p and the age are as of then
     callsign: str | None
     squawk: int | None
     emitter_type: int
@@ -255,11 +256,12 @@ class TrackView:
         return self.advisory_of()
 
     @classmethod
-    def of(cls, record, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool,
+    def of(cls, record, time_s: float, x, p, lat_deg: float, lon_deg: float, altitude_valid: bool,
            advisory: Advisory | Callable[[], Advisory | None] | None = None, modes: dict | None = None,
            spoof_suspected: bool = False, advisory_level: AdvisoryLevel | None = None,
            assessment: tuple | None = None) -> "TrackView":
-        """The view of a tracker's record (tracking/record.py) with its predicted state; x and p made read-only.
+        """The view of a tracker's record (tracking/record.py) with its state predicted to time_s; x and p made
+        read-only.
         advisory: an Advisory, or a callable building it (then advisory_level and assessment are its level and
         its ASSESSMENT_FIELDS)."""
         x.flags.writeable = False
@@ -269,8 +271,8 @@ class TrackView:
             advisory_level = advisory.level if advisory is not None else AdvisoryLevel.NONE
             assessment = advisory.assessment() if advisory is not None else None
             advisory = partial(_same, advisory)
-        return cls(key=record.key, callsign=record.callsign, squawk=record.squawk, emitter_type=record.emitter_type,
-                   simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
+        return cls(key=record.key, time_s=time_s, callsign=record.callsign, squawk=record.squawk,
+                   emitter_type=record.emitter_type, simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
                    datum=record.datum, altitude_valid=altitude_valid, lat_deg=lat_deg, lon_deg=lon_deg, x=x, p=p,
                    integrity=integrity.label, integrity_fault_m=integrity.fault_m if integrity.degraded else None,
                    advisory_level=advisory_level, advisory_of=advisory, assessment=assessment, modes=modes,

@@ -7,11 +7,12 @@ from __future__ import annotations
 from avionics.contract.bands import BAND_KINDS
 from avionics.contract.fields import (
     ALERT_LEVEL, ALTITUDE, ANGLE, DISTANCE, DURATION, ID_LEN, LATITUDE, LONGITUDE, PROBABILITY, RATE, SCHEMA,
-    SENSITIVITY_LEVEL, SIGNED_DISTANCE, SPEED, TEXT_LEN, TIME, Field, flag, ident, integer, names, number, text,
+    SENSITIVITY_LEVEL, SIGNED_DISTANCE, SPEED, TEXT_LEN, TIME, Field, flag, ident, integer, number, text,
 )
 
 SCHEMA_VERSION = 2  # every payload's `schema`; 2: RA sense, strength, target rate, conflict probabilities
-TRAFFIC_LAYOUT = 1  # the traffic batch's own table layout version (the fields inside follow SCHEMA_VERSION)
+TRAFFIC_LAYOUT = 2  # the traffic batch's own table layout version (the fields inside follow SCHEMA_VERSION); 2: the
+#                    rows' own time_s
 ARROW_STREAM = "application/vnd.apache.arrow.stream"  # the traffic sample's zenoh encoding
 SNAPSHOT_SCHEMA = 1  # the snapshot reply's own version
 
@@ -192,7 +193,8 @@ GUIDANCE = (
 )
 
 # The traffic batch: its header (the Arrow schema's metadata, all strings) and its columns (the track fields but
-# the header's). Arrow types by field type; `updates` is int64. f64[k]: fixed_size_list<float64> of the map's keys.
+# schema and vehicle: each row has its own time_s). Arrow types by field type; `updates` is int64. f64[k]:
+# fixed_size_list<float64> of the map's keys.
 TRAFFIC_HEADER = (
     COMMON[0], integer("layout", SCHEMA, "the table layout version: TRAFFIC_LAYOUT"), COMMON[1], COMMON[2],
     Field("keys", "{string: [string]}", "—", "for each map-valued column, its keys in order", ID_LEN, 16),
@@ -200,7 +202,7 @@ TRAFFIC_HEADER = (
 ARROW_TYPES = {"string": "str", "int": "i32", "bool": "bool", "float": "f64", "float[3]": "f64[3]",
                "{string: float}": "f64[k]"}
 TRAFFIC_COLUMNS = {f.name: "i64" if f.name == "updates" else ARROW_TYPES[f.type]
-                   for f in TRACK if f.name not in names(TRAFFIC_HEADER)}
+                   for f in TRACK if f.name not in ("schema", "vehicle")}
 KEYED_COLUMNS = tuple(f.name for f in IMM if f.type == "{string: float}")  # maps sent as value lists
 
 # The ownship's range/bearing sensors' measurements (issue 30), an input the process subscribes to: one sample per

@@ -192,8 +192,8 @@ REBROADCAST_FLAGS = (mavlink2.ADSB_FLAGS_VALID_COORDS | mavlink2.ADSB_FLAGS_VALI
                      | mavlink2.ADSB_FLAGS_DAA_REBROADCAST)
 
 
-def adsb_vehicle(track, now_s: float):
-    """A fused track (base.types.TrackView, predicted to now_s) as ADSB_VEHICLE for a ground station's traffic
+def adsb_vehicle(track):
+    """A fused track (base.types.TrackView, predicted to its time_s) as ADSB_VEHICLE for a ground station's traffic
     display (docs/mavlink.md, "ADSB_VEHICLE re-broadcast"): flagged ADSB_FLAGS_DAA_REBROADCAST so that no DAA
     process takes it as a report; the altitude (type as received: 0 pressure, 1 geometric) only while the track
     has one; tslc the age of its last report."""
@@ -219,4 +219,4 @@ def adsb_vehicle(track, now_s: float):
         hor_velocity=min(65534, int(round(ground_speed_mps(east, north) * 100.0))),
         ver_velocity=max(-32767, min(32766, int(round(up * 100.0)))), callsign=callsign,
         emitter_type=track.emitter_type if 0 <= track.emitter_type <= 255 else 0,
-        tslc=min(254, max(0, int(now_s - track.last_report_s))), flags=flags, squawk=squawk)
+        tslc=min(254, max(0, int(track.time_s - track.last_report_s))), flags=flags, squawk=squawk)

@@ -38,7 +38,7 @@ def advisory_payload(vehicle: str, advisory: Advisory, callsign: str | None = No
             for name, made in _ADVISORY_FIELDS}
 
 
-def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
+def track_payload(vehicle: str, track: TrackView) -> dict:
     """One track as the facade publishes it (base/types.py TrackView). Its `modes` (IMM filters; None for the CV
     filter): filter name, mode probabilities Markov-propagated to now, most likely mode, turn rate (deg/s,
     positive right), vertical mode, VB noise estimate (docs/tracking.md). spoof_suspected: a second MAVLink
@@ -57,9 +57,9 @@ def track_payload(vehicle: str, track: TrackView, now_s: float) -> dict:
         "simulated": track.simulated,
         "spoof_suspected": track.spoof_suspected,
         "model": TRACK_MODEL_CV,  # an IMM filter's modes overwrite this with the filter's name
-        "time_s": now_s,
+        "time_s": track.time_s,
         "last_report_s": track.last_report_s,
-        "age_s": now_s - track.last_report_s,
+        "age_s": track.time_s - track.last_report_s,
         "updates": track.n_updates,
         "lat_deg": track.lat_deg,
         "lon_deg": track.lon_deg,

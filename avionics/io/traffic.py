@@ -38,7 +38,8 @@ def _finite(values) -> list:
 
 
 def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
-    """Every track of `tracks` (TrackViews, as DaaResult.tracks) as one Arrow IPC stream."""
+    """Every track of `tracks` (TrackViews, as DaaResult.tracks) as one Arrow IPC stream published at now_s; each
+    row carries the time of its own view (`time_s`, layout 2: the views of a round are built over a few steps)."""
     import pyarrow as pa  # lazily: 0.25 s of import, not on the start-up path
 
     n = len(tracks)
@@ -48,6 +49,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
     ve, vn, vu = x[:, 3], x[:, 4], x[:, 5]
     alt_ok = np.fromiter((t.altitude_valid for t in tracks), bool, n)
     last = np.fromiter((t.last_report_s for t in tracks), float, n)
+    times = np.fromiter((t.time_s for t in tracks), float, n)
     keys = [t.key for t in tracks]
     modes = [t.modes for t in tracks]
     cols = {
@@ -60,7 +62,7 @@ def encode_traffic(vehicle: str, tracks, now_s: float) -> bytes:
         "simulated": pa.array([bool(t.simulated) for t in tracks], pa.bool_()),
         "spoof_suspected": pa.array([bool(t.spoof_suspected) for t in tracks], pa.bool_()),
         "model": pa.array([m.get("model", TRACK_MODEL_CV) if m else TRACK_MODEL_CV for m in modes], pa.string()),
-        "last_report_s": pa.array(last), "age_s": pa.array(now_s - last),
+        "time_s": pa.array(times), "last_report_s": pa.array(last), "age_s": pa.array(times - last),
         "updates": pa.array(np.fromiter((t.n_updates for t in tracks), np.int64, n)),
         "lat_deg": pa.array(np.fromiter((t.lat_deg for t in tracks), float, n)),
         "lon_deg": pa.array(np.fromiter((t.lon_deg for t in tracks), float, n)),
@@ -115,7 +117,8 @@ class TrafficError(ValueError):
 
 def decode_traffic(raw: bytes, max_rows: int = 100_000) -> tuple[dict, list[dict]]:
     """(header, rows) of an Arrow traffic stream: header {schema, layout, vehicle, time_s, keys}, rows as
-    per-track payloads with schema, vehicle and time_s from the header and the keyed maps rebuilt. Checks the
+    per-track payloads with schema and vehicle from the header (and time_s, from layout 1's, which has no row
+    times) and the keyed maps rebuilt. Checks the
     stream's structure only (TrafficError): the values are for the caller to check (monitor/schema.py). Untrusted
     input is safe to pass: the stream is fully validated (offsets, lengths) before a value is read."""
     import pyarrow as pa
@@ -149,7 +152,9 @@ def decode_traffic(raw: bytes, max_rows: int = 100_000) -> tuple[dict, list[dict
         rows = table.to_pylist()
     except Exception:  # noqa: BLE001
         raise TrafficError("arrow") from None
-    common = {"schema": header["schema"], "vehicle": header["vehicle"], "time_s": header["time_s"]}
+    common = {"schema": header["schema"], "vehicle": header["vehicle"]}
+    if "time_s" not in table.column_names:
+        common["time_s"] = header["time_s"]
     for row in rows:
         for name, names in keys.items():
             v = row.get(name)
@@ -172,7 +177,7 @@ class TrafficBatch:
         return encode_traffic(self.vehicle, self.tracks, self.time_s)
 
     def payloads(self) -> list[dict]:
-        return [track_payload(self.vehicle, t, self.time_s) for t in self.tracks]
+        return [track_payload(self.vehicle, t) for t in self.tracks]
 
     def names(self) -> list[str]:
         return [str(t.key) for t in self.tracks]

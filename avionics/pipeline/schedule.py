@@ -15,6 +15,15 @@ KEY_ORDER = attrgetter("address", "source")  # IntruderKey's own order, as one C
 TIME_EPSILON_S = 1e-6  # steps on a 0.1 s grid must not miss a tick to floating-point rounding
 
 
+def slice_count(size: int, left: int, elapsed_s: float, spread_s: float, slice_size: int) -> int:
+    """How many of a round of `size` items (`left` not done yet, `elapsed_s` into it) to do in this step: a slice
+    (slice_size), or more when the round would otherwise not be done by the share of spread_s gone by (all when
+    spread_s is up, or is 0). The re-assessment pass and the track views' round (views.py) are paced by it."""
+    share = min(1.0, elapsed_s / spread_s) if spread_s > 0 else 1.0
+    due = math.ceil(size * share - TIME_EPSILON_S)
+    return min(max(due - (size - left), min(slice_size, left)), left)
+
+
 class AssessmentSchedule:
     def __init__(self, advisory_params, counters: Counter):
         self.period_s = 1.0 / advisory_params.assessment_hz
@@ -48,10 +57,9 @@ class AssessmentSchedule:
             self._pass_size = len(self._pass)
         if not self._pass:
             return take
-        spread_s = 0.5 * self.period_s
-        due = math.ceil(self._pass_size * min(1.0, (now_s - self.last_tick_s) / spread_s) - TIME_EPSILON_S)
-        n = max(due - (self._pass_size - len(self._pass)), min(self.slice_size, len(self._pass)))
-        take.update(self._pass.popleft() for _ in range(min(n, len(self._pass))))
+        n = slice_count(self._pass_size, len(self._pass), now_s - self.last_tick_s, 0.5 * self.period_s,
+                        self.slice_size)
+        take.update(self._pass.popleft() for _ in range(n))
         return take
 
     def recent(self, now_s: float, since_s: float) -> bool:

@@ -202,7 +202,7 @@ def run_variant(name: str, session, sink: _Sink, tracks, now_s: float, ticks: in
         before = sink.samples
         t0 = time.perf_counter()
         if name == "per_track_json":
-            payloads = [(f"tracks/{t.key}", track_payload(vehicle, t, now_s)) for t in tracks]
+            payloads = [(f"tracks/{t.key}", track_payload(vehicle, t)) for t in tracks]
         elif name == "columns_json":
             payloads = [("traffic", traffic_payload(vehicle, tracks, now_s))]
         elif name == "arrow_ipc_from_lists":
