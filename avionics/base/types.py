@@ -272,7 +272,8 @@ class TrackView:
             assessment = advisory.assessment() if advisory is not None else None
             advisory = partial(_same, advisory)
         return cls(key=record.key, time_s=time_s, callsign=record.callsign, squawk=record.squawk,
-                   emitter_type=record.emitter_type, simulated=record.simulated, last_report_s=record.last_report_s, n_updates=record.n_updates,
+                   emitter_type=record.emitter_type, simulated=record.simulated, last_report_s=record.last_report_s,
+                   n_updates=record.n_updates,
                    datum=record.datum, altitude_valid=altitude_valid, lat_deg=lat_deg, lon_deg=lon_deg, x=x, p=p,
                    integrity=integrity.label, integrity_fault_m=integrity.fault_m if integrity.degraded else None,
                    advisory_level=advisory_level, advisory_of=advisory, assessment=assessment, modes=modes,
