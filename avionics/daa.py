@@ -134,6 +134,7 @@ class DaaResult:
     guidance: object | None = None
     guidance_changed: bool = False
     guidance_commands: tuple = ()
+    guidance_reads: tuple = ()  # the guidance reading the autopilot's mission (avionics/guidance/mission.py)
 
     @property
     def available(self) -> bool:
@@ -241,7 +242,8 @@ class Daa:
             wiring=sources.wiring + self._ra_inhibited,
             guidance=guidance.decision if guidance is not None else None,
             guidance_changed=guidance is not None and guidance.changed,
-            guidance_commands=guidance.commands if guidance is not None else ())
+            guidance_commands=guidance.commands if guidance is not None else (),
+            guidance_reads=guidance.reads if guidance is not None else ())
 
     def _guide(self, now_s: float, active, unavailable: str | None, sources: SourceStatus, bands=None):
         """The guidance stage's step (avionics/guidance/stage.py), with ownship's velocity and height above home;
@@ -250,8 +252,9 @@ class Daa:
             own = self._core.ownship.state_at(now_s)
             ownship = None
             if own is not None:
-                _, _, (ve, vn) = self._core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
-                ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m)
+                lat, lon, (ve, vn) = self._core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
+                ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m, float(lat),
+                                        float(lon))
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
                                          sources.link_authenticated, bands,

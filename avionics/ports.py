@@ -264,7 +264,7 @@ class MavlinkOut:
             due = result.wiring if "no_mavlink" in ended else onsets
             for diagnostic in due:
                 self._send(encode.statustext(diagnostic.text, encode.mavlink2.MAV_SEVERITY_WARNING))
-        for command in result.guidance_commands:  # to the autopilot (avionics/guidance/ardupilot.py)
+        for command in (*result.guidance_commands, *result.guidance_reads):  # to the autopilot (avionics/guidance)
             self._send(command)
         if result.guidance_changed and self._statustext:
             decision = result.guidance

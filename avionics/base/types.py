@@ -123,6 +123,35 @@ class CommandAck:
 
 
 @dataclass(frozen=True, slots=True)
+class MissionCount:
+    """Our autopilot's MISSION_COUNT to us: the number of mission items (the answer to MISSION_REQUEST_LIST)."""
+
+    time_s: float
+    count: int
+
+
+@dataclass(frozen=True, slots=True)
+class MissionItem:
+    """Our autopilot's MISSION_ITEM_INT to us: one mission item (command and frame as sent, position in degrees)."""
+
+    time_s: float
+    seq: int
+    command: int
+    frame: int
+    lat_deg: float
+    lon_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class MissionCurrent:
+    """Our autopilot's MISSION_CURRENT: the item it flies to, and how many the mission has (0: not said)."""
+
+    time_s: float
+    seq: int
+    total: int = 0
+
+
+@dataclass(frozen=True, slots=True)
 class SensorScan:
     """One scan of one range/bearing sensor (radar, active surveillance): its detections at one time of
     measurement, tracking/measurement.py PolarMeasurement objects (decoded by io/sensor_input.py)."""
@@ -132,8 +161,10 @@ class SensorScan:
     measurements: tuple
 
 
-Input = IntruderReport | OwnshipFix | OwnshipPressure | SensorScan | AutopilotHeartbeat | CommandAck
-AUTOPILOT_INPUTS = (AutopilotHeartbeat, CommandAck)  # for the guidance stage, not the DAA core
+Input = (IntruderReport | OwnshipFix | OwnshipPressure | SensorScan | AutopilotHeartbeat | CommandAck | MissionCount
+         | MissionItem | MissionCurrent)
+# for the guidance stage, not the DAA core
+AUTOPILOT_INPUTS = (AutopilotHeartbeat, CommandAck, MissionCount, MissionItem, MissionCurrent)
 
 
 class AdvisoryLevel(IntEnum):

@@ -5,16 +5,18 @@ States (GuidanceDecision.state):
   decision's reason says which);
 - advising (guidance.mode = "advise"): the manoeuvre is decided and published, nothing is sent;
 - commanding: GUIDED (PX4: OFFBOARD) asked for (DO_SET_MODE, retried until COMMAND_ACK and HEARTBEAT confirm
-  it) and the RA's vertical rate sent as a velocity setpoint with the horizontal velocity of the RA's start, every
+  it) and the RA's vertical rate sent as a velocity setpoint whose horizontal velocity follows the mission's legs
+  (the mission read over MAVLink, mission.py; without one, the horizontal velocity of the RA's start), every
   setpoint_period_s (PX4: 0.2 s, from before the mode change) and at each change; with a DO-365 alerter
   (HorizontalLimits), the track resolution of the guidance bands instead (horizontal.py), while an alert of a level
   that paints the corrective region or a more severe one (DO-365 corrective, warning) is active: level, at the
   ground speed of the manoeuvre's start, the setpoint's track stepped toward the resolution at the turn rate;
 - holding: the RAs (the corrective alerts) ended, clear of conflict: level flight at that horizontal velocity (on
-  the resolution track) for quiet_time_s, counted from the last step at which flying back would meet the conflict
+  the resolution track; along the mission's legs after a vertical manoeuvre) for quiet_time_s, counted from the last step at which flying back would meet the conflict
   again (the mission's track in a corrective band; after a vertical manoeuvre, an RA's geometry at the mission's
   altitude or on the way to it: `return_conflict`);
-- returning: the mode the vehicle was in before is asked for again (ArduCopter AUTO resumes the mission's current
+- returning: the mode the vehicle was in before is asked for again, the mission's current item first set to the one
+  flown to along its legs (ArduCopter AUTO resumes the mission's current
   item), until HEARTBEAT shows it: then idle;
 - overridden: the mode changed under us while we commanded (a pilot or a failsafe): nothing is sent until the
   conflict ends and a new one begins;
@@ -42,10 +44,13 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Mapping
 
-from avionics.base.types import Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck
+from avionics.base.types import (
+    Advisory, AdvisoryLevel, AutopilotHeartbeat, CommandAck, MissionCount, MissionCurrent, MissionItem,
+)
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
 from avionics.guidance.horizontal import closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_to
+from avionics.guidance.mission import MissionReader, set_current
 from avionics.guidance.arduplane import ARDUPLANE
 from avionics.guidance.px4 import PX4
 from avionics.guidance.params import GuidanceConfig
@@ -110,6 +115,7 @@ class GuidanceOutput:
     decision: GuidanceDecision
     changed: bool  # the state changed at this step: announce it
     commands: tuple  # MAVLink messages for the autopilot (ardupilot.py, px4.py), in order
+    reads: tuple = ()  # requests that read the autopilot's mission (mission.py): no command, no interlock holds them
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,6 +126,8 @@ class Ownship:
     east_mps: float
     up_mps: float
     height_above_home_m: float | None
+    lat_deg: float | None = None  # where it is (the mission's legs are followed from there); None: unknown
+    lon_deg: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -204,6 +212,10 @@ class GuidanceStage:
         self.prestream_until: float | None = None  # PX4: OFFBOARD is asked for once the stream has run until then
         self.plane = None  # ArduPlane: its GUIDED commands in flight (arduplane.py PlaneCommands)
         self.own: Ownship | None = None  # ownship at this step (ArduPlane's commands need its course and height)
+        # the autopilot's mission (mission.py), read once its HEARTBEAT names the contract: a vertical manoeuvre
+        # follows its legs; the item the guidance has flown to (None: the mission is not followed)
+        self.mission: MissionReader | None = None
+        self.mission_item: int | None = None
 
     # -- the step ----------------------------------------------------------------------------------------------
     def update(self, now_s: float, active: Mapping, unavailable_reason: str | None, own: Ownship | None,
@@ -215,8 +227,18 @@ class GuidanceStage:
         before = self.state
         commands: list = []
         self.own = own
+        mission_inputs = []
         for item in autopilot_inputs:
-            self._absorb(item, now_s)
+            if isinstance(item, (MissionCount, MissionItem, MissionCurrent)):
+                mission_inputs.append(item)
+            else:
+                self._absorb(item, now_s)
+        if self.execute and self.mode is not None and self.contract is not ARDUPLANE:
+            if self.mission is None:  # PX4's items start at 0; ArduPilot's item 0 is home
+                self.mission = MissionReader(self.system, self.component, first_item=0 if self.contract is PX4 else 1)
+            reads = self.mission.step(now_s, mission_inputs)
+        else:
+            reads = []
         if bands is not None:
             self.bands = bands
         c = self.contract
@@ -289,6 +311,7 @@ class GuidanceStage:
         if self.execute:
             if self.state in ("commanding", "holding"):
                 self._turn(now_s)
+                self._follow_mission()
                 self._setpoint(now_s, commands)  # a PX4 stream before its mode change
             if self.prestream_until is not None and now_s >= self.prestream_until:
                 self.prestream_until = None
@@ -299,7 +322,7 @@ class GuidanceStage:
         decision = GuidanceDecision(now_s, self.state, self.manoeuvre if self.state != "idle" else "none",
                                     self.target if flying else None, self.reason, c.mode_name(self.mode),
                                     self.since_s, self.target_track if flying else None)
-        return GuidanceOutput(decision, self.state != before, tuple(commands))
+        return GuidanceOutput(decision, self.state != before, tuple(commands), tuple(reads))
 
     # -- the parts ---------------------------------------------------------------------------------------------
     def _absorb(self, item, now_s: float) -> None:
@@ -352,6 +375,8 @@ class GuidanceStage:
             self.speed = math.hypot(own.north_mps, own.east_mps)
             self.track_cmd = self.mission_track = math.degrees(math.atan2(own.east_mps, own.north_mps)) % 360.0
             self.mission_height = own.height_above_home_m
+            reader = self.mission
+            self.mission_item = reader.current if reader is not None and reader.path is not None else None
             self.turned_s = now_s
             self.guided_confirmed = self.mode == c.command_mode
             if c.guided_commands is not None:
@@ -372,6 +397,11 @@ class GuidanceStage:
         self.held = self.target_track = None
         self._enter("returning", now_s, reason)
         self.prestream_until = None
+        reader = self.mission
+        if self.mission_item is not None and reader is not None and self.mission_item != reader.current:
+            # the mission resumes at the item the vehicle has reached, not at the one it was flying to when taken
+            commands.append(set_current(self.mission_item, self.system, self.component))
+        self.mission_item = None
         self._request(self.prior_mode if self.prior_mode is not None else self.contract.return_mode, now_s, commands)
 
     def _request(self, mode: int, now_s: float, commands: list) -> None:
@@ -483,6 +513,17 @@ class GuidanceStage:
             return False
         rate = self.vehicle.climb_rate_mps if dz > 0 else -self.vehicle.descent_rate_mps
         return return_conflict(((dz, 0.0), (0.0, rate)))
+
+    def _follow_mission(self) -> None:
+        """A vertical manoeuvre's horizontal velocity: along the mission's legs from where the vehicle is, at the
+        ground speed of the manoeuvre's start (mission.py MissionPath.velocity), the item flown to advanced as
+        the vehicle reaches it; without a mission read (or a position) the velocity of the start is kept."""
+        own, reader = self.own, self.mission
+        if self.held is not None or self.mission_item is None or reader is None or reader.path is None or \
+                own is None or own.lat_deg is None or not reader.path.waypoints:
+            return
+        north, east, self.mission_item = reader.path.velocity(self.mission_item, own.lat_deg, own.lon_deg, self.speed)
+        self.horizontal = (north, east)
 
     def _turn(self, now_s: float) -> None:
         """The setpoint's track stepped toward the resolution at the turn rate, on the manoeuvre's side (the long

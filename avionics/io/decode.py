@@ -31,8 +31,8 @@ from avionics.io.sensor_input import SensorMessageDecoder
 from avionics.tracking.measurement import PolarMeasurement
 from avionics.base.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
 from avionics.base.types import (
-    AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, OwnshipFix,
-    OwnshipPressure,
+    AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, MissionCount,
+    MissionCurrent, MissionItem, OwnshipFix, OwnshipPressure,
 )
 from avionics.base.units import INT16_MAX, INT32_MAX, UINT16_MAX
 
@@ -118,6 +118,10 @@ class MessageDecoder:
         self.autopilot_inputs = guidance is not None and guidance.mode == "execute"
         if self.autopilot_inputs:
             self._handlers["COMMAND_ACK"] = self._command_ack
+            # the mission, read by the guidance (avionics/guidance/mission.py)
+            self._handlers["MISSION_COUNT"] = self._mission_count
+            self._handlers["MISSION_ITEM_INT"] = self._mission_item
+            self._handlers["MISSION_CURRENT"] = self._mission_current
 
     def decode(self, msg, now_s: float) -> Input | PolarMeasurement | None:
         kind = msg.get_type()
@@ -264,6 +268,31 @@ class MessageDecoder:
         if target_system not in (0, m.source_system) or target_component not in (0, m.source_component):
             return None  # someone else's command
         return CommandAck(now_s, int(msg.command), int(msg.result))
+
+    def _to_us(self, msg) -> bool:
+        """Addressed to this process (target system and component ours; 0: everyone)."""
+        m = self.config.mavlink
+        return msg.target_system in (0, m.source_system) and msg.target_component in (0, m.source_component)
+
+    def _mission_count(self, msg, now_s: float) -> MissionCount | None:
+        if not self._from_autopilot(msg):
+            return self._reject("mission.other_sender")
+        if not self._to_us(msg) or msg.mission_type != 0:  # someone else's download, or a fence or rally list
+            return None
+        return MissionCount(now_s, int(msg.count))
+
+    def _mission_item(self, msg, now_s: float) -> MissionItem | None:
+        if not self._from_autopilot(msg):
+            return self._reject("mission.other_sender")
+        if not self._to_us(msg) or msg.mission_type != 0:
+            return None
+        # x, y: a position's degrees E7 for a navigation item, other integers for others (the reader judges)
+        return MissionItem(now_s, int(msg.seq), int(msg.command), int(msg.frame), msg.x / 1e7, msg.y / 1e7)
+
+    def _mission_current(self, msg, now_s: float) -> MissionCurrent | None:
+        if not self._from_autopilot(msg):
+            return self._reject("mission.other_sender")
+        return MissionCurrent(now_s, int(msg.seq), int(getattr(msg, "total", 0) or 0))
 
     # -- ownship ----------------------------------------------------------------------------------------------
     def _sensor_measurement(self, msg, now_s: float):

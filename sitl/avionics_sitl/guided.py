@@ -17,6 +17,13 @@ It flies the scenario's ownship path as its mission in AUTO and answers as ArduC
   waypoint's altitude does.
 A pilot's mode change is `set_mode(mode, now)`.
 
+Its mission, for the guidance to read (avionics/guidance/mission.py), is the scenario's ownship path as waypoints
+(`load_mission`: the path sampled each second and simplified to within MISSION_TOLERANCE_M by Douglas-Peucker,
+each vertex a MAV_CMD_NAV_WAYPOINT; ArduPilot's item 0 is home), served over the MAVLink mission protocol
+(MISSION_REQUEST_LIST -> MISSION_COUNT, MISSION_REQUEST_INT -> MISSION_ITEM_INT); MISSION_CURRENT says the vertex
+AUTO flies to (the first one ahead of the path's present time), kept while out of AUTO, and MISSION_SET_CURRENT
+sets it (AUTO still re-joins the path where the scenario's ownship is now: the mission's timing is the encounter's).
+
 firmware="px4" is a PX4 multicopter instead (avionics/guidance/px4.py): HEARTBEAT MAV_AUTOPILOT_PX4 with PX4's
 custom_mode (main and sub mode), the mission in AUTO.MISSION, SET_POSITION_TARGET_LOCAL_NED velocity setpoints
 taken in any mode and flown in OFFBOARD, OFFBOARD DENIED unless the stream has run for more than a second and is
@@ -38,6 +45,8 @@ from avionics_sitl.trajectory import KinematicState
 EARTH_RADIUS_M = 6371008.8
 TURN_MIN_SPEED_MPS = 0.5  # below this ground speed a multirotor has no track to turn (ours)
 RECOVERY_GAIN_PER_S = 0.5  # AUTO's pull back onto the path (ours; AC_PosControl's position P is 1.0 per second)
+MISSION_TOLERANCE_M = 1.0  # the waypoints stay this close to the sampled path (horizontally)
+MISSION_SAMPLE_S = 1.0
 
 
 class SimCopter:
@@ -64,6 +73,9 @@ class SimCopter:
         self.modes: list[tuple[float, int]] = [(0.0, self.mission_mode)]  # (time, mode) at each change
         self._last_t: float | None = None
         self.min_guided_alt_msl_m = math.inf  # the lowest true altitude flown in GUIDED (the floor's check)
+        self.waypoints: list[tuple[float, float, float]] = []  # (time on the path, lat, lon): load_mission
+        self.first_item = 0 if self.px4 else 1  # ArduPilot's item 0 is home
+        self.current_item = self.first_item  # MISSION_CURRENT's seq
 
     # -- the link ----------------------------------------------------------------------------------------------
     MAV_TYPE = mavlink2.MAV_TYPE_QUADROTOR  # what HEARTBEAT says this vehicle is (SimPlane: a fixed wing)
@@ -92,6 +104,8 @@ class SimCopter:
                 return [self._ack(msg, mavlink2.MAV_RESULT_DENIED)]
             self.set_mode(mode, now_s)
             return [self._ack(msg, mavlink2.MAV_RESULT_ACCEPTED)]
+        if kind.startswith("MISSION_") and self._for_us(msg):
+            return self._mission(msg, kind)
         wanted = "SET_POSITION_TARGET_LOCAL_NED" if self.px4 else "SET_POSITION_TARGET_GLOBAL_INT"
         if kind == wanted and self._for_us(msg):
             if not (px4 if self.px4 else ardupilot).is_velocity_setpoint(msg):
@@ -106,6 +120,47 @@ class SimCopter:
             self.counters["sim.setpoint" if self.mode == self.command_mode else "sim.setpoint_streamed"] += 1
             self.setpoint = (msg.vy, msg.vx, -msg.vz, now_s)  # NED -> east, north, up
         return []
+
+    # -- the mission ---------------------------------------------------------------------------------------------
+    def load_mission(self, trajectory, duration_s: float) -> None:
+        """The path of trajectory (state_at(t)) over [0, duration_s] as this vehicle's mission (module docstring)."""
+        times = [min(k * MISSION_SAMPLE_S, duration_s) for k in range(int(math.ceil(duration_s / MISSION_SAMPLE_S)) + 1)]
+        states = [trajectory.state_at(t) for t in times]
+        lat0 = states[0].lat_deg
+        xy = [(math.radians(s.lon_deg) * EARTH_RADIUS_M * math.cos(math.radians(lat0)),
+               math.radians(s.lat_deg) * EARTH_RADIUS_M) for s in states]
+        self.waypoints = [(times[i], states[i].lat_deg, states[i].lon_deg) for i in _simplified(xy, MISSION_TOLERANCE_M)]
+
+    def _items(self) -> list[tuple[float, float]]:
+        """(lat, lon) of every item: home first on ArduPilot."""
+        points = [(lat, lon) for _, lat, lon in self.waypoints]
+        return points[:1] + points if not self.px4 and points else points
+
+    def _mission(self, msg, kind: str) -> list:
+        items = self._items()
+        if kind == "MISSION_REQUEST_LIST":
+            self.counters["sim.mission_list"] += 1
+            return [mavlink2.MAVLink_mission_count_message(msg.get_srcSystem(), msg.get_srcComponent(), len(items))]
+        if kind == "MISSION_REQUEST_INT" and 0 <= msg.seq < len(items):
+            lat, lon = items[msg.seq]
+            return [mavlink2.MAVLink_mission_item_int_message(
+                msg.get_srcSystem(), msg.get_srcComponent(), msg.seq, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                mavlink2.MAV_CMD_NAV_WAYPOINT, int(msg.seq == self.current_item), 1, 0.0, 0.0, 0.0, 0.0,
+                int(round(lat * 1e7)), int(round(lon * 1e7)), 0.0)]
+        if kind == "MISSION_SET_CURRENT" and 0 <= msg.seq < len(items):
+            self.counters["sim.mission_set_current"] += 1
+            self.current_item = msg.seq
+            return [self.mission_current()]
+        return []
+
+    def mission_current(self):
+        """MISSION_CURRENT (ArduPilot streams it with EXTENDED_STATUS; PX4 too)."""
+        return mavlink2.MAVLink_mission_current_message(self.current_item, len(self._items()))
+
+    def _advance_mission(self, t: float) -> None:
+        """In AUTO: the item flown to is the first vertex ahead of the path's time t."""
+        ahead = next((i for i, (tw, _, _) in enumerate(self.waypoints) if tw > t + 1e-9), len(self.waypoints) - 1)
+        self.current_item = ahead + self.first_item
 
     def _stream_running(self, now_s: float) -> bool:
         """PX4 engages OFFBOARD only on a stream it has received for more than a second, still alive."""
@@ -139,6 +194,8 @@ class SimCopter:
         dt = 0.0 if self._last_t is None else max(t - self._last_t, 0.0)
         self._last_t = t
         v = self.vehicle
+        if self.mode == self.mission_mode and self.waypoints:
+            self._advance_mission(t)
         wanted = self._wanted(path, t)
         if self.mode != self.mission_mode:
             wanted[0], wanted[1] = self._turn_limited(wanted[0], wanted[1], dt)
@@ -204,3 +261,26 @@ class SimCopter:
             self.counters["sim.guided_timeout"] += 1
             self.setpoint = None
         return [0.0, 0.0, 0.0]  # stop: GUIDED without a (fresh) setpoint, LOITER, BRAKE, ...
+
+
+def _simplified(xy: list[tuple[float, float]], tolerance_m: float) -> list[int]:
+    """The indices Douglas-Peucker keeps of the polyline xy (every dropped point within tolerance_m of the kept
+    polyline; the first and last always kept)."""
+    keep = {0, len(xy) - 1}
+    stack = [(0, len(xy) - 1)]
+    while stack:
+        i, j = stack.pop()
+        (x0, y0), (x1, y1) = xy[i], xy[j]
+        dx, dy = x1 - x0, y1 - y0
+        norm2 = dx * dx + dy * dy
+        worst, k = 0.0, None
+        for m in range(i + 1, j):
+            x, y = xy[m]
+            u = min(max(((x - x0) * dx + (y - y0) * dy) / norm2, 0.0), 1.0) if norm2 > 0 else 0.0
+            d = math.hypot(x - x0 - u * dx, y - y0 - u * dy)  # to the segment, not its line (out-and-back paths)
+            if d > worst:
+                worst, k = d, m
+        if k is not None and worst > tolerance_m:
+            keep.add(k)
+            stack += [(i, k), (k, j)]
+    return sorted(keep)

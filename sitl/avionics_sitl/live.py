@@ -163,6 +163,7 @@ def fly_guided(scenario: Scenario, connection: str, impairments: AdsbImpairments
     events = [e for e in schedule(scenario, impairments, seed, autopilot, duration_s=end_s, ownship=False)
               if e.deliver_s >= start_s]
     own_traj = scenario.trajectories()[0]
+    copter.load_mission(own_traj, scenario.duration_s)  # the path, as the guidance reads it (MISSION_ protocol)
     pilot = sorted(pilot)
     recording = Recording()
     link = MavlinkLink(connection, recording.counters, autopilot.system_id, autopilot.component_id)
@@ -182,7 +183,7 @@ def fly_guided(scenario: Scenario, connection: str, impairments: AdsbImpairments
             recording.flown.append((now, tuple(copter.offset)))
             out = []
             if now >= next_beat:
-                out.append(copter.heartbeat())
+                out += [copter.heartbeat(), copter.mission_current()]
                 next_beat += 1.0
             if now >= next_own:
                 if copter.reports_position(now):

@@ -120,8 +120,10 @@ class _Autopilot:
             elif kind == "DAA_ADVISORY" and self.responder is not None:
                 self.responder.receive(back, now_s)
             elif self.copter is not None and kind in ("COMMAND_LONG", "COMMAND_INT", "SET_POSITION_TARGET_GLOBAL_INT",
-                                                    "SET_POSITION_TARGET_LOCAL_NED"):
+                                                    "SET_POSITION_TARGET_LOCAL_NED", "MISSION_SET_CURRENT"):
                 self.result.sent.append((now_s, back))
+                self.replies.extend(self.copter.receive(back, now_s))
+            elif self.copter is not None and kind.startswith("MISSION_"):  # the guidance reading the mission
                 self.replies.extend(self.copter.receive(back, now_s))
 
 
@@ -150,6 +152,8 @@ class _ScheduleSource:
         self.scanner = FrameScanner(counters)
         self.packer = Packer(autopilot)
         self.own_traj, self.intruder_trajs = scenario.trajectories()
+        if copter is not None:
+            copter.load_mission(self.own_traj, scenario.duration_s)  # the path, as the guidance reads it
         self.offsets: list[tuple] = []  # (t, (east, north, up) offset of ownship from the scenario's path)
         self.min_alt_msl_m = math.inf  # the lowest true ownship altitude at any tick
         self.now_s = 0.0
@@ -200,7 +204,7 @@ class _ScheduleSource:
                 for msg in replies:
                     yield self._batch(msg, t_tick)
                 if abs(t_tick - round(t_tick)) < 1e-6:  # HEARTBEAT at 1 Hz, as ArduPilot's default stream
-                    yield self._batch(self.copter.heartbeat(), t_tick)
+                    yield self._batch([self.copter.heartbeat(), self.copter.mission_current()], t_tick)
                 if abs(t_tick / self.own_period - round(t_tick / self.own_period)) < 1e-6 and \
                         self.copter.reports_position(t_tick):
                     for msg in ownship_messages(own, self.scenario.ground_elevation_m, int(t_tick * 1000)):

@@ -127,7 +127,7 @@ def fly(encounter, plane, config, impairments, seed, vehicle_name: str) -> Flown
     result = replay(scenario(encounter, plane), config, impairments, seed=replay_seed, autopilot=autopilot,
                     fly_guidance=True, copter=copter)
     ras = [c for c in result.changes if c.level is AdvisoryLevel.RA]
-    setpoints = [when for when, msg in result.sent if msg.get_type() != "COMMAND_LONG"]
+    setpoints = [when for when, msg in result.sent if msg.get_type().startswith("SET_POSITION_TARGET")]
     (miss,) = result.misses
     first_command = result.sent[0][0] if result.sent else None
     away, resumed, back = _away(copter.modes, copter.mission_mode)
