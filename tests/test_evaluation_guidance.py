@@ -142,6 +142,10 @@ def test_the_command_runs_and_reports_a_guided_set(tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["evaluate", "--report", str(out), str(pilot)]) == 2
     assert "mix the guidance path" in capsys.readouterr().err
+    # two runs of one profile (code before and after a change, say): a usage error, not an internal one
+    assert cli.main(["evaluate", "--report", str(out), str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "an encounter twice for a profile" in err and "Traceback" not in err
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -57,19 +57,18 @@ def paired_risk_ratio(a: int, b: int, c: int, z: float = Z95) -> tuple[float, fl
 def load(paths, common: bool = False) -> pa.Table:
     """The records of one or more results directories (runner.run), e.g. one per profile group. common: only the
     encounters every profile has (a side-by-side comparison on the same encounters when one set is shorter)."""
-    from avionics_eval.evaluation.runner import read
+    from avionics_eval.evaluation.runner import EvaluationError, read
 
     tables = [read(Path(p)) for p in paths]
     if any(t.schema != tables[0].schema for t in tables):
-        from avionics_eval.evaluation.runner import EvaluationError
-
         raise EvaluationError("the results mix the guidance path (--pilot guidance) and a pilot model: report each "
                               "alone")
     table = pa.concat_tables(tables) if len(tables) > 1 else tables[0]
     encounters = list(zip(table["seed"].to_pylist(), table["index"].to_pylist()))
     profiles = table["profile"].to_pylist()
     if len(set(zip(encounters, profiles))) != table.num_rows:
-        raise ValueError("the results hold an encounter twice for a profile: give each (set, profile) once")
+        raise EvaluationError("the results hold an encounter twice for a profile: give each (set, profile) once "
+                              "(two runs of one profile: report each alone)")
     if common:
         per_profile = {}
         for encounter, profile in zip(encounters, profiles):
@@ -228,7 +227,9 @@ def _weighted(table: pa.Table) -> bool:
         return False
     sources = {s for s in table["source"].to_pylist() if s is not None}
     if len(sources) > 1:
-        raise ValueError(f"the results mix encounter sources ({', '.join(sorted(sources))}): report each alone")
+        from avionics_eval.evaluation.runner import EvaluationError
+
+        raise EvaluationError(f"the results mix encounter sources ({', '.join(sorted(sources))}): report each alone")
     return bool(sources) and sources != {SOURCE}
 
 
