@@ -517,11 +517,17 @@ class GuidanceStage:
     def _follow_mission(self) -> None:
         """A vertical manoeuvre's horizontal velocity: along the mission's legs from where the vehicle is, at the
         ground speed of the manoeuvre's start (mission.py MissionPath.velocity), the item flown to advanced as
-        the vehicle reaches it; without a mission read (or a position) the velocity of the start is kept."""
+        the vehicle reaches it; without a mission read (or a position) the velocity of the start is kept, until
+        one is: a mission read during the manoeuvre is followed from the autopilot's current item then (GUIDED
+        keeps the item AUTO was flying to)."""
         own, reader = self.own, self.mission
-        if self.held is not None or self.mission_item is None or reader is None or reader.path is None or \
-                own is None or own.lat_deg is None or not reader.path.waypoints:
+        if self.held is not None or reader is None or reader.path is None or own is None or own.lat_deg is None \
+                or not reader.path.waypoints:
             return
+        if self.mission_item is None:
+            if reader.current is None:
+                return
+            self.mission_item = reader.current
         north, east, self.mission_item = reader.path.velocity(self.mission_item, own.lat_deg, own.lon_deg, self.speed)
         self.horizontal = (north, east)
 

@@ -1,0 +1,42 @@
+"""python -m avionics_eval.reports.refly: the NMAC encounters of a results set flown again with the code as it is.
+
+Oracle: evaluate() on the same encounter (what a new run would record); the set's conditions and source read
+back from its manifest as they were written."""
+
+from __future__ import annotations
+
+import json
+
+import pyarrow.parquet as pq
+import pytest
+
+from avionics_eval import cli
+from avionics_eval.evaluation.evaluate import Conditions, evaluate
+from avionics_eval.evaluation.generator import generate
+from avionics_eval.reports import refly
+
+
+@pytest.mark.parametrize("conditions", [Conditions(), Conditions("do365-adsb", 100.0, "standard"),
+                                        Conditions("do365-adsb", None, "guidance", "multirotor")])
+def test_the_manifests_conditions_read_back(conditions):
+    assert refly.conditions_of(conditions.name) == conditions
+
+
+def test_a_set_s_nmac_records_are_flown_again_and_their_outcome_now_reported(tmp_path, capsys):
+    out = tmp_path / "set"
+    assert cli.main(["evaluate", "--profiles", "tcas2", "--seed", "3", "--encounters", "2", "--scheduler",
+                     "synchronous", "--out", str(out)]) == 0
+    capsys.readouterr()
+    (part,) = out.glob("part-*.parquet")
+    table = pq.read_table(part)
+    rows = table.to_pylist()
+    rows[1].update(nmac_equipped=True, induced_nmac=True)  # as if an earlier code had flown encounter 1 into one
+    pq.write_table(table.from_pylist(rows, schema=table.schema), part)
+    assert refly.main([str(out)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    now = evaluate(generate(3, 1), "tcas2", (3, 1))
+    assert report["nmac_before"] == report["induced_before"] == 1 and report["profile"] == "tcas2"
+    (one,) = report["encounters"]
+    assert one["index"] == 1 and one["nmac_now"] == now["nmac_equipped"]
+    assert report["nmac_now"] == int(now["nmac_equipped"]) and one["weight"] == rows[1]["weight"]
+    assert refly.main([str(tmp_path / "none")]) == 2
