@@ -154,7 +154,8 @@ class MissionReader:
         if seq < self._count:
             return [self._send(("item", seq), now_s)]
         self._pending, self._total = None, self._count
-        self.path = MissionPath([w for w in (self._items[i] for i in range(self._count)) if w is not None and w.seq >= self.first_item])
+        points = (self._items[i] for i in range(self._count))
+        self.path = MissionPath([w for w in points if w is not None and w.seq >= self.first_item])
         return [mavlink2.MAVLink_mission_ack_message(self.system, self.component, mavlink2.MAV_MISSION_ACCEPTED)]
 
     def _send(self, pending: tuple[str, int], now_s: float):

@@ -12,12 +12,12 @@ States (GuidanceDecision.state):
   that paints the corrective region or a more severe one (DO-365 corrective, warning) is active: level, at the
   ground speed of the manoeuvre's start, the setpoint's track stepped toward the resolution at the turn rate;
 - holding: the RAs (the corrective alerts) ended, clear of conflict: level flight at that horizontal velocity (on
-  the resolution track; along the mission's legs after a vertical manoeuvre) for quiet_time_s, counted from the last step at which flying back would meet the conflict
-  again (the mission's track in a corrective band; after a vertical manoeuvre, an RA's geometry at the mission's
-  altitude or on the way to it: `return_conflict`);
+  the resolution track; along the mission's legs after a vertical manoeuvre) for quiet_time_s, counted from the
+  last step at which flying back would meet the conflict again (the mission's track in a corrective band; after a
+  vertical manoeuvre, an RA's geometry at the mission's altitude or on the way to it: `return_conflict`);
 - returning: the mode the vehicle was in before is asked for again, the mission's current item first set to the one
-  flown to along its legs (ArduCopter AUTO resumes the mission's current
-  item), until HEARTBEAT shows it: then idle;
+  flown to along its legs (ArduCopter AUTO resumes the mission's current item), until HEARTBEAT shows it: then
+  idle;
 - overridden: the mode changed under us while we commanded (a pilot or a failsafe): nothing is sent until the
   conflict ends and a new one begins;
 - failed: a mode change refused (COMMAND_ACK not accepted) or never confirmed after the retries: nothing is sent

@@ -124,12 +124,14 @@ class SimCopter:
     # -- the mission ---------------------------------------------------------------------------------------------
     def load_mission(self, trajectory, duration_s: float) -> None:
         """The path of trajectory (state_at(t)) over [0, duration_s] as this vehicle's mission (module docstring)."""
-        times = [min(k * MISSION_SAMPLE_S, duration_s) for k in range(int(math.ceil(duration_s / MISSION_SAMPLE_S)) + 1)]
+        steps = int(math.ceil(duration_s / MISSION_SAMPLE_S))
+        times = [min(k * MISSION_SAMPLE_S, duration_s) for k in range(steps + 1)]
         states = [trajectory.state_at(t) for t in times]
         lat0 = states[0].lat_deg
         xy = [(math.radians(s.lon_deg) * EARTH_RADIUS_M * math.cos(math.radians(lat0)),
                math.radians(s.lat_deg) * EARTH_RADIUS_M) for s in states]
-        self.waypoints = [(times[i], states[i].lat_deg, states[i].lon_deg) for i in _simplified(xy, MISSION_TOLERANCE_M)]
+        self.waypoints = [(times[i], states[i].lat_deg, states[i].lon_deg)
+                          for i in _simplified(xy, MISSION_TOLERANCE_M)]
 
     def _items(self) -> list[tuple[float, float]]:
         """(lat, lon) of every item: home first on ArduPilot."""
