@@ -163,3 +163,25 @@ def _to_segment(p, a, b) -> float:
     norm2 = dx * dx + dy * dy
     u = min(max(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / norm2, 0.0), 1.0) if norm2 > 0 else 0.0
     return math.hypot(p[0] - a[0] - u * dx, p[1] - a[1] - u * dy)
+
+
+def test_px4_flies_the_vertical_ra_along_its_mission_too():
+    """small-uas's rotorcraft encounter 0 of set 28 (its CLIMB comes while the survey turns) flown through PX4's
+    contract (OFFBOARD, items from 0): the horizontal miss is the mission's, as through ArduCopter's
+    (tests/test_evaluation_guidance.py), and the mission resumes in AUTO.MISSION."""
+    from avionics.guidance import px4
+    from avionics_eval.evaluation import evaluate as ev
+    from avionics_eval.evaluation.guided import scenario
+    from avionics_eval.evaluation.lincoln import LincolnSource
+    from avionics_sitl.replay import replay
+
+    encounter = LincolnSource.of("uncor_1200exclude_rotorcraft_v1p2.txt", "uav-survey").encounter(28, 0)
+    conditions = ev.Conditions("do365-adsb", None, "guidance", "multirotor")
+    config, _ = ev._setup("small-uas", (*ev.EVALUATION_OVERRIDES, *conditions.overrides()))
+    copter = SimCopter(load_vehicle("multirotor"), firmware="px4")
+    result = replay(scenario(encounter, ev.PLANE), config, conditions.impairments(), seed=1, fly_guidance=True,
+                    copter=copter)
+    (miss,) = result.misses
+    assert px4.OFFBOARD in [mode for _, mode in copter.modes] and copter.mode == px4.MISSION
+    assert copter.counters["sim.mission_list"] == 1
+    assert miss.hmd_flown_m == pytest.approx(miss.hmd_m, abs=15.0) and miss.hmd_m > 600.0
