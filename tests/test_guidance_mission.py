@@ -17,6 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avionics.advisory.vehicle import load_vehicle
+from avionics.base.geodesy import MEAN_EARTH_RADIUS_M
 from avionics.base.types import MissionCount, MissionCurrent, MissionItem
 from avionics.config import load_config
 from avionics.guidance import mission as m
@@ -27,7 +28,7 @@ from avionics_sitl.guided import SimCopter
 from avionics_sitl.trajectory import KinematicState
 
 LAT0, LON0 = 47.0, 8.0
-M_PER_DEG_LAT = math.radians(1.0) * m.EARTH_RADIUS_M
+M_PER_DEG_LAT = math.radians(1.0) * MEAN_EARTH_RADIUS_M
 
 
 def _latlon(north_m: float, east_m: float) -> tuple[float, float]:
@@ -35,10 +36,14 @@ def _latlon(north_m: float, east_m: float) -> tuple[float, float]:
 
 
 class _Line:
-    """A straight-line path at 5 m/s north then east (two legs), as a trajectory (state_at)."""
+    """A path at 5 m/s north then east (two legs), as a trajectory (sitl/trajectory.py: enu_at, state_at)."""
+
+    def enu_at(self, t):
+        n, e = (5.0 * t, 0.0) if t <= 20.0 else (100.0, 5.0 * (t - 20.0))
+        return e, n, 100.0
 
     def state_at(self, t):
-        n, e = (5.0 * t, 0.0) if t <= 20.0 else (100.0, 5.0 * (t - 20.0))
+        e, n, _ = self.enu_at(t)
         lat, lon = _latlon(n, e)
         ve, vn = (0.0, 5.0) if t <= 20.0 else (5.0, 0.0)
         return KinematicState(t, lat, lon, 100.0, ve, vn, 0.0)

@@ -13,6 +13,15 @@ WGS84_F = 1.0 / 298.257223563
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
 # the ellipsoid as x^2/a^2 + y^2/a^2 + z^2/b^2 = 1: its coefficients
 _QUADRIC = (1.0 / WGS84_A**2, 1.0 / WGS84_A**2, 1.0 / (WGS84_A * (1.0 - WGS84_F)) ** 2)
+MEAN_EARTH_RADIUS_M = 6371008.8  # IUGG mean radius, for flat-earth differences over a few kilometres
+
+
+def flat_offset_m(lat0_deg: float, lon0_deg: float, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+    """(north, east) metres from (lat0, lon0) to (lat, lon) on a flat earth at lat0, the longitude difference
+    taken across the antimeridian the short way: exact enough over a few kilometres, and cheap (no ECEF)."""
+    dlon = (lon_deg - lon0_deg + 180.0) % 360.0 - 180.0
+    return (math.radians(lat_deg - lat0_deg) * MEAN_EARTH_RADIUS_M,
+            math.radians(dlon) * MEAN_EARTH_RADIUS_M * math.cos(math.radians(lat0_deg)))
 
 
 def geodetic_to_ecef(lat_deg, lon_deg, h_m):

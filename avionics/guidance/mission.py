@@ -21,13 +21,13 @@ import math
 from dataclasses import dataclass
 
 import avionics.io  # noqa: F401  (MAVLink 2)
+from avionics.base.geodesy import flat_offset_m
 from avionics.base.types import MissionCount, MissionCurrent, MissionItem
 from avionics.io.dialect import daa as mavlink2
 
 TIMEOUT_S = 1.5  # a request's answer (the mission protocol's default timeout)
 RETRIES = 5  # resends of one request before the download fails (the protocol's default)
 RESTART_S = 10.0  # a failed download is started again after this
-EARTH_RADIUS_M = 6371008.8
 # An item is reached within this horizontal distance (ArduCopter WPNAV_RADIUS default, 200 cm: AC_WPNav.cpp) or
 # once the vehicle is past it along its leg
 REACHED_M = 2.0
@@ -66,10 +66,11 @@ class MissionPath:
             i = len(self.waypoints) - 1
         while True:
             target = self.waypoints[i]
-            n, e = _offset(lat_deg, lon_deg, target)  # from the vehicle to the target
+            n, e = flat_offset_m(lat_deg, lon_deg, target.lat_deg, target.lon_deg)  # from the vehicle to the target
             leg = (n, e)  # the first waypoint: straight to it
             if i > 0:
-                pn, pe = _offset(lat_deg, lon_deg, self.waypoints[i - 1])
+                before = self.waypoints[i - 1]
+                pn, pe = flat_offset_m(lat_deg, lon_deg, before.lat_deg, before.lon_deg)
                 if math.hypot(n - pn, e - pe) >= 1e-6:
                     leg = (n - pn, e - pe)
             length = math.hypot(*leg)
@@ -97,13 +98,6 @@ def _positional(item: MissionItem) -> bool:
     """A navigation item with a global position the vehicle flies to (not a DO_ command, not a local frame)."""
     return item.command in NAV_POSITION_COMMANDS and item.frame in GLOBAL_FRAMES and \
         -90.0 <= item.lat_deg <= 90.0 and -180.0 <= item.lon_deg <= 180.0 and (item.lat_deg, item.lon_deg) != (0, 0)
-
-
-def _offset(lat_deg: float, lon_deg: float, to: Waypoint) -> tuple[float, float]:
-    """North and east metres from (lat, lon) to the waypoint (local flat earth: legs of a few kilometres)."""
-    north = math.radians(to.lat_deg - lat_deg) * EARTH_RADIUS_M
-    east = math.radians(to.lon_deg - lon_deg) * EARTH_RADIUS_M * math.cos(math.radians(lat_deg))
-    return north, east
 
 
 class MissionReader:

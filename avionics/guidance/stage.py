@@ -375,8 +375,6 @@ class GuidanceStage:
             self.speed = math.hypot(own.north_mps, own.east_mps)
             self.track_cmd = self.mission_track = math.degrees(math.atan2(own.east_mps, own.north_mps)) % 360.0
             self.mission_height = own.height_above_home_m
-            reader = self.mission
-            self.mission_item = reader.current if reader is not None and reader.path is not None else None
             self.turned_s = now_s
             self.guided_confirmed = self.mode == c.command_mode
             if c.guided_commands is not None:

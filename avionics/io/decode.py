@@ -30,6 +30,7 @@ from avionics.io.senders import Senders
 from avionics.io.sensor_input import SensorMessageDecoder
 from avionics.tracking.measurement import PolarMeasurement
 from avionics.base.atmosphere import MAX_VALID_HPA, MIN_VALID_HPA, pressure_altitude_m
+from avionics.base.geodesy import flat_offset_m
 from avionics.base.types import (
     AddressSource, AltitudeDatum, AutopilotHeartbeat, CommandAck, Input, IntruderKey, IntruderReport, MissionCount,
     MissionCurrent, MissionItem, OwnshipFix, OwnshipPressure,
@@ -56,7 +57,6 @@ SENDER_MARGIN_S = 1.0  # an intruder stays its first sender's this long after it
 # 0.1 NM EPUs (NACp 7, DO-260B Table 2-14) plus the report times' whole-second tslc at the aircraft's speed.
 SAME_AIRCRAFT_M = 2 * 185.2
 TSLC_RESOLUTION_S = 1.0
-EARTH_RADIUS_M = 6371008.8  # mean radius (IUGG): a flat-earth difference is exact enough over a few km
 
 
 def _same_aircraft(owner: IntruderReport, msg, now_s: float, max_speed_mps: float) -> bool:
@@ -70,10 +70,8 @@ def _same_aircraft(owner: IntruderReport, msg, now_s: float, max_speed_mps: floa
     ve, vn = owner.velocity_en_mps or (0.0, 0.0)
     speed = math.hypot(ve, vn) if owner.velocity_en_mps else max_speed_mps
     slack_s = TSLC_RESOLUTION_S if owner.velocity_en_mps else TSLC_RESOLUTION_S + abs(dt)
-    dlon = (msg.lon * 1e-7 - owner.lon_deg + 180.0) % 360.0 - 180.0
-    east = math.radians(dlon) * math.cos(math.radians(owner.lat_deg)) * EARTH_RADIUS_M - ve * dt
-    north = math.radians(msg.lat * 1e-7 - owner.lat_deg) * EARTH_RADIUS_M - vn * dt
-    return math.hypot(east, north) <= SAME_AIRCRAFT_M + speed * slack_s
+    north, east = flat_offset_m(owner.lat_deg, owner.lon_deg, msg.lat * 1e-7, msg.lon * 1e-7)
+    return math.hypot(east - ve * dt, north - vn * dt) <= SAME_AIRCRAFT_M + speed * slack_s
 
 
 def _lat_lon(prefix: str, lat_e7: int, lon_e7: int, counters: Counter) -> tuple[float, float] | None:

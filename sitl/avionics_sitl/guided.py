@@ -38,11 +38,11 @@ from collections import Counter
 from dataclasses import replace
 
 import avionics.io  # noqa: F401
+from avionics.base.geodesy import MEAN_EARTH_RADIUS_M
 from avionics.guidance import ardupilot, px4
 from avionics.io.dialect import daa as mavlink2
 from avionics_sitl.trajectory import KinematicState
 
-EARTH_RADIUS_M = 6371008.8
 TURN_MIN_SPEED_MPS = 0.5  # below this ground speed a multirotor has no track to turn (ours)
 RECOVERY_GAIN_PER_S = 0.5  # AUTO's pull back onto the path (ours; AC_PosControl's position P is 1.0 per second)
 MISSION_TOLERANCE_M = 1.0  # the waypoints stay this close to the sampled path (horizontally)
@@ -123,15 +123,13 @@ class SimCopter:
 
     # -- the mission ---------------------------------------------------------------------------------------------
     def load_mission(self, trajectory, duration_s: float) -> None:
-        """The path of trajectory (state_at(t)) over [0, duration_s] as this vehicle's mission (module docstring)."""
+        """The path of trajectory (sitl/trajectory.py: enu_at(t), state_at(t)) over [0, duration_s] as this vehicle's
+        mission (module docstring)."""
         steps = int(math.ceil(duration_s / MISSION_SAMPLE_S))
         times = [min(k * MISSION_SAMPLE_S, duration_s) for k in range(steps + 1)]
-        states = [trajectory.state_at(t) for t in times]
-        lat0 = states[0].lat_deg
-        xy = [(math.radians(s.lon_deg) * EARTH_RADIUS_M * math.cos(math.radians(lat0)),
-               math.radians(s.lat_deg) * EARTH_RADIUS_M) for s in states]
-        self.waypoints = [(times[i], states[i].lat_deg, states[i].lon_deg)
-                          for i in _simplified(xy, MISSION_TOLERANCE_M)]
+        xy = [trajectory.enu_at(t)[:2] for t in times]
+        kept = (trajectory.state_at(times[i]) for i in _simplified(xy, MISSION_TOLERANCE_M))
+        self.waypoints = [(s.t_s, s.lat_deg, s.lon_deg) for s in kept]
 
     def _items(self) -> list[tuple[float, float]]:
         """(lat, lon) of every item: home first on ArduPilot."""
@@ -213,8 +211,8 @@ class SimCopter:
         de, dn, du = self.offset
         if self.mode == self.command_mode:
             self.min_guided_alt_msl_m = min(self.min_guided_alt_msl_m, mission.alt_msl_m + du)
-        lat = mission.lat_deg + math.degrees(dn / EARTH_RADIUS_M)
-        lon = mission.lon_deg + math.degrees(de / (EARTH_RADIUS_M * math.cos(math.radians(mission.lat_deg))))
+        lat = mission.lat_deg + math.degrees(dn / MEAN_EARTH_RADIUS_M)
+        lon = mission.lon_deg + math.degrees(de / (MEAN_EARTH_RADIUS_M * math.cos(math.radians(mission.lat_deg))))
         return replace(mission, lat_deg=lat, lon_deg=lon, alt_msl_m=mission.alt_msl_m + du, vel_east_mps=new[0],
                        vel_north_mps=new[1], vel_up_mps=new[2])
 

@@ -30,7 +30,8 @@ from collections import Counter
 import avionics.io  # noqa: F401
 from avionics.guidance import arduplane, ardupilot
 from avionics.io.dialect import daa as mavlink2
-from avionics_sitl.guided import EARTH_RADIUS_M, SimCopter
+from avionics.base.geodesy import flat_offset_m
+from avionics_sitl.guided import SimCopter
 
 LOITER_RADIUS_M = 60.0  # WP_LOITER_RAD default (ArduPlane/Parameters.cpp)
 TECS_TIME_CONST_S = 5.0  # TECS_TIME_CONST default (libraries/AP_TECS/AP_TECS.cpp): the height loop's time constant
@@ -130,8 +131,8 @@ class SimPlane(SimCopter):
             self._origin = (mission.lat_deg, mission.lon_deg)
         state = super().fly(mission)
         lat0, lon0 = self._origin
-        self.here = (math.radians(state.lon_deg - lon0) * EARTH_RADIUS_M * math.cos(math.radians(lat0)),
-                     math.radians(state.lat_deg - lat0) * EARTH_RADIUS_M, state.alt_msl_m)
+        north, east = flat_offset_m(lat0, lon0, state.lat_deg, state.lon_deg)
+        self.here = (east, north, state.alt_msl_m)
         if self.mode != self.mission_mode and self.loiter_centre is None:
             self.loiter_centre = self.here[:2]
         return state

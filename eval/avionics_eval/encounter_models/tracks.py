@@ -12,12 +12,12 @@ from pathlib import Path
 
 import numpy as np
 
+from avionics.base.geodesy import MEAN_EARTH_RADIUS_M  # for lat/lon of the local flat-earth track
 from avionics.base.units import FT
 from avionics_eval.encounter_models.model import EncounterModel, ModelFileError
 from avionics_eval.encounter_models.sampler import sample
 
 KT_TO_FTPS = 6076.11549 / 3600.0   # international nautical mile in feet, per hour -> per second
-EARTH_RADIUS_M = 6371008.8         # IUGG mean Earth radius, for lat/lon of the local flat-earth track
 CSV_COLUMNS = ("ID", "Time", "lat", "lon", "alt_AGL_ft", "speed_kts", "heading_deg", "dh_fpm", "alt_MSL_ft")
 # the variables sample2track.m reads (its label_initial_* defaults, lines 25-31), as labelled in the files
 ALTITUDE, SPEED, ACCELERATION, VERTICAL_RATE, TURN_RATE = "L", "v", "\\dot v", "\\dot h", "\\dot \\psi"
@@ -89,8 +89,8 @@ def sample_tracks(model: EncounterModel, n: int, duration_s: int, rng: np.random
 
 def lat_lon(north_ft: np.ndarray, east_ft: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Degrees of a local flat-earth track started at 0,0, on a sphere of the mean Earth radius."""
-    lat = np.degrees(north_ft * FT / EARTH_RADIUS_M)
-    lon = np.degrees(east_ft * FT / (EARTH_RADIUS_M * np.cos(np.radians(lat))))
+    lat = np.degrees(north_ft * FT / MEAN_EARTH_RADIUS_M)
+    lon = np.degrees(east_ft * FT / (MEAN_EARTH_RADIUS_M * np.cos(np.radians(lat))))
     return lat, lon
 
 
