@@ -190,3 +190,24 @@ def test_px4_flies_the_vertical_ra_along_its_mission_too():
     assert px4.OFFBOARD in [mode for _, mode in copter.modes] and copter.mode == px4.MISSION
     assert copter.counters["sim.mission_list"] == 1
     assert miss.hmd_flown_m == pytest.approx(miss.hmd_m, abs=15.0) and miss.hmd_m > 600.0
+
+
+def test_mission_messages_from_another_sender_are_counted_and_dropped_and_others_downloads_ignored():
+    config = load_config(overrides=['guidance.mode="execute"'])
+    counters: Counter = Counter()
+    decoder = MessageDecoder(config, counters)
+    m_ = config.mavlink
+    scanner = FrameScanner(Counter())
+
+    def decoded(msg, src_component):
+        link = mavlink2.MAVLink(None, srcSystem=m_.source_system, srcComponent=src_component)
+        (back,) = scanner.feed(bytes(msg.pack(link)), end_of_datagram=True)
+        return decoder.decode(back, 1.0)
+
+    ours = mavlink2.MAVLink_mission_count_message(m_.source_system, m_.source_component, 3)
+    assert decoded(ours, 1) == MissionCount(1.0, 3)  # from our autopilot, to us
+    assert decoded(ours, 42) is None and counters["mission.other_sender"] == 1  # a forged autopilot
+    for_a_gcs = mavlink2.MAVLink_mission_count_message(255, 190, 3)
+    fence = mavlink2.MAVLink_mission_count_message(m_.source_system, m_.source_component, 3, 1)
+    assert decoded(for_a_gcs, 1) is None and decoded(fence, 1) is None
+    assert counters["mission.other_sender"] == 1  # someone else's download is not a rejection
