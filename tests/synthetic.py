@@ -62,9 +62,9 @@ class Encounter:
     def core(self) -> DaaCore:
         return DaaCore(load_config(overrides=self.overrides))
 
-    def run(self, duration_s: float, dt: float = 0.1, core: DaaCore | None = None):
+    def run(self, duration_s: float, dt: float = 0.1, core: DaaCore | None = None, results: list | None = None):
         """Step at dt, ownship at 5 Hz, intruder reports at 1 Hz (into `core`, or a new one); returns
-        (core, [(t, change)])."""
+        (core, [(t, change)]); every step's StepResult is appended to `results` when given."""
         core = core if core is not None else self.core()
         changes = []
         for k in range(int(round(duration_s / dt)) + 1):
@@ -87,6 +87,9 @@ class Encounter:
                 inputs.append(IntruderReport(self.key, t, t, float(lat), float(lon),
                                              alt if self.datum else None, self.datum, (ve, vn),
                                              vu if self.datum else None))
-            for change in core.step(t, inputs).changes:
+            result = core.step(t, inputs)
+            if results is not None:
+                results.append(result)
+            for change in result.changes:
                 changes.append((t, change))
         return core, changes

@@ -107,6 +107,18 @@ def test_a_vertical_ra_flown_along_the_turning_mission_induces_no_nmac(index, pr
     assert record["hmd_flown_ft"] == pytest.approx(record["hmd_ft"], abs=100.0) and not record["nmac_equipped"]
 
 
+@pytest.mark.parametrize("index", [422, 608])
+def test_a_descend_is_not_reversed_on_a_lost_tracks_unknown_altitude(index):
+    """do365 encounters 422 and 608 of set 28 (induced NMACs at 4986694): the rotorcraft passes 86 and 76 m above
+    the DESCEND; its ADS-B reports stop for 7 s (do365-adsb's losses), and the lost track's vertical picture was
+    the unknown altitude's placeholder, co-altitude, so the logic reversed to CLIMB NOW into it (29 and 38 ft
+    flown). On the coasted track's altitude (tests/test_lost_threat.py) the DESCEND is kept."""
+    encounter = LincolnSource.of(ROTORCRAFT, "uav-survey").encounter(SEED, index)
+    record = ev.evaluate(encounter, "do365", (SEED, index), conditions=GUIDED)
+    assert record["ra_words"].startswith("DESCEND") and record["ra_reversals"] == 0
+    assert record["vmd_flown_ft"] > record["vmd_unequipped_ft"] and not record["nmac_equipped"]
+
+
 def test_time_away_from_the_mission_by_hand():
     auto, guided = ardupilot.AUTO, ardupilot.GUIDED
     assert _away([(0.0, auto)], auto) == (0.0, True, None)

@@ -8,6 +8,7 @@ unavailable (`no_traffic_source`). The rule in numbers, in the core, on the wire
 child process, real UDP and TCP on loopback, zenoh peer sessions."""
 
 import math
+from dataclasses import replace
 import threading
 import time
 from collections import Counter
@@ -19,7 +20,6 @@ import avionics.io  # noqa: F401
 from avionics.advisory.logic import lost_hold
 from avionics.config import load_config
 from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, OwnshipFix
-from avionics.base.units import NM
 from avionics.daa import Daa, SourceStatus
 from avionics.io import encode
 from avionics.io.dialect import daa as m2
@@ -32,7 +32,9 @@ from avionics_sitl.live import ScenarioClock
 from avionics_sitl.sbs import SbsServer, sbs_schedule
 from tests.conftest import DEADLINE_S, free_port, wait_for
 from tests.test_failsafe import HEAD_ON, Autopilot, Onboard, _collisions, _texts, head_on_events
-from tests.test_pipeline import R0, V, head_on, onset
+from tests.test_pipeline import ALT, R0, V, head_on, onset
+from synthetic import Encounter, Mover
+from avionics.base.units import FT, NM
 
 NONE, TA, RA = AdvisoryLevel.NONE, AdvisoryLevel.TA, AdvisoryLevel.RA
 T_RA = onset(R0, 2 * V, 20, 0.35 * NM)  # the synthetic head-on's RA onset (65.2 s); CPA at R0 / (2 V) = 86.4 s
@@ -70,6 +72,24 @@ def test_a_lost_ra_is_held_on_its_coasted_track_until_past_cpa_and_outside_dmod_
     assert end.level is NONE and end.ra_sense is None
     assert [c for t, c in changes if t > t_end] == []  # nothing more: no clear, no TA step-down
     assert not any(c.reason in ("clear", "diverging", "stale") for _, c in changes)
+
+
+def test_a_lost_ra_is_judged_on_its_coasted_altitude_as_if_its_reports_had_gone_on():
+    """The intruder passes 200 ft above, level: DESCEND. Its reports stop 1 s into the RA; once lost, the RA logic
+    reads the coasted track's altitude (a straight flight's, the same as its reports would have given), not the
+    unknown altitude's placeholder 0, which read as co-altitude took 37 m off the projected separation here and made the
+    guided Lincoln encounters reverse to CLIMB NOW into the intruder (docs/evaluation.md)."""
+    above = Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((0, R0, ALT + 200 * FT), (0, -V, 0)))
+    last = math.ceil(T_RA) + 1
+    steps_lost, steps_reported = [], []
+    _, changes = replace(above, report_until_s=last).run(T_CPA, results=steps_lost)
+    above.run(T_CPA, results=steps_reported)
+    (t_lost, held), = [(t, c) for t, c in changes if c.reason == "lost"]
+    i = next(k for k, r in enumerate(steps_lost) if r.time_s == t_lost)
+    (reported,) = [a for a in steps_reported[i].assessed if a.intruder == held.intruder]
+    assert held.level is reported.level is RA and held.ra_sense == reported.ra_sense == "descend"
+    assert held.ra_separation_m == pytest.approx(reported.ra_separation_m, abs=1.0)
+    assert all(not c.ra_reversed for _, c in changes)  # held, never reversed, to the CPA
 
 
 def test_a_lost_ta_ends_as_lost_when_its_track_is_deleted():

@@ -66,7 +66,7 @@ class Adviser:
             for key in [k for k in ra_threats if k in assessed and states.level_of(k) is not AdvisoryLevel.RA]:
                 del ra_threats[key]
         for i in ra_rows:
-            ra_threats[keys[i]] = Threat(float(geometry.sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]), keys[i])
+            ra_threats[keys[i]] = Threat(float(ev.coasted_sz_m[i]), float(xs[i, 5]), float(geometry.t_cpa_s[i]), keys[i])
         try:
             resolution = self.resolution.resolve(now_s, list(ra_threats.values()), float(own.x[5]),
                                                  level.alim_m or 0.0, inhibits, float(own.x[2]),
