@@ -99,6 +99,30 @@ def test_a_lost_ra_is_judged_on_its_coasted_altitude_as_if_its_reports_had_gone_
     assert held.ra_separation_m == pytest.approx(reported.ra_separation_m, abs=1.0)
 
 
+def test_a_lost_do365_threat_stays_in_the_guidance_bands_at_its_coasted_state():
+    """do365: a co-altitude head-on whose reports stop 2 s into its warning. While the warning is held (lost), the
+    guidance bands still take the intruder in, at its coasted state, so they equal its twin's whose reports go on:
+    the same intruders and the same region on the present track. They dropped it as an intruder without an
+    altitude, and showed the track the vehicle was resolving from free of conflict."""
+    twin = Encounter(Mover((0, 0, ALT), (0, V, 0)), Mover((0, R0, ALT), (0, -V, 0)),
+                     overrides=["advisory.profile=do365"])
+    steps_reported, steps_lost = [], []
+    _, reported_changes = twin.run(T_CPA, results=steps_reported)
+    t_warning = next(t for t, c in reported_changes if c.alert()[0] == 3)
+    _, changes = replace(twin, report_until_s=math.ceil(t_warning) + 2).run(T_CPA, results=steps_lost)
+    (t_lost, held), (t_deleted, ended) = [(t, c) for t, c in changes if c.reason == "lost"]
+    assert held.alert()[0] == 3 and ended.level is NONE  # held until the track is deleted (delete_after_s)
+    compared = 0
+    for lost, reported in zip(steps_lost, steps_reported):
+        if lost.bands is None or not t_lost <= lost.time_s < t_deleted:
+            continue
+        assert [i[:2] for i in lost.bands.intruders] == [i[:2] for i in reported.bands.intruders] != []
+        course = 0.0  # ownship flies north
+        assert lost.bands.region_at("track_deg", course) == reported.bands.region_at("track_deg", course) != "NONE"
+        compared += 1
+    assert compared >= 10
+
+
 def test_a_lost_ta_ends_as_lost_when_its_track_is_deleted():
     last = math.ceil(onset(R0, 2 * V, 30, 0.48 * NM)) + 1  # reports stop just after the TA onset
     assert _changes(head_on(report_until_s=last)) == [

@@ -32,7 +32,8 @@ class Evaluation:
     xs: np.ndarray  # (N, 6) predicted states
     tracks: list  # tracking/record.py track records
     has_alt: np.ndarray  # (N,) the intruder's altitude is known
-    coasted_sz_m: np.ndarray  # (N,) intruder - ownship altitude from the track's state, known or dead-reckoned
+    coasted: np.ndarray  # (N,) no report for max_coast_s, an altitude before: its altitude is dead-reckoned
+    coasted_sz_m: np.ndarray  # (N,) intruder - ownship altitude: known, or dead-reckoned where coasted; else 0
     mismatch: np.ndarray  # (N,) altitudes compared across datums
     geometry: PairGeometry
     threat_eligible: np.ndarray
@@ -120,11 +121,14 @@ class Assessor:
         finite = np.isfinite(np.stack([g.range_m, g.s_dot_v, g.closure_rate_mps, g.t_cpa_s, g.hmd_m, g.sz_m, g.vz_mps,
                                        g.vmd_m, pc_ta, pc_ra, pc["pc_now"], pc["pc_max"], pc["t_pc_max_s"]])).all(axis=0)
         finite &= ~np.isnan(np.stack([g.range_tau_s, g.vertical_tau_s])).any(axis=0)
-        # a lost RA threat is held on its coasted track (advisory/logic.py lost_hold): its vertical picture too, not
-        # the geometry's placeholder 0 of an unknown altitude, which read as co-altitude reverses the RA
-        ever_alt = np.fromiter((t.last_altitude_s is not None for t in tracks), bool, len(tracks))
-        coasted_sz = np.where(ever_alt, xs[:, 2] - own_alt, geometry.sz_m)
-        return Evaluation(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, coasted_sz_m=coasted_sz,
+        # A track whose reports stopped (a lost threat's: advisory/logic.py lost_hold) is held on its coasted state,
+        # its altitude too: the RA logic and the guidance bands read it where the alerter counts the altitude as
+        # unknown, not the geometry's placeholder 0, which read as co-altitude reversed RAs into the intruder.
+        max_coast = self.config.tracking.max_coast_s
+        coasted = ~has_alt & np.fromiter((t.last_altitude_s is not None and now_s - t.last_report_s > max_coast
+                                          for t in tracks), bool, len(tracks))
+        coasted_sz = np.where(coasted, xs[:, 2] - own_alt, geometry.sz_m)
+        return Evaluation(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, coasted=coasted, coasted_sz_m=coasted_sz,
                           mismatch=mismatch, geometry=geometry,
                           threat_eligible=threat_eligible, encounter=encounter, candidates=candidates,
                           pc_ta=pc_ta, pc_ra=pc_ra, pc=pc, within_age=within_age, finite=finite)

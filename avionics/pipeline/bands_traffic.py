@@ -29,11 +29,12 @@ class BandsTraffic:
 
     def record(self, now_s: float, ev, own_alt_m: float) -> None:
         """An assessment's intruders (ev: their keys, predicted states xs, geometry, has_alt, encounter) at their
-        datum-matched altitudes (own_alt_m: the ownship's); an intruder without an altitude leaves the traffic."""
+        datum-matched altitudes (own_alt_m: the ownship's), a coasted track's dead-reckoned (a lost threat stays in
+        the bands while its alert is held); an intruder without an altitude leaves the traffic."""
         if self.engine is None:
             return
-        keys, xs, has_alt = ev.keys, ev.xs, ev.has_alt
-        pos = np.column_stack([xs[:, :2], own_alt_m + ev.geometry.sz_m])
+        keys, xs, has_alt = ev.keys, ev.xs, ev.has_alt | ev.coasted
+        pos = np.column_stack([xs[:, :2], own_alt_m + ev.coasted_sz_m])
         errors = ev.encounter.uncertainty  # the SUM detector's inputs: the bands use them as the alerter does
         sensed = np.broadcast_to(np.asarray(ev.encounter.non_cooperative, bool), (len(keys),))
         for i in np.flatnonzero(has_alt):
