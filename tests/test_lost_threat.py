@@ -8,10 +8,10 @@ unavailable (`no_traffic_source`). The rule in numbers, in the core, on the wire
 child process, real UDP and TCP on loopback, zenoh peer sessions."""
 
 import math
-from dataclasses import replace
 import threading
 import time
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -21,6 +21,7 @@ import avionics.io  # noqa: F401
 from avionics.advisory.logic import lost_hold
 from avionics.config import load_config
 from avionics.base.types import AddressSource, Advisory, AdvisoryLevel, AltitudeDatum, IntruderKey, OwnshipFix
+from avionics.base.units import FT, NM
 from avionics.daa import Daa, SourceStatus
 from avionics.io import encode
 from avionics.io.dialect import daa as m2
@@ -35,7 +36,6 @@ from tests.conftest import DEADLINE_S, free_port, wait_for
 from tests.test_failsafe import HEAD_ON, Autopilot, Onboard, _collisions, _texts, head_on_events
 from tests.test_pipeline import ALT, R0, V, head_on, onset
 from synthetic import Encounter, Mover
-from avionics.base.units import FT, NM
 
 NONE, TA, RA = AdvisoryLevel.NONE, AdvisoryLevel.TA, AdvisoryLevel.RA
 T_RA = onset(R0, 2 * V, 20, 0.35 * NM)  # the synthetic head-on's RA onset (65.2 s); CPA at R0 / (2 V) = 86.4 s
