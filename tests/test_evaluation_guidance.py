@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 
 import pytest
 
@@ -119,6 +120,20 @@ def test_a_descend_is_not_reversed_on_a_lost_tracks_unknown_altitude(index):
     assert record["vmd_flown_ft"] > record["vmd_unequipped_ft"] and not record["nmac_equipped"]
 
 
+def test_with_the_guidance_bands_the_multirotor_turns_clear_where_the_vertical_ra_alone_is_an_nmac():
+    """do365 encounter 2816 of set 28: a rotorcraft passing 353 ft aside of the mission, 168 ft apart vertically.
+    The RAs flown vertically at 2.5 m/s (DESCEND, LEVEL OFF at the 500 ft floor, CLIMB NOW) end in an induced
+    NMAC; with the guidance bands (--guidance-bands, the default configuration's advisory.guidance_bands) the
+    guidance turns to the bands' resolution and the truth passes thousands of feet aside (docs/evaluation.md)."""
+    encounter = LincolnSource.of(ROTORCRAFT, "uav-survey").encounter(SEED, 2816)
+    vertical = ev.evaluate(encounter, "do365", (SEED, 2816), conditions=GUIDED)
+    assert vertical["induced_nmac"] and vertical["hmd_ft"] < 400.0
+    bands = replace(GUIDED, guidance_bands=True)
+    record = ev.evaluate(encounter, "do365", (SEED, 2816), conditions=bands)
+    assert record["conditions"] == "surveillance=do365-adsb,pilot=guidance,vehicle=multirotor,guidance_bands=on"
+    assert record["guidance_commanded"] and not record["nmac_equipped"] and record["hmd_flown_ft"] > 2000.0
+
+
 def test_time_away_from_the_mission_by_hand():
     auto, guided = ardupilot.AUTO, ardupilot.GUIDED
     assert _away([(0.0, auto)], auto) == (0.0, True, None)
@@ -167,6 +182,7 @@ def test_the_command_runs_and_reports_a_guided_set(tmp_path, capsys):
     (["--vehicle", "multirotor"], "only with --pilot guidance"),
     (["--pilot", "guidance", "--vehicle", "blimp"], "unknown vehicle 'blimp'"),
     (["--pilot", "guidance", "--vehicle", "fixed-wing"], "flies the simulated ArduCopter"),
+    (["--guidance-bands"], "only with --pilot guidance"),
 ])
 def test_bad_guidance_options_are_refused_before_anything_is_written(tmp_path, capsys, argv, message):
     out = tmp_path / "never"

@@ -17,7 +17,8 @@ from avionics_eval.reports import refly
 
 
 @pytest.mark.parametrize("conditions", [Conditions(), Conditions("do365-adsb", 100.0, "standard"),
-                                        Conditions("do365-adsb", None, "guidance", "multirotor")])
+                                        Conditions("do365-adsb", None, "guidance", "multirotor"),
+                                        Conditions("do365-adsb", None, "guidance", "multirotor", True)])
 def test_the_manifests_conditions_read_back(conditions):
     assert refly.conditions_of(conditions.name) == conditions
 

@@ -34,6 +34,10 @@ def add_arguments(p) -> None:
     p.add_argument("--vehicle", metavar="NAME",
                    help="with --pilot guidance: the vehicle profile (vehicle.profile) the RA logic assumes and the "
                         "simulated ArduCopter flies (default multirotor)")
+    p.add_argument("--guidance-bands", action="store_true",
+                   help="with --pilot guidance: also fly a DO-365 alerter's horizontal resolutions from its guidance "
+                        "bands, as the default configuration does (advisory.guidance_bands; about twice the CPU); "
+                        "without it the guidance flies the RAs vertically only")
     p.add_argument("--profiles", default=DEFAULT_PROFILES,
                    help=f"comma-separated alerting profiles (advisory.profile), default {DEFAULT_PROFILES}")
     p.add_argument("--out", help="results: a directory of Parquet partitions (created in an existing directory; "
@@ -88,17 +92,20 @@ def encounter_source(args):
 
 
 def conditions(args):
-    """evaluate.Conditions of --surveillance, --altitude-quantum-ft, --pilot and --vehicle."""
+    """evaluate.Conditions of --surveillance, --altitude-quantum-ft, --pilot, --vehicle and --guidance-bands."""
     from avionics_eval.evaluation.evaluate import Conditions
     from avionics_eval.evaluation.runner import EvaluationError
 
     vehicle = getattr(args, "vehicle", None)
+    bands = bool(getattr(args, "guidance_bands", False))
     if vehicle is not None and args.pilot != "guidance":
         raise EvaluationError("--vehicle is the vehicle the guidance flies: only with --pilot guidance")
+    if bands and args.pilot != "guidance":
+        raise EvaluationError("--guidance-bands: the guidance flies the bands' resolutions: only with --pilot guidance")
     if args.pilot == "guidance" and vehicle is None:
         vehicle = "multirotor"
     try:
-        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot, vehicle)
+        return Conditions(args.surveillance, args.altitude_quantum_ft, args.pilot, vehicle, bands)
     except ValueError as exc:
         option = "--vehicle" if vehicle is not None and "vehicle" in str(exc) else "--altitude-quantum-ft"
         raise EvaluationError(f"{option}: {exc}") from None

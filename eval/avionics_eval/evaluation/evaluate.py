@@ -68,12 +68,15 @@ class Conditions:
     tcas2 profile's: 5 s, 0.25 g; strengthening and reversal 2.5 s, 0.35 g; the profile's rates) or trams
     (responds with TRAMS_RESPONSE_PROBABILITY, delay as spread) or guidance (no pilot: the autopilot of the
     vehicle profile `vehicle` flies the RAs through the guidance port, guided.py; the RA logic's response model is
-    the vehicle's)."""
+    the vehicle's). guidance_bands (guidance only): the guidance also flies a DO-365 alerter's horizontal
+    resolutions from its guidance bands, as the default configuration does; off, the evaluation's default
+    (EVALUATION_OVERRIDES), it flies the RAs vertically only, at about half the cost."""
 
     surveillance: str = "sitl"
     altitude_quantum_ft: float | None = None
     pilot: str = "spread"
     vehicle: str | None = None  # vehicle.profile of the guidance path (pilot "guidance" only)
+    guidance_bands: bool = False  # advisory.guidance_bands of the guidance path (pilot "guidance" only)
 
     def __post_init__(self) -> None:
         if self.surveillance not in SURVEILLANCE:
@@ -83,6 +86,8 @@ class Conditions:
         if (self.vehicle is not None) != (self.pilot == "guidance"):
             raise ValueError("a vehicle profile goes with the guidance path and the guidance path needs one "
                              f"(pilot {self.pilot!r}, vehicle {self.vehicle!r})")
+        if self.guidance_bands and self.pilot != "guidance":
+            raise ValueError(f"the guidance bands are flown by the guidance path only (pilot {self.pilot!r})")
         if self.vehicle is not None:
             from avionics_eval.evaluation.guided import check_vehicle
 
@@ -95,7 +100,8 @@ class Conditions:
     def name(self) -> str:
         quantum = "" if self.altitude_quantum_ft is None else f",altitude_quantum_ft={self.altitude_quantum_ft:g}"
         vehicle = "" if self.vehicle is None else f",vehicle={self.vehicle}"
-        return f"surveillance={self.surveillance}{quantum},pilot={self.pilot}{vehicle}"
+        bands = ",guidance_bands=on" if self.guidance_bands else ""
+        return f"surveillance={self.surveillance}{quantum},pilot={self.pilot}{vehicle}{bands}"
 
     @property
     def guided(self) -> bool:
@@ -107,7 +113,7 @@ class Conditions:
             return ()
         from avionics_eval.evaluation.guided import overrides
 
-        return overrides(self.vehicle)
+        return (*overrides(self.vehicle), *(("advisory.guidance_bands=true",) if self.guidance_bands else ()))
 
     def impairments(self):
         preset = SURVEILLANCE[self.surveillance]

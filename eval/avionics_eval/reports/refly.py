@@ -28,7 +28,7 @@ def conditions_of(text: str) -> Conditions:
     fields = dict(item.split("=", 1) for item in text.split(","))
     quantum = fields.get("altitude_quantum_ft")
     return Conditions(fields["surveillance"], float(quantum) if quantum else None, fields["pilot"],
-                      fields.get("vehicle"))
+                      fields.get("vehicle"), fields.get("guidance_bands") == "on")
 
 
 def encounter_source(text: str):
