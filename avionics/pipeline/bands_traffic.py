@@ -33,13 +33,14 @@ class BandsTraffic:
         the bands while its alert is held); an intruder without an altitude leaves the traffic."""
         if self.engine is None:
             return
-        keys, xs, has_alt = ev.keys, ev.xs, ev.has_alt | ev.coasted
+        keys, xs = ev.keys, ev.xs
+        placed = ev.has_alt | ev.coasted  # an altitude known or dead-reckoned
         pos = np.column_stack([xs[:, :2], own_alt_m + ev.coasted_sz_m])
         errors = ev.encounter.uncertainty  # the SUM detector's inputs: the bands use them as the alerter does
         sensed = np.broadcast_to(np.asarray(ev.encounter.non_cooperative, bool), (len(keys),))
-        for i in np.flatnonzero(has_alt):
+        for i in np.flatnonzero(placed):
             self._traffic[keys[i]] = (now_s, pos[i], xs[i, 3:6], None if errors is None else errors[i], bool(sensed[i]))
-        for i in np.flatnonzero(~has_alt):
+        for i in np.flatnonzero(~placed):
             self._traffic.pop(keys[i], None)
 
     def forget(self, key: IntruderKey) -> None:
