@@ -2,10 +2,12 @@
 JSON: how many still do, which were induced, and their weights (docs/evaluation.md, "A vertical RA flown along
 the mission's legs").
 
-    python -m avionics_eval.reports.refly RESULTS [--profile do365]
+    python -m avionics_eval.reports.refly RESULTS [--profile do365] [--guidance-bands]
 
 A change to the closed loop is first measured on the encounters that carry the risk ratio, in seconds of CPU
-instead of hours; an NMAC it creates elsewhere is not in this count (a new run of the set is).
+instead of hours; an NMAC it creates elsewhere is not in this count (a new run of the set is). --guidance-bands
+flies a guided set's NMACs again with the guidance bands (`avionics evaluate --guidance-bands`): what the
+horizontal resolution does to them (docs/evaluation.md, "The horizontal resolution flown too").
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from avionics_eval.evaluation.evaluate import Conditions, evaluate
@@ -39,10 +42,15 @@ def encounter_source(text: str):
     return LincolnSource.of(models, ownship)
 
 
-def refly(results: Path, profile: str | None = None) -> dict:
+def refly(results: Path, profile: str | None = None, guidance_bands: bool = False) -> dict:
     manifest = json.loads((results / "_manifest.json").read_text())
     profile = profile or manifest["profiles"][0]
     conditions = conditions_of(manifest["conditions"])
+    if guidance_bands:
+        if not conditions.guided:
+            raise EvaluationError(f"--guidance-bands: {results} was not flown through the guidance "
+                                  f"({conditions.name})")
+        conditions = replace(conditions, guidance_bands=True)
     source = encounter_source(manifest["source"])
     seed = manifest["seed"]
     rows = [r for r in read(results).to_pylist() if r["profile"] == profile and r["nmac_equipped"]]
@@ -69,9 +77,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m avionics_eval.reports.refly", description=__doc__.split("\n")[0])
     parser.add_argument("results", type=Path, help="a results directory of avionics evaluate")
     parser.add_argument("--profile", help="the profile to fly again (default: the set's first)")
+    parser.add_argument("--guidance-bands", action="store_true",
+                        help="a guided set: fly them with the guidance bands (avionics evaluate --guidance-bands)")
     args = parser.parse_args(argv)
     try:
-        print(json.dumps(refly(args.results, args.profile), indent=1))
+        print(json.dumps(refly(args.results, args.profile, args.guidance_bands), indent=1))
     except (EvaluationError, FileNotFoundError, KeyError) as exc:
         print(f"refly: {exc}", file=sys.stderr)
         return 2
