@@ -125,8 +125,9 @@ class Assessor:
         # its altitude too: the RA logic and the guidance bands read it where the alerter counts the altitude as
         # unknown, not the geometry's placeholder 0, which read as co-altitude reversed RAs into the intruder.
         max_coast = self.config.tracking.max_coast_s
-        coasted = ~has_alt & np.fromiter((t.last_altitude_s is not None and now_s - t.last_report_s > max_coast
-                                          for t in tracks), bool, len(tracks))
+        coasted = np.zeros(len(tracks), bool)
+        for i in np.flatnonzero(~has_alt):  # rare: the rows' own loop, not one more over every track
+            coasted[i] = tracks[i].last_altitude_s is not None and now_s - tracks[i].last_report_s > max_coast
         coasted_sz = np.where(coasted, xs[:, 2] - own_alt, geometry.sz_m)
         return Evaluation(keys=keys, xs=xs, tracks=tracks, has_alt=has_alt, coasted=coasted, coasted_sz_m=coasted_sz,
                           mismatch=mismatch, geometry=geometry,
