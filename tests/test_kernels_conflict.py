@@ -21,6 +21,7 @@ from avionics.conflict import probability as prob
 from avionics.conflict.cpa import pair_geometry, pair_geometry_reference
 from avionics.conflict.params import ConflictConfig
 from avionics.conflict.pc_at_cpa import pc_at_cpa, pc_at_cpa_reference
+from avionics.conflict.scheduling import MinDistancePrefilter
 from avionics.base import jit
 
 pytestmark = pytest.mark.skipif(not jit.ENABLED, reason="compiled kernels are off (AVIONICS_COMPILED=0)")
@@ -250,7 +251,7 @@ def test_conflict_stage_curve_kernel_equals_reference(case, step_s, margin):
 def test_conflict_stage_curve_uses_the_kernel_only_for_the_exact_method():
     x = np.array([[500.0, 200.0, 30.0, -20.0, -5.0, 0.0]])
     p = np.diag([100.0, 100.0, 25.0, 1.0, 1.0, 0.25])[None]
-    with mock.patch.object(kernels, "pc_curve_cv_pairs", side_effect=AssertionError("kernel called")):
+    with mock.patch.object(kernels, "zone_pairs", side_effect=AssertionError("kernel called")):
         with pytest.raises(AssertionError, match="kernel called"):
             assess.conflict_probabilities(x, p, ConflictConfig(within_samples=0))
         assess.conflict_probabilities(x, p, ConflictConfig(within_samples=0), method=prob.OneBlockPc())
@@ -354,3 +355,25 @@ def test_pc_within_kernel_agrees_on_the_conflict_stage_and_leaves_the_generator_
     np.testing.assert_array_equal(got, want)
     assert 0.0 < got.max() and got.min() < 1.0  # not a vacuous comparison: some pairs hit, some do not
     assert g1.random() == g2.random()
+
+
+# --- the pre-filter (Hwang condition 2(b)) -----------------------------------------------------------------
+
+
+@SETTINGS
+@given(cpa_case(), st.sampled_from([0.0, 1.0, 60.0]), st.sampled_from([1.0, 1.5, 3.0]),
+       st.sampled_from([0.0, 30.0, 300.0]))
+@example(case=(np.array([[1000.0, 0.0, 0.0, -10.0, 0.0, 0.0], [1000.0, 0.0, 50.0, -10.0, 0.0, -1.0],
+                         [0.0, 0.0, -20.0, 0.0, 0.0, 1.0], [3000.0, 0.0, 10.0, 0.0, 0.0, 0.0]]),
+               np.tile(np.diag([100.0, 100.0, 25.0, 1.0, 1.0, 0.25]), (4, 1, 1)), None, None, 2.0, 1.0,
+               np.array([True, True, True, False])), lookahead_s=60.0, alpha=1.5, margin=0.0)
+def test_prefilter_kernel_equals_reference(case, lookahead_s, alpha, margin):
+    """MinDistancePrefilter.keep's kernel keeps exactly the pairs its numpy reference keeps (a co-altitude pair,
+    one crossing the other's altitude, a pair at rest, one without altitude among them)."""
+    x, p, _, _, sigma_h, sigma_v, has_alt = case
+    prefilter = MinDistancePrefilter(zone_radius_m=150.0, zone_half_height_m=30.0, lookahead_s=lookahead_s,
+                                     step_s=1.0, alpha=alpha, accel_sigma_h_mps2=sigma_h, accel_sigma_v_mps2=sigma_v)
+    margins = np.full(len(x), margin)
+    got = prefilter.keep(x, p, has_alt, margins)
+    want = prefilter.keep_reference(x, p, has_alt, margins)
+    assert got.dtype == bool and np.array_equal(got, want), (got, want)

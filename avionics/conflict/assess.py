@@ -55,6 +55,7 @@ from avionics.base import jit
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 
 KEYS = ("pc_now", "pc_max", "t_pc_max_s", "pc_within", "pc_pe")
+ZONE_COLUMNS = ("pc_now", "pc_max", "t_pc_max_s", "pc_pe")  # kernels.zone_pairs' columns
 
 
 def pc_along(method: PcMethod, mean_xy, cov_xy, radius_m: float, rel_vel, rng) -> np.ndarray:
@@ -83,33 +84,16 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
         return out
     rng = np.random.default_rng(cfg.seed if rng is None else rng)
     half = cfg.zone_half_height_m + margin
-    # the (clamped) CPA time of the mean, on the step grid: where Hwang's eq 24 is evaluated below
-    v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
-    k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
-    rows = np.arange(n)
     if isinstance(method, ExactPc) and jit.ready():
-        # the compiled curve (conflict/kernels.py pc_curve_cv_pairs): the same CV prediction, exact disk and slab
-        # at every step in one call, without the (N, K, 2, 2) arrays; the prediction at the CPA step only, below
-        curve = kernels.pc_curve_cv_pairs(as_c(rel_x), as_c(rel_p), as_c(t), float(cfg.step_s),
-                                          float(cfg.accel_sigma_h_mps2), float(cfg.accel_sigma_v_mps2),
-                                          float(cfg.zone_radius_m), as_c(half),
-                                          as_c(has_alt, bool))
-        mean_k, cov_k, mz_k, vz_k = cv_relative_prediction(rel_x, rel_p, t[k][:, None], cfg.step_s,
-                                                           cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2)
-        mean_k, cov_k = mean_k[:, 0], cov_k[:, 0]
-        pv_k = vertical_probability(mz_k[:, 0], vz_k[:, 0], half)
+        # fused (conflict/kernels.py zone_pairs): the curve, its maximum and eq 24 behind condition 2(b), one call
+        curve, cols = np.empty((n, t.size)), np.empty((n, len(ZONE_COLUMNS)))
+        kernels.zone_pairs(as_c(rel_x), as_c(rel_p), as_c(t), float(cfg.step_s), float(cfg.accel_sigma_h_mps2),
+                           float(cfg.accel_sigma_v_mps2), float(cfg.zone_radius_m), as_c(half), as_c(has_alt, bool),
+                           float(cfg.lookahead_s), float(cfg.prefilter_alpha), curve, cols)
+        out = dict(zip(ZONE_COLUMNS, cols.T))
     else:
-        mean_xy, cov_xy, mean_z, var_z = cv_relative_prediction(rel_x, rel_p, t, cfg.step_s, cfg.accel_sigma_h_mps2,
-                                                                cfg.accel_sigma_v_mps2)
-        vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
-        curve = pc_along(method, mean_xy, cov_xy, cfg.zone_radius_m, vel, rng)
-        pv = vertical_probability(mean_z, var_z, half[:, None])
-        curve = curve * np.where(has_alt[:, None], pv, 1.0)
-        mean_k, cov_k, pv_k = mean_xy[rows, k], cov_xy[rows, k], pv[rows, k]
-    pc_max, t_max = max_over_lookahead(curve, t)
-    out = {"pc_now": curve[:, 0], "pc_max": pc_max, "t_pc_max_s": t_max}
+        out = _zone_reference(rel_x, rel_p, t, cfg, method, has_alt, half, rng)
+        curve = out.pop("pc_curve")
 
     out["pc_within"] = np.full(n, np.nan)
     within = np.ones(n, bool) if within is None else np.asarray(within, bool)
@@ -118,7 +102,29 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
         out["pc_within"][within] = pc_within_cv_mc(rel_x[within], rel_p[within], cfg.zone_radius_m, cfg.lookahead_s,
                                                    cfg.step_s, cfg.accel_sigma_h_mps2, cfg.accel_sigma_v_mps2, hh,
                                                    cfg.within_samples, rng)
+    if return_curve:
+        out.update(t_s=t, pc_curve=curve)
+    return out
 
+
+def _zone_reference(rel_x, rel_p, t, cfg: ConflictConfig, method: PcMethod, has_alt, half, rng) -> dict:
+    """The numpy reference of conflict_probabilities' numbers but pc_within (and of kernels.zone_pairs with the
+    exact method): ZONE_COLUMNS and the curve "pc_curve"."""
+    n = rel_x.shape[0]
+    # the (clamped) CPA time of the mean, on the step grid: where Hwang's eq 24 is evaluated below
+    v2 = np.einsum("ij,ij->i", rel_x[:, 3:5], rel_x[:, 3:5])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_cpa = np.where(v2 > 0.0, -np.einsum("ij,ij->i", rel_x[:, 0:2], rel_x[:, 3:5]) / np.where(v2 > 0, v2, 1), 0.0)
+    k = np.clip(np.rint(t_cpa / cfg.step_s), 0, t.size - 1).astype(int)
+    rows = np.arange(n)
+    mean_xy, cov_xy, mean_z, var_z = cv_relative_prediction(rel_x, rel_p, t, cfg.step_s, cfg.accel_sigma_h_mps2,
+                                                            cfg.accel_sigma_v_mps2)
+    vel = np.broadcast_to(rel_x[:, None, 3:5], mean_xy.shape)
+    curve = pc_along(method, mean_xy, cov_xy, cfg.zone_radius_m, vel, rng)
+    pv = vertical_probability(mean_z, var_z, half[:, None])
+    curve = curve * np.where(has_alt[:, None], pv, 1.0)
+    mean_k, cov_k, pv_k = mean_xy[rows, k], cov_xy[rows, k], pv[rows, k]
+    pc_max, t_max = max_over_lookahead(curve, t)
     # Hwang eq 24 at the (clamped) CPA time of the mean.
     pe = pc_paielli_erzberger(mean_k, cov_k, cfg.zone_radius_m, rel_x[:, 3:5])
     # eq 24 is blind to the direction of motion (a receding pair gets the Pc of an approaching one): Hwang's
@@ -126,10 +132,8 @@ def conflict_probabilities(rel_x, rel_p, config: ConflictConfig | None = None, *
     # 3 sigma of the predicted position) - removes that.
     near = min_distance_filter(rel_x[:, 0:2], rel_x[:, 3:5], cfg.zone_radius_m, cfg.lookahead_s,
                                cfg.prefilter_alpha, 3.0 * np.sqrt(np.trace(cov_k, axis1=1, axis2=2)))
-    out["pc_pe"] = np.where(near, pe * np.where(has_alt, pv_k, 1.0), 0.0)
-    if return_curve:
-        out.update(t_s=t, pc_curve=curve)
-    return out
+    return {"pc_now": curve[:, 0], "pc_max": pc_max, "t_pc_max_s": t_max,
+            "pc_pe": np.where(near, pe * np.where(has_alt, pv_k, 1.0), 0.0), "pc_curve": curve}
 
 
 class ConflictAssessor:

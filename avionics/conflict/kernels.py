@@ -11,6 +11,9 @@ order (the equations cited are the reference's):
                         acceleration term, the disk (as above) and the vertical slab, every volume in one call
   pc_curve_cv_pairs     assess.conflict_probabilities' curve: prediction.cv_relative_prediction (closed form CV)
                         at every step, the exact disk and the slab factor, (N, K) in one call
+  zone_pairs            assess.conflict_probabilities without Monte Carlo, fused: the curve, its maximum and
+                        Hwang eq 24 at the CPA step behind condition 2(b), one call (issue 32 item 1)
+  min_distance_keep_pairs  scheduling.MinDistancePrefilter.keep: Hwang condition 2(b) widened by 3 sigma
   pair_geometry_pairs   cpa.pair_geometry_reference: range, s.v, closure, t_cpa, hmd, vmd, taus, 3D CPA
   pc_within_paths       prediction.pc_within_cv_mc_reference's arithmetic on random numbers drawn by numpy
 
@@ -532,6 +535,110 @@ def pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_
                 pc *= interval_mass(-hh, hh, mz, np.sqrt(max(vz, 0.0)))
             out[i, j] = pc
     return out
+
+
+@kernel("void(float64[:, ::1], float64[:, :, ::1], float64[::1], float64, float64, float64, float64, float64[::1], "
+        "boolean[::1], float64, float64, float64[:, ::1], float64[:, ::1])")
+def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights, has_alt, lookahead_s, alpha,
+               curve, out):
+    """assess.conflict_probabilities with the exact method and no Monte Carlo, fused (issue 32 item 1): the curve
+    of pc_curve_cv_pairs into `curve` (N, K), then per pair into `out` (N, 4) its columns ZONE_COLUMNS:
+
+        pc_now = curve[0], pc_max and its time (prediction.max_over_lookahead: the earliest on ties, NaN rows NaN),
+        pc_pe  = Hwang eq 24 (probability.pc_paielli_erzberger) with the CV prediction at the mean's CPA time on the
+                 step grid (clamped to the lookahead), times the slab factor there where the altitude is known;
+                 0 unless the predicted minimum distance within the lookahead is below alpha R + 3 sigma of that
+                 prediction (scheduling.min_distance_filter: Hwang condition 2(b))."""
+    n = rel_x.shape[0]
+    nk = t_s.shape[0]
+    curve[:, :] = pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights, has_alt)
+    sh2 = sigma_h * sigma_h
+    sv2 = sigma_v * sigma_v
+    for i in range(n):
+        x = rel_x[i]
+        p = rel_p[i]
+        best = 0
+        top = -1.0
+        for j in range(nk):  # np.argmax over the row with NaN as -1: the first maximum
+            v = curve[i, j]
+            if v != v:
+                v = -1.0
+            if v > top:
+                top = v
+                best = j
+        out[i, 0] = curve[i, 0]
+        out[i, 1] = curve[i, best]
+        out[i, 2] = np.nan if curve[i, best] != curve[i, best] else t_s[best]
+        # the (clamped) CPA time of the mean on the step grid, and the prediction there
+        v2 = x[3] * x[3] + x[4] * x[4]
+        t_cpa = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
+        k = min(max(np.rint(t_cpa / step_s), 0.0), nk - 1.0)
+        t = t_s[int(k)]
+        kk = np.rint(t / step_s)
+        qpos = step_s ** 4 * (kk ** 3 / 3.0 - kk / 12.0)
+        tt = t * t
+        mx = x[0] + t * x[3]
+        my = x[1] + t * x[4]
+        c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sh2 * qpos
+        c01 = p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4]
+        c10 = p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3]
+        c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sh2 * qpos
+        speed = math.hypot(x[3], x[4])
+        if speed > 0.0:  # the strip |n . x| <= R across the relative velocity
+            nx = -x[4] / speed
+            ny = x[3] / speed
+            d = nx * mx + ny * my
+            s2 = nx * (c00 * nx + c01 * ny) + ny * (c10 * nx + c11 * ny)
+            pe = interval_mass(-radius, radius, d, np.sqrt(max(s2, 0.0)))
+        else:  # no relative motion: the exact instantaneous value
+            pe = disk_pc(mx, my, c00, c01, c10, c11, radius)
+        # Hwang condition 2(b): the straight-line minimum distance within the lookahead
+        tm = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
+        tm = min(max(tm, 0.0), lookahead_s)
+        dmin = math.hypot(x[0] + x[3] * tm, x[1] + x[4] * tm)
+        if not dmin < alpha * radius + 3.0 * np.sqrt(c00 + c11):
+            out[i, 3] = 0.0
+            continue
+        if has_alt[i]:
+            mz = x[2] + t * x[5]
+            vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sv2 * qpos
+            pe *= interval_mass(-half_heights[i], half_heights[i], mz, np.sqrt(max(vz, 0.0)))
+        out[i, 3] = pe
+
+
+@kernel("boolean[::1](float64[:, ::1], float64[:, :, ::1], boolean[::1], float64[::1], float64, float64, float64, "
+        "float64, float64, float64, float64)")
+def min_distance_keep_pairs(rel_x, rel_p, has_alt, z_margin_m, radius, half_height, lookahead_s, step_s, alpha,
+                            sigma_h, sigma_v):
+    """scheduling.MinDistancePrefilter.keep for N pairs (Hwang condition 2(b), widened by 3 sigma of the CV
+    prediction at the horizon): the straight-line minimum distance within the lookahead < alpha R + 3 sqrt(tr
+    P_xy(T)), and where the altitude is known the minimum vertical separation < alpha (H + margin) + 3 sigma_z(T)."""
+    n = rel_x.shape[0]
+    keep = np.empty(n, np.bool_)
+    t = lookahead_s
+    k = np.rint(t / step_s)
+    qpos = step_s ** 4 * (k ** 3 / 3.0 - k / 12.0)
+    tt = t * t
+    for i in range(n):
+        x = rel_x[i]
+        p = rel_p[i]
+        c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sigma_h * sigma_h * qpos
+        c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sigma_h * sigma_h * qpos
+        v2 = x[3] * x[3] + x[4] * x[4]
+        tm = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
+        tm = min(max(tm, 0.0), lookahead_s)
+        ok = math.hypot(x[0] + x[3] * tm, x[1] + x[4] * tm) < alpha * radius + 3.0 * np.sqrt(c00 + c11)
+        if ok and has_alt[i]:
+            vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sigma_v * sigma_v * qpos
+            zmax = alpha * (half_height + z_margin_m[i]) + 3.0 * np.sqrt(vz)
+            end = x[2] + x[5] * lookahead_s
+            if np.sign(x[2]) != np.sign(end):  # scheduling.predicted_min_vertical: crosses (NaN too)
+                mv = 0.0
+            else:
+                mv = min(abs(x[2]), abs(end))
+            ok = mv < zmax
+        keep[i] = ok
+    return keep
 
 
 GEOMETRY_COLUMNS = ("range_m", "s_dot_v", "closure_rate_mps", "t_cpa_s", "hmd_m", "vmd_m", "range_tau_s",

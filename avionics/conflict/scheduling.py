@@ -33,8 +33,11 @@ from typing import Protocol
 
 import numpy as np
 
+from avionics.base import jit
 from avionics.conflict.prediction import cv_relative_prediction
+from avionics.conflict.probability import as_c
 
+kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
 TIME_EPSILON_S = 1e-6
 
 
@@ -123,6 +126,17 @@ class MinDistancePrefilter:
     accel_sigma_v_mps2: float
 
     def keep(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
+        """The compiled kernel (conflict/kernels.py min_distance_keep_pairs) when the kernels are ready, else
+        keep_reference."""
+        if not jit.ready():
+            return self.keep_reference(rel_x, rel_p, has_alt, z_margin_m)
+        n = np.shape(rel_x)[0]
+        return kernels.min_distance_keep_pairs(
+            as_c(rel_x), as_c(rel_p), as_c(has_alt, bool), as_c(np.broadcast_to(z_margin_m, (n,))),
+            float(self.zone_radius_m), float(self.zone_half_height_m), float(self.lookahead_s), float(self.step_s),
+            float(self.alpha), float(self.accel_sigma_h_mps2), float(self.accel_sigma_v_mps2))
+
+    def keep_reference(self, rel_x, rel_p, has_alt, z_margin_m, own_vel=None) -> np.ndarray:
         t_end = np.array([self.lookahead_s])
         _, cov_xy, _, var_z = cv_relative_prediction(rel_x, rel_p, t_end, self.step_s, self.accel_sigma_h_mps2,
                                                      self.accel_sigma_v_mps2)
