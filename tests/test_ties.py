@@ -18,6 +18,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from avionics.advisory.bands import BandsEngine, BandsParams
 from avionics.advisory.bands_kinematics import Cylinder, cylinder_interval
@@ -154,3 +156,34 @@ def test_a_recovery_that_no_value_finds_reports_minus_infinity_as_daidalus():
         [(-6000, 6000, "NEAR")]
     assert b.recovery["vertical_rate_mps"]
     assert engine.recovery_information["vertical_rate_mps"] == (-math.inf, -math.inf, -math.inf, 0)
+
+
+def _ulps_away(x: float, ulps: int) -> float:
+    """The double `ulps` units in the last place from x (negative: below), across 0; NaN past the largest."""
+    bits = int(np.array(x).view(np.int64))
+    ordered = -(2**63) - bits if bits < 0 else bits  # the doubles' order as integers (Util.almost_equals)
+    ordered += ulps
+    bits = -(2**63) - ordered if ordered < 0 else ordered
+    return float(np.array(bits, np.int64).view(np.float64)) if -(2**63) <= bits < 2**63 else math.nan
+
+
+DOUBLES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0.0, -0.0, 1e-13, -1e-13, 9.99e-14, 1e-5, 137.16, SEP_M, 1.7976931348623157e308, 5e-324]),
+    st.integers(-2**60, 2**60))
+
+
+@settings(max_examples=500, deadline=None)
+@given(DOUBLES, st.one_of(DOUBLES, st.tuples(st.integers(-1, 1), st.integers(-2, 2))),
+       st.sampled_from([16348, 1 << 27, 1 << 40, 5]))
+def test_one_pair_compares_as_the_arrays_do(a, b, precision):
+    """The comparisons of two numbers (Python floats, the bands' and the alerter's one-pair path) decide as the
+    array path does, element for element: ULP neighbours at every precision, the zero special case, signed
+    zeros, NaN, infinities, the largest doubles (whose ordered bit patterns wrap int64 in the array path)."""
+    if type(b) is tuple:  # b at the precision's edge from a: precision - 2 to precision + 2 ULPs above or below
+        b = _ulps_away(float(a), b[0] * (precision + b[1])) if math.isfinite(a) else a
+    arrays = np.array([a], float), np.array([b], float)
+    for compare in (almost_equals, almost_less, almost_greater, almost_leq, almost_geq):
+        one, many = compare(a, b, precision), compare(*arrays, precision)
+        assert bool(one) == bool(many[0]), (compare.__name__, a, b, precision)
+        assert type(one) is (bool if compare is almost_equals else np.bool_)

@@ -13,6 +13,9 @@ NaN is almost equal to nothing; infinities are almost equal only to themselves.
 
 from __future__ import annotations
 
+import math
+import struct
+
 import numpy as np
 
 PRECISION13 = 16348  # Util.PRECISION13 = PRECISION_DEFAULT: the ULP distance that counts as equal (~13 digits)
@@ -32,8 +35,31 @@ def _ordered(x: np.ndarray) -> np.ndarray:
         return np.where(bits < 0, _SIGN_FLIP - bits, bits)
 
 
+_SCALARS = frozenset((float, int, np.float64))
+_INT64_OF_DOUBLE = struct.Struct("<q")
+_DOUBLE = struct.Struct("<d")
+
+
+def _ordered_scalar(x: float) -> int:
+    """_ordered for one double, as a Python int."""
+    bits = _INT64_OF_DOUBLE.unpack(_DOUBLE.pack(x))[0]
+    return -(2**63) - bits if bits < 0 else bits
+
+
+def _almost_equals_scalar(a: float, b: float, precision: int) -> bool:
+    """almost_equals for two numbers on Python floats: the array arithmetic without a numpy call per operation
+    (the guidance bands compare one pair at a time, tens of thousands of times a second). Exact integers: the
+    array path's int64 wrap never makes two far-apart doubles equal (below), so no case differs."""
+    comp = ZERO_COMPARISON.get(precision, 1e-13)
+    if a == b or ((a == 0.0 or b == 0.0) and abs(a) < comp and abs(b) < comp):
+        return True
+    return math.isfinite(a) and math.isfinite(b) and abs(_ordered_scalar(a) - _ordered_scalar(b)) <= precision
+
+
 def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
     """Util.almost_equals(a, b, maxUlps): equal, or the zero special case, or within `precision` ULPs."""
+    if type(a) in _SCALARS and type(b) in _SCALARS:
+        return _almost_equals_scalar(float(a), float(b), precision)
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     a, b = np.broadcast_arrays(a, b)
     comp = ZERO_COMPARISON.get(precision, 1e-13)
@@ -48,19 +74,31 @@ def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
 
 def almost_less(a, b, precision: int = PRECISION13):
     """Util.almost_less: a < b and not almost equal."""
+    if type(a) in _SCALARS and type(b) in _SCALARS:
+        a, b = float(a), float(b)
+        return np.bool_(a < b and not _almost_equals_scalar(a, b, precision))
     return np.logical_and(np.less(a, b), np.logical_not(almost_equals(a, b, precision)))
 
 
 def almost_greater(a, b, precision: int = PRECISION13):
     """Util.almost_greater: a > b and not almost equal."""
+    if type(a) in _SCALARS and type(b) in _SCALARS:
+        a, b = float(a), float(b)
+        return np.bool_(a > b and not _almost_equals_scalar(a, b, precision))
     return np.logical_and(np.greater(a, b), np.logical_not(almost_equals(a, b, precision)))
 
 
 def almost_leq(a, b, precision: int = PRECISION13):
     """Util.almost_leq: a <= b or almost equal."""
+    if type(a) in _SCALARS and type(b) in _SCALARS:
+        a, b = float(a), float(b)
+        return np.bool_(a <= b or _almost_equals_scalar(a, b, precision))
     return np.logical_or(np.less_equal(a, b), almost_equals(a, b, precision))
 
 
 def almost_geq(a, b, precision: int = PRECISION13):
     """Util.almost_geq: a >= b or almost equal."""
+    if type(a) in _SCALARS and type(b) in _SCALARS:
+        a, b = float(a), float(b)
+        return np.bool_(a >= b or _almost_equals_scalar(a, b, precision))
     return np.logical_or(np.greater_equal(a, b), almost_equals(a, b, precision))
