@@ -8,6 +8,7 @@ eqs 7-8 collapsed to one CV axis); process noise is the piecewise-constant white
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -30,6 +31,16 @@ def cv_process_noise(dt: float, sigma_h_mps2: float, sigma_v_mps2: float) -> np.
     return q
 
 
+@lru_cache(maxsize=16)
+def _model(dt: float, sigma_h_mps2: float, sigma_v_mps2: float) -> tuple[np.ndarray, np.ndarray]:
+    """F and Q for a step of dt, kept for the next call with the same step: the ownship filter is predicted to
+    the same few offsets from its last fix (the 5 Hz fixes, the assessment's ticks) several times a step.
+    Read-only: shared by every caller."""
+    f, q = cv_transition(dt), cv_process_noise(abs(dt), sigma_h_mps2, sigma_v_mps2)
+    f.flags.writeable = q.flags.writeable = False
+    return f, q
+
+
 @dataclass(frozen=True, slots=True)
 class Measurement:
     """Observed components of the state: which indices of the 6-vector, their values and 1-sigma noise."""
@@ -50,9 +61,7 @@ class CvKalman:
         self.sigma_v = sigma_v_mps2
 
     def predict_to(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        dt = t_s - self.t_s
-        f = cv_transition(dt)
-        q = cv_process_noise(abs(dt), self.sigma_h, self.sigma_v)
+        f, q = _model(t_s - self.t_s, self.sigma_h, self.sigma_v)
         return f @ self.x, f @ self.p @ f.T + q
 
     def innovation(self, t_s: float, z: Measurement) -> tuple[np.ndarray, np.ndarray]:
