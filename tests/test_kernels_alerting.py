@@ -99,7 +99,8 @@ def test_well_clear_intervals_and_ties(pairs, profile, b, t):
     thr = load_profile(profile).alerter.levels[-1].thresholds
     d2 = thr.dthr_m**2
     for (sx, sy), (vx, vy), sz, vz, *_ in pairs:
-        t_in, t_out = wcv_interval(np.array([sx, sy]), np.array([vx, vy]), sz, vz, thr, b, t)
+        with jit.reference():
+            t_in, t_out = wcv_interval(np.array([sx, sy]), np.array([vx, vy]), sz, vz, thr, b, t)
         k_in, k_out = kernels.wcv_interval(sx, sy, vx, vy, sz, vz, d2, thr.zthr_m, thr.tthr_s, thr.tcoa_s, b, t)
         _same([k_in, k_out], [t_in, t_out])
         assert kernels.almost_less(k_in, k_out) == bool(conflict(t_in, t_out))
@@ -107,6 +108,16 @@ def test_well_clear_intervals_and_ties(pairs, profile, b, t):
         _same(kernels.horizontal_interval(sx, sy, vx, vy, d2, thr.tthr_s, t), [h_in, h_out])
         for a, c in ((sz, thr.zthr_m), (vz, 0.0), (float(t_in), float(t_out)), (sz, sz * (1 + 1e-13)), (sz, -0.0)):
             assert kernels.almost_equals(a, c) == bool(almost_equals(a, c)), (a, c)
+    # every pair at once, as the guidance bands ask (lines (M, 1) against their vertical state, broadcast)
+    s_xy, v_xy = np.array([p[0] for p in pairs], float), np.array([p[1] for p in pairs], float)
+    sz, vz = np.array([p[2] for p in pairs], float), np.array([p[3] for p in pairs], float)
+    lines = s_xy[:, None, :], v_xy[:, None, :], sz[:, None], np.broadcast_to(vz, (1, len(pairs)))
+    got = wcv_interval(*lines, thr, b, t)
+    with jit.reference():
+        want = wcv_interval(*lines, thr, b, t)
+    assert got[0].shape == want[0].shape == (len(pairs), len(pairs))
+    _same(got, want)
+    np.testing.assert_array_equal(conflict(*got), conflict(*want))
 
 
 relative = st.tuples(st.floats(MIN_ERROR, 1500.0), st.floats(MIN_ERROR, 200.0), st.floats(MIN_ERROR, 200.0),

@@ -25,6 +25,7 @@ from avionics.advisory.bands import BandsEngine, BandsParams
 from avionics.advisory.bands_kinematics import Cylinder, cylinder_interval
 from avionics.advisory.wcv import WCV_TAUMOD, conflict, wcv_interval
 from avionics.advisory.tables import load_profile
+from avionics.base import jit
 from avionics.base.almost import (
     PRECISION5, almost_equals, almost_geq, almost_greater, almost_leq, almost_less,
 )
@@ -182,8 +183,16 @@ def test_one_pair_compares_as_the_arrays_do(a, b, precision):
     zeros, NaN, infinities, the largest doubles (whose ordered bit patterns wrap int64 in the array path)."""
     if type(b) is tuple:  # b at the precision's edge from a: precision - 2 to precision + 2 ULPs above or below
         b = _ulps_away(float(a), b[0] * (precision + b[1])) if math.isfinite(a) else a
-    arrays = np.array([a], float), np.array([b], float)
+    # as arrays too, broadcast against each other ((2, 1) against a read-only (1, 3)), compiled and not
+    arrays = np.array([[a], [b]], float), np.broadcast_to(np.array([[b, a, 0.0]], float), (1, 3))
     for compare in (almost_equals, almost_less, almost_greater, almost_leq, almost_geq):
         one, many = compare(a, b, precision), compare(*arrays, precision)
-        assert bool(one) == bool(many[0]), (compare.__name__, a, b, precision)
+        with jit.reference():
+            reference = compare(*arrays, precision)
+        assert bool(one) == bool(many[0, 0]), (compare.__name__, a, b, precision)
         assert type(one) is (bool if compare is almost_equals else np.bool_)
+        assert many.shape == (2, 3) and np.array_equal(many, reference), (compare.__name__, a, b, precision)
+        for x, y in ((arrays[0], b), (a, arrays[1])):  # an array against a number, either way round
+            with jit.reference():
+                reference = compare(x, y, precision)
+            assert np.array_equal(compare(x, y, precision), reference), (compare.__name__, a, b, precision)

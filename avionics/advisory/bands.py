@@ -899,10 +899,12 @@ class BandsEngine:
         if kind.mod == 0:
             lo, hi = np.maximum(lo, kind.min_val), np.minimum(hi, kind.max_val)
             keep = almost_less(lo, hi)
-            segs = zip(lo[keep], hi[keep], color[keep])
+            segs = zip(lo[keep].tolist(), hi[keep].tolist(), color[keep].tolist())
         else:
             segs = []
-            for a, b, c in zip(lo, hi, color):
+            # Python floats: the same doubles and remainders as numpy's scalars (fmod, sign-corrected), at a
+            # tenth of the cost a segment
+            for a, b, c in zip(lo.tolist(), hi.tolist(), color.tolist()):
                 a0 = a % TWO_PI
                 b0 = a0 + (b - a)
                 if b0 > TWO_PI + 1e-12:

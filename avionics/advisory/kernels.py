@@ -23,10 +23,10 @@ import math
 import numpy as np
 
 from avionics.base.jit import kernel
+from avionics.base.kernels import almost_equals_one
 
 PRECISION13 = 16348  # = base/almost.py PRECISION13 (Util.PRECISION13)
 ZERO_13 = 1e-13  # = base/almost.py ZERO_COMPARISON[PRECISION13]
-SIGN_FLIP = -(2**63)  # = base/almost.py _SIGN_FLIP
 MIN_ERROR = 0.001  # = wcv_sum.MIN_ERROR (WCV_TAUMOD_SUM.MinError)
 
 # the columns of `wcv_alert_pairs`' per-level parameters and its SUM parameters
@@ -40,24 +40,10 @@ _F4 = "UniTuple(float64, 4)"
 
 # --- Util.almost_equals (base/almost.py) ------------------------------------------------------------------------
 
-@kernel("int64(float64)")
-def _ordered(x):
-    """The bit pattern of x as an integer ordered like the doubles (base/almost.py _ordered)."""
-    bits = np.float64(x).view(np.int64)
-    return SIGN_FLIP - bits if bits < 0 else bits
-
-
 @kernel("boolean(float64, float64)")
 def almost_equals(a, b):
-    """Util.almost_equals(a, b, PRECISION13): equal, or the zero special case, or within 16348 ULPs."""
-    if a == b:
-        return True
-    if (a == 0.0 or b == 0.0) and abs(a) < ZERO_13 and abs(b) < ZERO_13:
-        return True
-    if not (math.isfinite(a) and math.isfinite(b)):
-        return False
-    diff = abs(_ordered(a) - _ordered(b))  # wraps like the reference's int64: never counted equal then
-    return 0 <= diff <= PRECISION13
+    """Util.almost_equals(a, b, PRECISION13) (base/kernels.py almost_equals_one)."""
+    return almost_equals_one(a, b, PRECISION13, ZERO_13)
 
 
 @kernel("boolean(float64, float64)")
@@ -148,6 +134,18 @@ def wcv_interval(sx, sy, vx, vy, sz, vz, d2, zthr, tthr, tcoa, b, t):
     h_in, h_out = horizontal_interval(stx, sty, vx, vy, d2, tthr, up - low)
     return h_in + low, h_out + low
 
+
+
+@kernel("float64[:, ::1](float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64, float64, float64, "
+        "float64, float64, float64)")
+def wcv_interval_lines(s_xy, v_xy, sz, vz, d2, zthr, tthr, tcoa, b, t):
+    """wcv.wcv_interval over M lines (the guidance bands' samples): (M, 2) of (t_in, t_out)."""
+    m = sz.shape[0]
+    out = np.empty((m, 2))
+    for i in range(m):
+        out[i, 0], out[i, 1] = wcv_interval(s_xy[i, 0], s_xy[i, 1], v_xy[i, 0], v_xy[i, 1], sz[i], vz[i], d2, zthr,
+                                            tthr, tcoa, b, t)
+    return out
 
 # --- WCV_TAUMOD_SUM (advisory/wcv_sum.py, its scalar functions) --------------------------------------------------
 

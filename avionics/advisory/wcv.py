@@ -30,7 +30,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from avionics.base import jit
 from avionics.base.almost import almost_equals, almost_less
+from avionics.conflict.probability import as_c
+
+kernels = jit.lazy(__name__, "avionics.advisory.kernels")  # the module, once jit.load() ran (jit.py)
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,6 +126,15 @@ def wcv_interval(s_xy, v_xy, sz, vz, thr: WcvThresholds, b_s: float, t_s: float)
     motion (WCV_tvar.WCV_interval); no loss where not `conflict(t_in, t_out)`."""
     s_xy, v_xy = np.asarray(s_xy, float), np.asarray(v_xy, float)
     sz, vz = np.asarray(sz, float), np.asarray(vz, float)
+    if jit.ready():  # the compiled loop (advisory/kernels.py wcv_interval_lines): this function line by line
+        shape = np.broadcast_shapes(s_xy.shape[:-1], v_xy.shape[:-1], sz.shape, vz.shape)
+
+        def rows(a, width):
+            return as_c(np.broadcast_to(a, shape + width).reshape((-1,) + width))
+
+        out = kernels.wcv_interval_lines(rows(s_xy, (2,)), rows(v_xy, (2,)), rows(sz, ()), rows(vz, ()),
+                                         thr.dthr_m**2, thr.zthr_m, thr.tthr_s, thr.tcoa_s, float(b_s), float(t_s))
+        return out[:, 0].reshape(shape), out[:, 1].reshape(shape)
     low, up = _vertical_interval(sz, vz, thr, b_s, t_s)
     vertical_none = low > up
     low_c = np.where(vertical_none, b_s, low)

@@ -18,6 +18,10 @@ import struct
 
 import numpy as np
 
+from avionics.base import jit
+
+kernels = jit.lazy(__name__, "avionics.base.kernels")  # the module, once jit.load() ran (jit.py)
+
 PRECISION13 = 16348  # Util.PRECISION13 = PRECISION_DEFAULT: the ULP distance that counts as equal (~13 digits)
 PRECISION9 = 1 << 27  # Util.PRECISION9 (~9 digits)
 PRECISION7 = 1 << 34  # Util.PRECISION7 (~7 digits)
@@ -56,13 +60,28 @@ def _almost_equals_scalar(a: float, b: float, precision: int) -> bool:
     return math.isfinite(a) and math.isfinite(b) and abs(_ordered_scalar(a) - _ordered_scalar(b)) <= precision
 
 
+def _flat(x: np.ndarray) -> np.ndarray:
+    """x as the kernel takes it: one C-contiguous, writable dimension (numba types a read-only array apart)."""
+    x = np.ravel(x)
+    return x if x.flags.writeable else x.copy()
+
+
 def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
     """Util.almost_equals(a, b, maxUlps): equal, or the zero special case, or within `precision` ULPs."""
     if type(a) in _SCALARS and type(b) in _SCALARS:
         return _almost_equals_scalar(float(a), float(b), precision)
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    a, b = np.broadcast_arrays(a, b)
     comp = ZERO_COMPARISON.get(precision, 1e-13)
+    if a.ndim < b.ndim:
+        a, b = b, a  # symmetric: an array against a number takes the kernel's one-element path below
+    if a.ndim and jit.ready() and (b.ndim == 0 or a.shape == b.shape):
+        # the compiled loop (base/kernels.py), element for element the arithmetic below
+        return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(a.shape)
+    if a.shape != b.shape:  # read-only views (broadcast_arrays' would warn when _flat asks whether they are)
+        shape = np.broadcast_shapes(a.shape, b.shape)
+        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
+        if jit.ready():
+            return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(shape)
     zero_case = ((a == 0.0) | (b == 0.0)) & (np.abs(a) < comp) & (np.abs(b) < comp)
     finite = np.isfinite(a) & np.isfinite(b)
     with np.errstate(over="ignore"):

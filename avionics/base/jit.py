@@ -74,6 +74,7 @@ def kernel(*signatures):
 # Every module that defines kernels, for `avionics warmup` (and so for the README's install command, which runs it
 # so that the pytest-xdist workers and the first `avionics run` find a warm cache): add yours here.
 KERNEL_MODULES: list[str] = [
+    "avionics.base.kernels",
     "avionics.conflict.kernels",
     "avionics.tracking.kernels",
     "avionics.advisory.kernels",
