@@ -22,6 +22,7 @@ from types import MappingProxyType
 from typing import Iterable, Mapping, Sequence
 
 from avionics.config import Config
+from avionics.base.frame import true_of
 from avionics.base.faults import FaultLog
 from avionics.base.schedule import Every
 from avionics.base.types import (
@@ -252,9 +253,11 @@ class Daa:
             own = self._core.ownship.state_at(now_s)
             ownship = None
             if own is not None:
-                lat, lon, (ve, vn) = self._core.frame.to_true(own.x[0], own.x[1], own.x[3:5])
-                ownship = self._ownship(float(vn), float(ve), float(own.x[5]), own.height_above_home_m, float(lat),
-                                        float(lon))
+                def true(x=own.x, plane=self._core.frame.plane):  # this step's plane, should it move before
+                    lat, lon, (ve, vn) = true_of(plane, x[0], x[1], x[3:5])
+                    return float(lat), float(lon), float(vn), float(ve)
+
+                ownship = self._ownship.converted(float(own.x[5]), own.height_above_home_m, true)
             inputs, self._autopilot_inputs = self._autopilot_inputs, []
             return self._guidance.update(now_s, active, unavailable, ownship, inputs, sources.spoof_suspected,
                                          sources.link_authenticated, bands,

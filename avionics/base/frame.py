@@ -82,9 +82,7 @@ class TrackingFrame:
 
     def to_true(self, east, north, velocity_plane):
         """Inverse of to_plane: (lat, lon) of plane points and their velocities in true east/north axes."""
-        lat, lon = self.plane.to_geodetic(east, north)
-        j = self.plane.velocity_matrix(lat, lon)
-        return lat, lon, np.linalg.solve(j, np.asarray(velocity_plane, float)[..., None])[..., 0]
+        return true_of(self.plane, east, north, velocity_plane)
 
     def follow(self, lat_deg: float, lon_deg: float) -> FrameChange | None:
         """Called with each ownship position: the change to apply to every filter when the plane has to move
@@ -104,6 +102,13 @@ class TrackingFrame:
             lat_deg, lon_deg = towards
         self.plane = LocalTangentPlane(lat_deg, lon_deg)
         return FrameChange(old, self.plane)
+
+
+def true_of(plane: LocalTangentPlane, east, north, velocity_plane):
+    """TrackingFrame.to_true on a given plane (one that may since have been replaced by a re-centring)."""
+    lat, lon = plane.to_geodetic(east, north)
+    j = plane.velocity_matrix(lat, lon)
+    return lat, lon, np.linalg.solve(j, np.asarray(velocity_plane, float)[..., None])[..., 0]
 
 
 def _towards(lat0_deg, lon0_deg, lat1_deg, lon1_deg, distance_m: float) -> tuple[float, float] | None:

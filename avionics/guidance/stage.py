@@ -118,16 +118,39 @@ class GuidanceOutput:
     reads: tuple = ()  # requests that read the autopilot's mission (mission.py): no command, no interlock holds them
 
 
-@dataclass(frozen=True, slots=True)
 class Ownship:
-    """What the guidance needs of ownship: its velocity (north, east, up) and height above home."""
+    """What the guidance needs of ownship: its velocity (north, east, up), height above home and position (the
+    mission's legs are followed from there; None: unknown).
 
-    north_mps: float
-    east_mps: float
-    up_mps: float
-    height_above_home_m: float | None
-    lat_deg: float | None = None  # where it is (the mission's legs are followed from there); None: unknown
-    lon_deg: float | None = None
+    `Ownship.converted` leaves the position and horizontal velocity in true axes to `true()`, asked for the first
+    time one of them is read: a step without a conflict reads neither, and the tracking frame's inverse projection
+    behind them (base/frame.py to_true) was most of such a step's guidance (docs/performance.md)."""
+
+    __slots__ = ("up_mps", "height_above_home_m", "_true", "_values")
+
+    def __init__(self, north_mps: float, east_mps: float, up_mps: float, height_above_home_m: float | None,
+                 lat_deg: float | None = None, lon_deg: float | None = None):
+        self.up_mps = up_mps
+        self.height_above_home_m = height_above_home_m
+        self._true = None
+        self._values = (lat_deg, lon_deg, north_mps, east_mps)
+
+    @classmethod
+    def converted(cls, up_mps: float, height_above_home_m: float | None, true) -> "Ownship":
+        """true: () -> (lat_deg, lon_deg, north_mps, east_mps), called once, when one of them is first read."""
+        own = cls(math.nan, math.nan, up_mps, height_above_home_m)
+        own._true, own._values = true, None
+        return own
+
+    def _read(self, i: int):
+        if self._values is None:
+            self._values = tuple(self._true())
+        return self._values[i]
+
+    lat_deg = property(lambda self: self._read(0))
+    lon_deg = property(lambda self: self._read(1))
+    north_mps = property(lambda self: self._read(2))
+    east_mps = property(lambda self: self._read(3))
 
 
 @dataclass(frozen=True, slots=True)
