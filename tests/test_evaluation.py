@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from avionics.base import jit
 from avionics.base.units import FT, KT
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation import generator as gen
@@ -148,6 +149,27 @@ def test_the_cut_display_outputs_change_no_record(monkeypatch, profile):
     assert [ev.evaluate(gen.generate(5, i), profile, (5, i)) for i in range(6)] == cut
     assert any(r["ra"] for r in cut)  # the comparison covered RAs
 
+
+
+@pytest.mark.skipif(not jit.ENABLED, reason="compiled kernels are off (AVIONICS_COMPILED=0)")
+@pytest.mark.parametrize("profile, conditions, encounters", [
+    ("tcas2", ev.DEFAULT_CONDITIONS, 100),
+    ("do365", ev.DEFAULT_CONDITIONS, 100),
+    # the guidance flies the bands' resolutions: the bands' compiled comparisons and loss intervals decide them
+    ("do365", ev.Conditions("sitl", None, "guidance", "multirotor", True), 3),
+])
+def test_the_compiled_kernels_change_no_record(profile, conditions, encounters):
+    """Issue 32: the compiled pieces of the step (tracker, geometry, alerter, Pc, the conflict stage, the bands'
+    comparisons and intervals) give the records of the numpy reference (avionics.base.jit.reference()), field
+    for field, on encounters with RAs among them."""
+    def records():
+        return [ev.evaluate(gen.generate(1, i), profile, (1, i), conditions=conditions) for i in range(encounters)]
+
+    compiled = records()
+    with jit.reference():
+        reference = records()
+    assert compiled == reference
+    assert sum(r["ra"] for r in compiled) >= min(encounters, 20)
 
 def test_wilson_and_the_matched_pair_risk_ratio_by_hand():
     est, lo, hi = wilson(0, 10)
