@@ -895,30 +895,27 @@ class BandsEngine:
         else:
             lo = val + (np.arange(cand.n_segments) - cand.center) * kind.step
         hi = lo + kind.step
-        pieces: list[tuple[float, float, int]] = []
         if kind.mod == 0:
             lo, hi = np.maximum(lo, kind.min_val), np.minimum(hi, kind.max_val)
             keep = almost_less(lo, hi)
-            segs = zip(lo[keep].tolist(), hi[keep].tolist(), color[keep].tolist())
-        else:
-            segs = []
-            # Python floats: the same doubles and remainders as numpy's scalars (fmod, sign-corrected), at a
-            # tenth of the cost a segment
-            for a, b, c in zip(lo.tolist(), hi.tolist(), color.tolist()):
-                a0 = a % TWO_PI
-                b0 = a0 + (b - a)
-                if b0 > TWO_PI + 1e-12:
-                    segs += [(a0, TWO_PI, c), (0.0, b0 - TWO_PI, c)]
-                else:
-                    segs.append((a0, min(b0, TWO_PI), c))
-            segs.sort()
-        for a, b, c in segs:
-            if b - a <= 1e-12:
-                continue
-            if pieces and pieces[-1][2] == c and abs(pieces[-1][1] - a) < 1e-9:
-                pieces[-1] = (pieces[-1][0], b, c)
-            else:
-                pieces.append((a, b, int(c)))
+            a, b, c = lo[keep], hi[keep], color[keep]
+        else:  # on the circle: a segment across 2 pi in two, then in order (as sorting the (a, b, colour) rows)
+            a0 = np.remainder(lo, TWO_PI)  # Python's float %: fmod, sign-corrected
+            b0 = a0 + (hi - lo)
+            split = b0 > TWO_PI + 1e-12
+            a = np.concatenate([a0, np.zeros(int(split.sum()))])
+            b = np.concatenate([np.where(split, TWO_PI, np.minimum(b0, TWO_PI)), b0[split] - TWO_PI])
+            c = np.concatenate([color, color[split]])
+            order = np.lexsort((c, b, a))
+            a, b, c = a[order], b[order], c[order]
+        # the painted pieces: runs of one colour whose segments abut (to 1e-9), empty segments (1e-12) left out
+        full = ~(b - a <= 1e-12)
+        a, b, c = a[full], b[full], c[full]
+        joins = np.zeros(len(a), bool)
+        joins[1:] = (c[1:] == c[:-1]) & (np.abs(b[:-1] - a[1:]) < 1e-9)
+        starts = np.flatnonzero(~joins)
+        ends = np.append(starts[1:] - 1, len(a) - 1)
+        pieces = list(zip(a[starts].tolist(), b[ends].tolist(), c[starts].tolist()))
         if kind.mod == 0:
             lcv = [_CV(UNKNOWN, kind.min_val, pieces[0][2])]
             lcv += [_CV(pieces[i - 1][2], pieces[i][0], pieces[i][2]) for i in range(1, len(pieces))]
