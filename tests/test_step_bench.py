@@ -23,6 +23,13 @@ def test_the_step_bench_times_every_step_of_every_encounter(capsys):
         assert step["steps"] == 2 * steps_per_encounter and 0 < step["p50"] <= step["p90"]
         assert cost["evaluation_cpu_ms_per_encounter"] > 0
     assert out["targets"]["one_intruder_step_us"] == 33.0
+    assert all("guided_cpu_ms_per_encounter" not in cost for cost in out["profiles"].values())
+
+
+def test_the_guided_cost_is_asked_for(capsys):
+    assert cli.main(["bench", "--step", "--profiles", "do365", "--encounters", "1", "--guided", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["profiles"]["do365"]["guided_cpu_ms_per_encounter"] > 0
 
 
 def test_an_unknown_profile_is_refused_before_anything_runs(capsys):

@@ -41,7 +41,7 @@ def cmd_bench(args) -> int:
     if args.step:
         from avionics_eval.step_bench import step_bench
 
-        print(json.dumps(step_bench(args.profiles.split(","), args.encounters, args.seed), indent=1))
+        print(json.dumps(step_bench(args.profiles.split(","), args.encounters, args.seed, args.guided), indent=1))
         return 0
     if args.soak is not None:
         from avionics_eval.soak_bench import soak
@@ -137,6 +137,9 @@ def add_commands(sub) -> None:
     p.add_argument("--profiles", default="tcas2,do365,daidalus-do365b-sum", help="--step: alerting profiles")
     p.add_argument("--encounters", type=_whole(1), default=40, help="--step: encounters per profile (a warm-up more)")
     p.add_argument("--seed", type=_whole(0), default=1, help="--step: the evaluation's encounter seed")
+    p.add_argument("--guided", type=_whole(0), default=0, metavar="N",
+                   help="--step: also the CPU per encounter flown through the guidance (multirotor, the guidance "
+                        "bands), over N encounters")
     p.add_argument("--sample-seconds", type=_positive, default=5.0, metavar="S",
                    help="--soak: seconds between samples of the child's memory")
     p.add_argument("--zenoh", action=argparse.BooleanOptionalAction, default=True,

@@ -71,14 +71,28 @@ def profile_cost(profile: str, encounters: list) -> dict:
             "evaluation_cpu_ms_per_encounter": round(cpu_ms, 1)}
 
 
-def step_bench(profiles: list[str], encounters: int, seed: int) -> dict:
+def guided_cost(profile: str, encounters: list) -> float:
+    """CPU ms per encounter flown through the guidance with the multirotor and the guidance bands (the first a
+    warm-up)."""
+    from avionics_eval.evaluation import evaluate as evaluation
+
+    conditions = evaluation.Conditions("sitl", None, "guidance", "multirotor", True)
+    warm, timed = encounters[0], encounters[1:]
+    evaluation.evaluate(warm, profile, (warm.seed, warm.index), conditions=conditions)
+    t0 = time.process_time()
+    for e in timed:
+        evaluation.evaluate(e, profile, (e.seed, e.index), conditions=conditions)
+    return round((time.process_time() - t0) / len(timed) * 1e3, 1)
+
+
+def step_bench(profiles: list[str], encounters: int, seed: int, guided: int = 0) -> dict:
     from avionics_eval.evaluation.evaluate import check_profile
     from avionics_eval.evaluation.generator import generate
     from avionics_eval.tracking_bench import bench_filterpy
 
     for profile in profiles:  # an unknown name is the configuration's one-line error, before anything runs
         check_profile(profile)
-    items = [generate(seed, i) for i in range(encounters + 1)]
+    items = [generate(seed, i) for i in range(max(encounters, guided) + 1)]
     return {
         "benchmark": "whole step and evaluated encounter (issue 32)",
         "utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -87,7 +101,9 @@ def step_bench(profiles: list[str], encounters: int, seed: int) -> dict:
         "load_average": [round(x, 2) for x in os.getloadavg()],
         "encounters": encounters, "seed": seed,
         "filterpy_imm_step_us": round(bench_filterpy(200), 1),
-        "profiles": {p: profile_cost(p, items) for p in profiles},
+        "profiles": {p: {**profile_cost(p, items),
+                         **({"guided_cpu_ms_per_encounter": guided_cost(p, items[:guided + 1])} if guided else {})}
+                     for p in profiles},
         "targets": TARGETS,
     }
 
@@ -97,8 +113,10 @@ def main(argv=None) -> int:
     p.add_argument("--profiles", default="tcas2,do365,daidalus-do365b-sum")
     p.add_argument("--encounters", type=int, default=40)
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--guided", type=int, default=0, metavar="N",
+                   help="also the CPU per encounter flown through the guidance (multirotor, bands), over N encounters")
     args = p.parse_args(argv)
-    print(json.dumps(step_bench(args.profiles.split(","), args.encounters, args.seed), indent=1))
+    print(json.dumps(step_bench(args.profiles.split(","), args.encounters, args.seed, args.guided), indent=1))
     return 0
 
 
