@@ -498,6 +498,22 @@ def pc_at_cpa_pairs(rel_x, rel_p, t_s, radii, half_heights, has_alt, sigma_h, si
     return out
 
 
+@kernel("UniTuple(float64, 8)(float64[::1], float64[:, ::1], float64, float64, float64, float64)")
+def cv_at(x, p, t, step_s, sh2, sv2):
+    """prediction.cv_relative_prediction for one pair at t = k step: (mean x, y, covariance xx, xy, yx, yy, mean z,
+    variance z), the white-acceleration term sigma^2 step^4 (k^3/3 - k/12) on the diagonal (sh2, sv2: sigma^2)."""
+    k = np.rint(t / step_s)
+    qpos = step_s ** 4 * (k ** 3 / 3.0 - k / 12.0)  # per unit sigma^2
+    tt = t * t
+    return (x[0] + t * x[3], x[1] + t * x[4],
+            p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sh2 * qpos,
+            p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4],
+            p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3],
+            p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sh2 * qpos,
+            x[2] + t * x[5],
+            p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sv2 * qpos)
+
+
 @kernel("float64[:, ::1](float64[:, ::1], float64[:, :, ::1], float64[::1], float64, float64, float64, float64, "
         "float64[::1], boolean[::1])")
 def pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights, has_alt):
@@ -518,20 +534,9 @@ def pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_
         x = rel_x[i]
         hh = half_heights[i]
         for j in range(nk):
-            t = t_s[j]
-            k = np.rint(t / step_s)
-            qpos = step_s ** 4 * (k ** 3 / 3.0 - k / 12.0)  # per unit sigma^2
-            tt = t * t
-            mx = x[0] + t * x[3]
-            my = x[1] + t * x[4]
-            c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sh2 * qpos
-            c01 = p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4]
-            c10 = p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3]
-            c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sh2 * qpos
+            mx, my, c00, c01, c10, c11, mz, vz = cv_at(x, p, t_s[j], step_s, sh2, sv2)
             pc = disk_pc(mx, my, c00, c01, c10, c11, radius)
             if has_alt[i]:
-                mz = x[2] + t * x[5]
-                vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sv2 * qpos
                 pc *= interval_mass(-hh, hh, mz, np.sqrt(max(vz, 0.0)))
             out[i, j] = pc
     return out
@@ -573,16 +578,7 @@ def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights
         v2 = x[3] * x[3] + x[4] * x[4]
         t_cpa = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
         k = min(max(np.rint(t_cpa / step_s), 0.0), nk - 1.0)
-        t = t_s[int(k)]
-        kk = np.rint(t / step_s)
-        qpos = step_s ** 4 * (kk ** 3 / 3.0 - kk / 12.0)
-        tt = t * t
-        mx = x[0] + t * x[3]
-        my = x[1] + t * x[4]
-        c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sh2 * qpos
-        c01 = p[0, 1] + t * (p[0, 4] + p[1, 3]) + tt * p[3, 4]
-        c10 = p[1, 0] + t * (p[1, 3] + p[0, 4]) + tt * p[4, 3]
-        c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sh2 * qpos
+        mx, my, c00, c01, c10, c11, mz, vz = cv_at(x, p, t_s[int(k)], step_s, sh2, sv2)
         speed = math.hypot(x[3], x[4])
         if speed > 0.0:  # the strip |n . x| <= R across the relative velocity
             nx = -x[4] / speed
@@ -600,8 +596,6 @@ def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights
             out[i, 3] = 0.0
             continue
         if has_alt[i]:
-            mz = x[2] + t * x[5]
-            vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sv2 * qpos
             pe *= interval_mass(-half_heights[i], half_heights[i], mz, np.sqrt(max(vz, 0.0)))
         out[i, 3] = pe
 
@@ -615,21 +609,14 @@ def min_distance_keep_pairs(rel_x, rel_p, has_alt, z_margin_m, radius, half_heig
     P_xy(T)), and where the altitude is known the minimum vertical separation < alpha (H + margin) + 3 sigma_z(T)."""
     n = rel_x.shape[0]
     keep = np.empty(n, np.bool_)
-    t = lookahead_s
-    k = np.rint(t / step_s)
-    qpos = step_s ** 4 * (k ** 3 / 3.0 - k / 12.0)
-    tt = t * t
     for i in range(n):
         x = rel_x[i]
-        p = rel_p[i]
-        c00 = p[0, 0] + t * (p[0, 3] + p[0, 3]) + tt * p[3, 3] + sigma_h * sigma_h * qpos
-        c11 = p[1, 1] + t * (p[1, 4] + p[1, 4]) + tt * p[4, 4] + sigma_h * sigma_h * qpos
+        _, _, c00, _, _, c11, _, vz = cv_at(x, rel_p[i], lookahead_s, step_s, sigma_h * sigma_h, sigma_v * sigma_v)
         v2 = x[3] * x[3] + x[4] * x[4]
         tm = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
         tm = min(max(tm, 0.0), lookahead_s)
         ok = math.hypot(x[0] + x[3] * tm, x[1] + x[4] * tm) < alpha * radius + 3.0 * np.sqrt(c00 + c11)
         if ok and has_alt[i]:
-            vz = p[2, 2] + t * (p[2, 5] + p[2, 5]) + tt * p[5, 5] + sigma_v * sigma_v * qpos
             zmax = alpha * (half_height + z_margin_m[i]) + 3.0 * np.sqrt(vz)
             end = x[2] + x[5] * lookahead_s
             if np.sign(x[2]) != np.sign(end):  # scheduling.predicted_min_vertical: crosses (NaN too)
