@@ -51,9 +51,9 @@ def _ordered_scalar(x: float) -> int:
 
 
 def _almost_equals_scalar(a: float, b: float, precision: int) -> bool:
-    """almost_equals for two numbers on Python floats: the array arithmetic without a numpy call per operation
-    (the guidance bands compare one pair at a time, tens of thousands of times a second). Exact integers: the
-    array path's int64 wrap never makes two far-apart doubles equal (below), so no case differs."""
+    """almost_equals for two numbers on Python floats: the array arithmetic without a dozen numpy calls (one
+    comparison of the alerter's reference or the bands costs a microsecond, not 40). Exact integers: the array
+    path's int64 wrap never makes two far-apart doubles equal (below), so no case differs."""
     comp = ZERO_COMPARISON.get(precision, 1e-13)
     if a == b or ((a == 0.0 or b == 0.0) and abs(a) < comp and abs(b) < comp):
         return True
@@ -73,15 +73,12 @@ def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     comp = ZERO_COMPARISON.get(precision, 1e-13)
     if a.ndim < b.ndim:
-        a, b = b, a  # symmetric: an array against a number takes the kernel's one-element path below
-    if a.ndim and jit.ready() and (b.ndim == 0 or a.shape == b.shape):
-        # the compiled loop (base/kernels.py), element for element the arithmetic below
-        return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(a.shape)
-    if a.shape != b.shape:  # read-only views (broadcast_arrays' would warn when _flat asks whether they are)
+        a, b = b, a  # symmetric: an array against a number keeps the number as one (the kernel's one-element b)
+    if b.ndim and a.shape != b.shape:  # read-only views (broadcast_arrays' would warn when _flat asks of them)
         shape = np.broadcast_shapes(a.shape, b.shape)
         a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
-        if jit.ready():
-            return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(shape)
+    if a.ndim and jit.ready():  # the compiled loop (base/kernels.py), element for element the arithmetic below
+        return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(a.shape)
     zero_case = ((a == 0.0) | (b == 0.0)) & (np.abs(a) < comp) & (np.abs(b) < comp)
     finite = np.isfinite(a) & np.isfinite(b)
     with np.errstate(over="ignore"):

@@ -38,6 +38,7 @@ from avionics.conflict.prediction import cv_relative_prediction
 from avionics.conflict.probability import as_c
 
 kernels = jit.lazy(__name__, "avionics.conflict.kernels")  # the module, once jit.load() ran (jit.py)
+
 TIME_EPSILON_S = 1e-6
 
 
