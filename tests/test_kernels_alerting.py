@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 from avionics.advisory import kernels
 from avionics.advisory.alerting import Encounter, wcv_alerter
+from avionics.advisory.bands_kinematics import level_out_times
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import _horizontal_interval, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, wcv_uncertain_intervals
@@ -171,3 +172,19 @@ def test_almost_equals_edges():
              (x, x + 16348 * np.spacing(x)), (x, x + 16349 * np.spacing(x)), (-x, -x - 10 * np.spacing(x))]
     for a, b in cases:
         assert kernels.almost_equals(a, b) == bool(almost_equals(a, b)), (a, b)
+
+
+# --- the altitude bands' level-out times (bands_kinematics.level_out_times) ---------------------------------------
+
+@SETTINGS
+@given(st.floats(-500.0, 15000.0), st.one_of(st.floats(-60.0, 60.0), st.sampled_from([0.0, -0.0, 1e-6, -1e-6, 5.0])),
+       st.sampled_from([0.5, 2.5, 10.0]), st.sampled_from([0.5, 1.63, 9.8]), st.sampled_from([50.0, 100.0, 250.0]))
+def test_level_out_times_kernel_equals_reference(s0z, v0z, climb_rate, accel, step):
+    """Every target altitude of an altitude band (climbing, descending, level within Util's 1e-5, overshooting
+    targets close below or above), the kernel's (T1, T2, T3, a1, a2) are the numpy code's, bit for bit."""
+    targets = np.arange(-300.0, 15300.0, step)
+    got = level_out_times(s0z, v0z, climb_rate, targets, accel)
+    with jit.reference():
+        want = level_out_times(s0z, v0z, climb_rate, targets, accel)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)

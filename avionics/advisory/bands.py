@@ -549,8 +549,9 @@ class _Altitude(_Candidates):
         self.maxup = int(math.floor((max_val - min_val) / step)) + 1
         self.targets = min_val + np.arange(self.maxup + 1) * step
         tstep = 1.0
-        t1, t2, t3, _, _ = level_out_times(float(p0[2]), float(v0[2]), p.vertical_rate_mps, self.targets,
-                                           p.vertical_accel_mps2)
+        level_out = level_out_times(float(p0[2]), float(v0[2]), p.vertical_rate_mps, self.targets,
+                                    p.vertical_accel_mps2)  # once: the trajectory below reads it too
+        t1, t2, t3, _, _ = level_out
         tsqj3 = t3 + tstep
         self.t1, self.t2, self.t3 = t1, t2, tsqj3
         # LOS sample times: i = 0..floor(t1) and ceil(t2)..floor(t3 + 1) (conflict_free_traj_step)
@@ -567,7 +568,7 @@ class _Altitude(_Candidates):
         self.tsk3 = np.maximum(tsqj3, 0.0)
         allt = np.concatenate([self.los_t, self.tsk1[:, None], self.tsk3[:, None]], axis=1)
         pos, vel, _ = level_out_state(p0, v0, allt, p.vertical_rate_mps, self.targets, p.vertical_accel_mps2,
-                                      tstep)
+                                      tstep, level_out)
         sat = pos - allt[..., None] * vel
         self.s = si[None, None] - sat[:, :, None]  # (M, Q+2, N, 3)
         self.v = vi[None, None] - vel[:, :, None]

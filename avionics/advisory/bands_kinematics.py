@@ -21,6 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from avionics.base import almost as _almost
+from avionics.base import jit
+from avionics.conflict.probability import as_c
+
+kernels = jit.lazy(__name__, "avionics.advisory.kernels")  # the module, once jit.load() ran (jit.py)
 
 # DaidalusParameters.ALMOST_ = Util.PRECISION5: the bands compare at about 5 significant digits (2^40 ULPs; at
 # zero, below 1e-5), with Util's semantics (base/almost.py).
@@ -136,8 +140,13 @@ def _level_out_ad1(s0z, v0z, climb_rate, target, accel_up, accel_down):
 
 def level_out_times(s0z: float, v0z: float, climb_rate: float, target, accel: float):
     """Kinematics.vsLevelOutTimes(s0z, v0z, climbRate, targetAlt, a, -a, true) for target altitudes (M,):
-    (T1 end of first acceleration, T2 end of the constant climb, T3 level, a1, a2), each (M,)."""
+    (T1 end of first acceleration, T2 end of the constant climb, T3 level, a1, a2), each (M,). The compiled
+    loop (advisory/kernels.py level_out_times_targets: this arithmetic target by target) when the kernels are
+    ready."""
     target = np.asarray(target, float)
+    if jit.ready() and target.ndim == 1 and accel > 0:
+        return tuple(kernels.level_out_times_targets(float(s0z), float(v0z), float(climb_rate), as_c(target),
+                                                     float(accel), bool(almost_equals(v0z, 0.0))))
     up, down = accel, -accel
     sgnv = 1.0 if v0z >= 0 else -1.0
     alt_dir = np.where(target >= s0z, 1.0, -1.0)
@@ -161,13 +170,15 @@ def level_out_times(s0z: float, v0z: float, climb_rate: float, target, accel: fl
     return tuple(res)
 
 
-def level_out_state(p0, v0, t, climb_rate: float, target, accel: float, tstep: float):
+def level_out_state(p0, v0, t, climb_rate: float, target, accel: float, tstep: float, times=None):
     """DaidalusAltBands.trajectory for target altitudes (M,) at times t (M, Q): position (M, Q, 3) and velocity
     (M, Q, 3). Until the level-out time plus one time step, Kinematics.vsLevelOut (vsLevelOutCalc); after that
-    level at the target with the horizontal motion straight on."""
+    level at the target with the horizontal motion straight on. times: level_out_times' result for these
+    arguments, when the caller has it already."""
     target = np.asarray(target, float)
     t = np.asarray(t, float)
-    t1, t2, t3, a1, a2 = level_out_times(float(p0[2]), float(v0[2]), climb_rate, target, accel)
+    t1, t2, t3, a1, a2 = times if times is not None else \
+        level_out_times(float(p0[2]), float(v0[2]), climb_rate, target, accel)
     tsqj = np.where(t1 < 0, -1.0, t3) + tstep  # ProjectedKinematics.vsLevelOutTime (-1 when not achieved)
     e = lambda x: x[:, None]  # noqa: E731
     T1, T2, T3, A1, A2 = e(t1), e(t2), e(t3), e(a1), e(a2)

@@ -36,6 +36,7 @@ SUM_COLUMNS = ("on", "h_pos", "h_vel_min", "h_vel_max", "h_vel_distance_m", "v_p
 
 _F2 = "UniTuple(float64, 2)"
 _F4 = "UniTuple(float64, 4)"
+_F5 = "UniTuple(float64, 5)"
 
 
 # --- Util.almost_equals (base/almost.py) ------------------------------------------------------------------------
@@ -413,4 +414,101 @@ def wcv_alert_pairs(s_xy, v_xy, sz, vz, has_alt, margin, errors, previous, level
             if wcv_conflict(s_xy[i, 0], s_xy[i, 1], v_xy[i, 0], v_xy[i, 1], sep, vz[i], has_alt[i], errors[i, 0],
                             errors[i, 1], errors[i, 2], errors[i, 3], lv, sum_params, time_s, lv[7] != 0.0):
                 out[i] = k + 1
+    return out
+
+
+# --- Kinematics.vsLevelOutTimes (advisory/bands_kinematics.py level_out_times), the altitude bands' targets ------
+
+@kernel("float64(float64, float64)")
+def _ieee_div(a, b):
+    """a / b as numpy divides (inf, NaN for b = 0), where numba's Python error model would raise."""
+    if b != 0.0:
+        return a / b
+    if a != a or a == 0.0:
+        return np.nan
+    return math.copysign(math.inf, a) * math.copysign(1.0, b)
+
+
+@kernel("float64(float64, float64)")
+def _maximum(a, b):
+    """np.maximum: NaN propagates; a on ties."""
+    return a if (a >= b or a != a) else b
+
+
+@kernel("float64(float64, float64, float64)")
+def _s1(v, a, t):
+    return v * t + 0.5 * a * t * t
+
+
+@kernel("float64(float64, float64)")
+def _s3(v, a):
+    return _s1(v, a, -v / a)
+
+
+@kernel("float64(float64, float64, float64, float64)")
+def _root(a, b, c, eps):
+    """bands_kinematics._root: Util.root, (-b + eps sqrt(b^2 - 4ac)) / 2a; NaN where none, -c/b where a == 0."""
+    if a == 0.0:
+        return -c / b if b != 0.0 else np.nan
+    disc = b * b - 4 * a * c
+    if not disc >= 0:
+        return np.nan
+    return (-b + eps * np.sqrt(_maximum(disc, 0.0))) / (2 * a)
+
+
+@kernel(f"{_F5}(float64, float64, float64, float64, float64, float64)")
+def _level_out_ad1(s0z, v0z, climb_rate, target, accel_up, accel_down):
+    """bands_kinematics._level_out_ad1 for one target: Kinematics.vsLevelOutTimesAD1 (T1, T2, T3, a1, a2)."""
+    alt_dir = 1.0 if target >= s0z else -1.0
+    cr = alt_dir * _maximum(abs(climb_rate), abs(v0z))
+    s = target - s0z
+    a1 = accel_up if cr >= v0z else accel_down
+    a2 = accel_down if target >= s0z else accel_up
+    t1 = (cr - v0z) / a1
+    v1 = v0z + a1 * t1
+    if abs(s) >= abs(_s1(v0z, a1, t1) + _s3(v1, a2)):
+        t2 = _ieee_div(s - _s1(v0z, a1, t1) - _s3(v1, a2), cr)
+        return t1, t1 + t2, t1 + t2 + -cr / a2, a1, a2
+    aa = 0.5 * a1 * (1 - a1 / a2)
+    bb = v0z * (1 - a1 / a2)
+    cc = -v0z * v0z / (2 * a2) - s
+    r1, r2 = _root(aa, bb, cc, 1.0), _root(aa, bb, cc, -1.0)
+    if r1 < 0:
+        t1b = r2
+    elif r2 < 0:
+        t1b = r1
+    else:
+        t1b = r1 if (r1 <= r2 or r1 != r1) else r2  # np.minimum: NaN propagates, r1 on ties
+    return t1b, t1b, t1b + -(v0z + a1 * t1b) / a2, a1, a2
+
+
+@kernel("float64[:, ::1](float64, float64, float64, float64[::1], float64, boolean)")
+def level_out_times_targets(s0z, v0z, climb_rate, targets, accel, level):
+    """bands_kinematics.level_out_times for targets (M,): (5, M) rows T1, T2, T3, a1, a2; level: the ownship's
+    vertical speed is almost 0 (Util.almost_equals at PRECISION5, the caller's)."""
+    up = accel
+    down = -accel
+    sgnv = 1.0 if v0z >= 0 else -1.0
+    out = np.empty((5, targets.shape[0]))
+    for j in range(targets.shape[0]):
+        target = targets[j]
+        alt_dir = 1.0 if target >= s0z else -1.0
+        a1 = up if target >= s0z else down
+        a2 = down if target >= s0z else up
+        zero = 0.0 * target  # as the reference's: its sign too
+        if sgnv == alt_dir or level:
+            if abs(target - s0z) >= abs(_s3(v0z, a2)):  # case 1.1: room to decelerate
+                r = _level_out_ad1(s0z, v0z, climb_rate, target, up, down)
+                shift = 0.0
+                add = False
+            else:  # 1.2: an overshoot, first stop
+                r = _level_out_ad1(s0z + _s3(v0z, a2), zero, climb_rate, target, up, down)
+                shift = -v0z / a2
+                add = True
+        else:  # 2: moving away, first stop
+            r = _level_out_ad1(s0z + _s3(v0z, a1), zero, climb_rate, target, up, down)
+            shift = -v0z / a1
+            add = True
+        for i in range(5):
+            out[i, j] = (r[i] + (shift if i < 3 else 0.0)) if add else r[i]
     return out
