@@ -47,16 +47,25 @@ class _TimedDaa(Daa):
         return result
 
 
+def _cpu_ms_per_encounter(profile: str, encounters: list, conditions=None) -> float:
+    """`avionics evaluate`'s CPU time per encounter over encounters[1:], after encounters[0] as a warm-up."""
+    from avionics_eval.evaluation import evaluate as evaluation
+
+    conditions = conditions or evaluation.DEFAULT_CONDITIONS
+    warm, timed = encounters[0], encounters[1:]
+    evaluation.evaluate(warm, profile, (warm.seed, warm.index), conditions=conditions)
+    t0 = time.process_time()
+    for e in timed:
+        evaluation.evaluate(e, profile, (e.seed, e.index), conditions=conditions)
+    return (time.process_time() - t0) / len(timed) * 1e3
+
+
 def profile_cost(profile: str, encounters: list) -> dict:
     """One profile over the encounters (the first one a warm-up): its steps' wall times and CPU per encounter."""
     from avionics_eval.evaluation import evaluate as evaluation
 
-    warm, timed = encounters[0], encounters[1:]
-    evaluation.evaluate(warm, profile, (warm.seed, warm.index))
-    t0 = time.process_time()
-    for e in timed:
-        evaluation.evaluate(e, profile, (e.seed, e.index))
-    cpu_ms = (time.process_time() - t0) / len(timed) * 1e3
+    cpu_ms = _cpu_ms_per_encounter(profile, encounters)
+    timed = encounters[1:]
     built, evaluation.Daa = evaluation.Daa, _TimedDaa
     _TimedDaa.steps_ns = []
     try:
@@ -74,15 +83,10 @@ def profile_cost(profile: str, encounters: list) -> dict:
 def guided_cost(profile: str, encounters: list) -> float:
     """CPU ms per encounter flown through the guidance with the multirotor and the guidance bands (the first a
     warm-up)."""
-    from avionics_eval.evaluation import evaluate as evaluation
+    from avionics_eval.evaluation.evaluate import Conditions
 
-    conditions = evaluation.Conditions("sitl", None, "guidance", "multirotor", True)
-    warm, timed = encounters[0], encounters[1:]
-    evaluation.evaluate(warm, profile, (warm.seed, warm.index), conditions=conditions)
-    t0 = time.process_time()
-    for e in timed:
-        evaluation.evaluate(e, profile, (e.seed, e.index), conditions=conditions)
-    return round((time.process_time() - t0) / len(timed) * 1e3, 1)
+    return round(_cpu_ms_per_encounter(profile, encounters, Conditions("sitl", None, "guidance", "multirotor", True)),
+                 1)
 
 
 def step_bench(profiles: list[str], encounters: int, seed: int, guided: int = 0) -> dict:
@@ -101,7 +105,7 @@ def step_bench(profiles: list[str], encounters: int, seed: int, guided: int = 0)
         "load_average": [round(x, 2) for x in os.getloadavg()],
         "encounters": encounters, "seed": seed,
         "filterpy_imm_step_us": round(bench_filterpy(200), 1),
-        "profiles": {p: {**profile_cost(p, items),
+        "profiles": {p: {**profile_cost(p, items[:encounters + 1]),
                          **({"guided_cpu_ms_per_encounter": guided_cost(p, items[:guided + 1])} if guided else {})}
                      for p in profiles},
         "targets": TARGETS,
