@@ -136,7 +136,6 @@ def wcv_interval(sx, sy, vx, vy, sz, vz, d2, zthr, tthr, tcoa, b, t):
     return h_in + low, h_out + low
 
 
-
 @kernel("float64[:, ::1](float64[:, ::1], float64[:, ::1], float64[::1], float64[::1], float64, float64, float64, "
         "float64, float64, float64)")
 def wcv_interval_lines(s_xy, v_xy, sz, vz, d2, zthr, tthr, tcoa, b, t):
@@ -147,6 +146,7 @@ def wcv_interval_lines(s_xy, v_xy, sz, vz, d2, zthr, tthr, tcoa, b, t):
         out[i, 0], out[i, 1] = wcv_interval(s_xy[i, 0], s_xy[i, 1], v_xy[i, 0], v_xy[i, 1], sz[i], vz[i], d2, zthr,
                                             tthr, tcoa, b, t)
     return out
+
 
 # --- WCV_TAUMOD_SUM (advisory/wcv_sum.py, its scalar functions) --------------------------------------------------
 

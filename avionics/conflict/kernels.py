@@ -542,6 +542,20 @@ def pc_curve_cv_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_
     return out
 
 
+@kernel("float64(float64[::1])")
+def cpa_time(x):
+    """The horizontal CPA time of the relative state x, -s.v / |v|^2 (0 without relative motion), unclamped."""
+    v2 = x[3] * x[3] + x[4] * x[4]
+    return -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
+
+
+@kernel("float64(float64[::1], float64, float64)")
+def min_distance(x, t_cpa, lookahead_s):
+    """scheduling.predicted_min_distance: |s + v t| at the CPA time clamped to [0, lookahead]."""
+    t = min(max(t_cpa, 0.0), lookahead_s)
+    return math.hypot(x[0] + x[3] * t, x[1] + x[4] * t)
+
+
 @kernel("void(float64[:, ::1], float64[:, :, ::1], float64[::1], float64, float64, float64, float64, float64[::1], "
         "boolean[::1], float64, float64, float64[:, ::1], float64[:, ::1])")
 def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights, has_alt, lookahead_s, alpha,
@@ -575,8 +589,7 @@ def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights
         out[i, 1] = curve[i, best]
         out[i, 2] = np.nan if curve[i, best] != curve[i, best] else t_s[best]
         # the (clamped) CPA time of the mean on the step grid, and the prediction there
-        v2 = x[3] * x[3] + x[4] * x[4]
-        t_cpa = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
+        t_cpa = cpa_time(x)
         k = min(max(np.rint(t_cpa / step_s), 0.0), nk - 1.0)
         mx, my, c00, c01, c10, c11, mz, vz = cv_at(x, p, t_s[int(k)], step_s, sh2, sv2)
         speed = math.hypot(x[3], x[4])
@@ -589,10 +602,7 @@ def zone_pairs(rel_x, rel_p, t_s, step_s, sigma_h, sigma_v, radius, half_heights
         else:  # no relative motion: the exact instantaneous value
             pe = disk_pc(mx, my, c00, c01, c10, c11, radius)
         # Hwang condition 2(b): the straight-line minimum distance within the lookahead
-        tm = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
-        tm = min(max(tm, 0.0), lookahead_s)
-        dmin = math.hypot(x[0] + x[3] * tm, x[1] + x[4] * tm)
-        if not dmin < alpha * radius + 3.0 * np.sqrt(c00 + c11):
+        if not min_distance(x, t_cpa, lookahead_s) < alpha * radius + 3.0 * np.sqrt(c00 + c11):
             out[i, 3] = 0.0
             continue
         if has_alt[i]:
@@ -612,10 +622,7 @@ def min_distance_keep_pairs(rel_x, rel_p, has_alt, z_margin_m, radius, half_heig
     for i in range(n):
         x = rel_x[i]
         _, _, c00, _, _, c11, _, vz = cv_at(x, rel_p[i], lookahead_s, step_s, sigma_h * sigma_h, sigma_v * sigma_v)
-        v2 = x[3] * x[3] + x[4] * x[4]
-        tm = -(x[0] * x[3] + x[1] * x[4]) / v2 if v2 > 0.0 else 0.0
-        tm = min(max(tm, 0.0), lookahead_s)
-        ok = math.hypot(x[0] + x[3] * tm, x[1] + x[4] * tm) < alpha * radius + 3.0 * np.sqrt(c00 + c11)
+        ok = min_distance(x, cpa_time(x), lookahead_s) < alpha * radius + 3.0 * np.sqrt(c00 + c11)
         if ok and has_alt[i]:
             zmax = alpha * (half_height + z_margin_m[i]) + 3.0 * np.sqrt(vz)
             end = x[2] + x[5] * lookahead_s
