@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from avionics.advisory import kernels
 from avionics.advisory.alerting import Encounter, wcv_alerter
-from avionics.advisory.bands_kinematics import level_out_times
+from avionics.advisory.bands_kinematics import Cylinder, cylinder_lines, level_out_times
 from avionics.advisory.tables import load_profile
 from avionics.advisory.wcv import _horizontal_interval, conflict, wcv_interval
 from avionics.advisory.wcv_sum import MIN_ERROR, wcv_uncertain_intervals
@@ -187,4 +187,28 @@ def test_level_out_times_kernel_equals_reference(s0z, v0z, climb_rate, accel, st
     with jit.reference():
         want = level_out_times(s0z, v0z, climb_rate, targets, accel)
     for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+
+
+# --- the bands' recovery and NMAC cylinders (bands_kinematics.cylinder_lines) -----------------------------------
+
+CYLINDERS = st.sampled_from([Cylinder(500 * FT, 100 * FT), Cylinder(0.66 * NM, 450 * FT), Cylinder(1.0, 1.0)])
+
+
+@SETTINGS
+@given(st.lists(st.tuples(horizontal, velocity, vertical, vertical_rate), min_size=1, max_size=8), CYLINDERS,
+       st.sampled_from([1.0, 60.0, 180.0]))
+@example([((500 * FT, 0.0), (0.0, 0.0), 100 * FT, 0.0)], Cylinder(500 * FT, 100 * FT), 180.0)  # on both edges
+@example([((0.0, 0.0), (1e-14, 0.0), 0.0, 1e-14)], Cylinder(1.0, 1.0), 1.0)  # still within Util's 1e-13
+def test_cylinder_lines_kernel_equals_reference(pairs, cyl, t_end):
+    """The loss interval of a recovery or NMAC cylinder (CD3D.detection), inside and outside, on its edges and
+    with motion below almost-equal, is the numpy code's bit for bit, on lines broadcast as the bands ask them."""
+    s = np.array([(*p[0], p[2]) for p in pairs], float)
+    v = np.array([(*p[1], p[3]) for p in pairs], float)
+    lines = s[:, None, :], np.concatenate([v, v[::-1]])[None]  # (M, 1, 3) against (1, 2M, 3): (M, 2M)
+    got = cylinder_lines(*lines, cyl, t_end)
+    with jit.reference():
+        want = cylinder_lines(*lines, cyl, t_end)
+    for g, w in zip(got, want):
+        assert g.shape == w.shape
         np.testing.assert_array_equal(g, w)

@@ -47,7 +47,7 @@ from typing import Sequence
 import numpy as np
 
 from avionics.advisory.bands_kinematics import (
-    Cylinder, almost_equals, almost_less, cylinder_interval, gs_accel, level_out_state,
+    Cylinder, almost_equals, almost_less, cylinder_lines, gs_accel, level_out_state,
     level_out_times, turn, vs_accel,
 )
 from avionics.advisory.persistence import MofN
@@ -434,7 +434,7 @@ def _lines(det, s, v, lookahead, sum_data=None):
     velocity z-score is weighed at each line's range at time 0 (the state DAIDALUS hands the detector); pairs
     whose relative errors are all zero keep WCV_TAUMOD (conflictDetectionWithTrafficState)."""
     if isinstance(det, Cylinder):
-        return cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, lookahead)
+        return cylinder_lines(s, v, det, lookahead)
     tin, tout = wcv_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], det, 0.0, lookahead)
     if sum_data is not None:
         z, errors = sum_data

@@ -209,6 +209,18 @@ class Cylinder:
     h_m: float
 
 
+def cylinder_lines(s, v, cyl: Cylinder, t_end: float):
+    """cylinder_interval on the lines (s, v), each (..., 3): (t_in, t_out), each (...). The compiled loop
+    (advisory/kernels.py cylinder_lines: cylinder_interval line by line) when the kernels are loaded."""
+    if jit.ready():
+        shape = np.broadcast_shapes(np.shape(s), np.shape(v))
+        out = kernels.cylinder_lines(as_c(np.broadcast_to(s, shape).reshape(-1, 3)),
+                                     as_c(np.broadcast_to(v, shape).reshape(-1, 3)), cyl.d_m**2, cyl.h_m,
+                                     float(t_end))
+        return out[:, 0].reshape(shape[:-1]), out[:, 1].reshape(shape[:-1])
+    return cylinder_interval(s[..., :2], v[..., :2], s[..., 2], v[..., 2], cyl, t_end)
+
+
 def cylinder_interval(s_xy, v_xy, sz, vz, cyl: Cylinder, t_end: float):
     """(t_in, t_out) of loss of the cylinder within [0, t_end] for straight-line relative motion, as
     CD3D.detection computes it: on an axis without relative motion (Util.almost_equals(v, 0) here, per

@@ -512,3 +512,47 @@ def level_out_times_targets(s0z, v0z, climb_rate, targets, accel, level):
         for i in range(5):
             out[i, j] = (r[i] + (shift if i < 3 else 0.0)) if add else r[i]
     return out
+
+
+# --- the recovery cylinder (advisory/bands_kinematics.py cylinder_interval, advisory/bands.py _lines) -------------
+
+@kernel("float64(float64, float64)")
+def _minimum(a, b):
+    """np.minimum: NaN propagates; a on ties."""
+    return a if (a <= b or a != a) else b
+
+
+@kernel(f"{_F2}(float64, float64, float64, float64, float64, float64, float64, float64, float64)")
+def cylinder_interval(sx, sy, vx, vy, sz, vz, d2, h, t_end):
+    """bands_kinematics.cylinder_interval for one line: CD3D.detection's (t_in, t_out) within [0, t_end]."""
+    a = vx * vx + vy * vy
+    b = sx * vx + sy * vy
+    sqs = sx * sx + sy * sy
+    delta = b * b - a * (sqs - d2)  # Horizontal.Delta
+    sq = math.sqrt(_maximum(delta, 0.0))
+    still = almost_equals(vx, 0.0) and almost_equals(vy, 0.0)
+    h_los = not almost_equals(sqs, d2) and sqs < d2
+    if still and h_los:
+        h_in, h_out = -math.inf, math.inf
+    elif delta > 0 and a > 0:
+        h_in, h_out = (-b - sq) / a, (-b + sq) / a
+    else:
+        h_in, h_out = math.inf, -math.inf
+    abs_sz = abs(sz)
+    if almost_equals(vz, 0.0):
+        v_los = not almost_equals(abs_sz, h) and abs_sz < h
+        v_in, v_out = (-math.inf, math.inf) if v_los else (math.inf, -math.inf)
+    else:
+        sign = 1.0 if vz >= 0.0 else -1.0
+        v_in, v_out = (-sign * h - sz) / vz, (sign * h - sz) / vz
+    return _maximum(_maximum(h_in, v_in), 0.0), _minimum(_minimum(h_out, v_out), t_end)
+
+
+@kernel("float64[:, ::1](float64[:, ::1], float64[:, ::1], float64, float64, float64)")
+def cylinder_lines(s, v, d2, h, t_end):
+    """cylinder_interval over M lines (M, 3) (the bands' recovery and NMAC cylinders): (M, 2) of (t_in, t_out)."""
+    m = s.shape[0]
+    out = np.empty((m, 2))
+    for i in range(m):
+        out[i, 0], out[i, 1] = cylinder_interval(s[i, 0], s[i, 1], v[i, 0], v[i, 1], s[i, 2], v[i, 2], d2, h, t_end)
+    return out
