@@ -196,3 +196,4 @@ def test_one_pair_compares_as_the_arrays_do(a, b, precision):
             with jit.reference():
                 reference = compare(x, y, precision)
             assert np.array_equal(compare(x, y, precision), reference), (compare.__name__, a, b, precision)
+        assert compare(np.empty(0), np.array([b]), precision).shape == (0,)  # none against one: none

@@ -60,10 +60,16 @@ def _almost_equals_scalar(a: float, b: float, precision: int) -> bool:
     return math.isfinite(a) and math.isfinite(b) and abs(_ordered_scalar(a) - _ordered_scalar(b)) <= precision
 
 
-def _flat(x: np.ndarray) -> np.ndarray:
-    """x as the kernel takes it: one C-contiguous, writable dimension (numba types a read-only array apart)."""
-    x = np.ravel(x)
-    return x if x.flags.writeable else x.copy()
+def _flat_pair(a, b) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """a and b as the kernels take them (one C-contiguous, writable dimension each: numba types a read-only array
+    apart), a one-element side kept as one element, and the shape of the result."""
+    shape = np.broadcast_shapes(a.shape, b.shape)
+
+    def flat(x):
+        x = np.ravel(x) if x.shape == shape or x.size == 1 else np.ravel(np.broadcast_to(x, shape))
+        return x if x.flags.writeable else x.copy()
+
+    return flat(a), flat(b), shape
 
 
 def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
@@ -72,13 +78,9 @@ def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
         return _almost_equals_scalar(float(a), float(b), precision)
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     comp = ZERO_COMPARISON.get(precision, 1e-13)
-    if a.ndim < b.ndim:
-        a, b = b, a  # symmetric: an array against a number keeps the number as one (the kernel's one-element b)
-    if b.ndim and a.shape != b.shape:  # read-only views (broadcast_arrays' would warn when _flat asks of them)
-        shape = np.broadcast_shapes(a.shape, b.shape)
-        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
-    if a.ndim and jit.ready():  # the compiled loop (base/kernels.py), element for element the arithmetic below
-        return kernels.almost_equals_flat(_flat(a), _flat(b), precision, comp).reshape(a.shape)
+    if (a.ndim or b.ndim) and jit.ready():  # the compiled loop (base/kernels.py), element for element the below
+        fa, fb, shape = _flat_pair(a, b)
+        return kernels.almost_equals_flat(fa, fb, precision, comp).reshape(shape)
     zero_case = ((a == 0.0) | (b == 0.0)) & (np.abs(a) < comp) & (np.abs(b) < comp)
     finite = np.isfinite(a) & np.isfinite(b)
     with np.errstate(over="ignore"):
@@ -93,6 +95,9 @@ def almost_less(a, b, precision: int = PRECISION13):
     if type(a) in _SCALARS and type(b) in _SCALARS:
         a, b = float(a), float(b)
         return np.bool_(a < b and not _almost_equals_scalar(a, b, precision))
+    if (np.ndim(a) or np.ndim(b)) and jit.ready():  # the compiled loop (base/kernels.py almost_less_flat)
+        fa, fb, shape = _flat_pair(np.asarray(a, np.float64), np.asarray(b, np.float64))
+        return kernels.almost_less_flat(fa, fb, precision, ZERO_COMPARISON.get(precision, 1e-13)).reshape(shape)
     return np.logical_and(np.less(a, b), np.logical_not(almost_equals(a, b, precision)))
 
 

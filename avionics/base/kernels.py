@@ -1,4 +1,5 @@
-"""Compiled kernels of the base layer: DAIDALUS's Util.almost_equals (base/almost.py, the numpy reference).
+"""Compiled kernels of the base layer: DAIDALUS's Util.almost_equals and almost_less (base/almost.py, the numpy
+reference).
 
 The guidance bands compare arrays of a few hundred samples at a time, tens of thousands of times an encounter; the
 reference's dozen numpy calls cost ~40 us a call whatever the size. The same arithmetic, element for element, in
@@ -40,9 +41,22 @@ def almost_equals_one(a, b, precision, zero):
 
 @kernel("boolean[::1](float64[::1], float64[::1], int64, float64)")
 def almost_equals_flat(a, b, precision, zero):
-    """almost_equals_one of every element of a with the same element of b, or with b's one element."""
-    out = np.empty(a.shape[0], np.bool_)
-    one = b.shape[0] == 1
-    for i in range(a.shape[0]):
-        out[i] = almost_equals_one(a[i], b[0] if one else b[i], precision, zero)
+    """almost_equals_one of every element pair of a and b, a one-element side against every element of the other."""
+    n = a.shape[0] if b.shape[0] == 1 else b.shape[0]  # (0,) against one element: none
+    out = np.empty(n, np.bool_)
+    one_a, one_b = a.shape[0] != n, b.shape[0] != n
+    for i in range(n):
+        out[i] = almost_equals_one(a[0] if one_a else a[i], b[0] if one_b else b[i], precision, zero)
+    return out
+
+
+@kernel("boolean[::1](float64[::1], float64[::1], int64, float64)")
+def almost_less_flat(a, b, precision, zero):
+    """Util.almost_less (a < b and not almost equal) of every element pair, as almost_equals_flat pairs them."""
+    n = a.shape[0] if b.shape[0] == 1 else b.shape[0]  # (0,) against one element: none
+    out = np.empty(n, np.bool_)
+    one_a, one_b = a.shape[0] != n, b.shape[0] != n
+    for i in range(n):
+        x, y = a[0] if one_a else a[i], b[0] if one_b else b[i]
+        out[i] = x < y and not almost_equals_one(x, y, precision, zero)
     return out
