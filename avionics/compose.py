@@ -63,7 +63,7 @@ def build_components(config: Config, counters: Counter) -> Components:
     return Components(
         profile=profile, levels=LevelSelector(profile), alerter=build_alerter(config.advisory, profile),
         hysteresis=build_hysteresis(profile),
-        bands=build_bands(profile) if config.advisory.guidance_bands else None,
+        bands=build_bands(profile, config.advisory.guidance_band_kinds) if config.advisory.guidance_bands else None,
         gate=build_gate(config.advisory), resolution=ResolutionLogic(profile), inhibits=LowAltitudeInhibits(profile),
         conflict=build_conflict_assessor(config.conflict), tracker=build_surveillance(config.tracking, counters))
 
@@ -169,10 +169,11 @@ def build_hysteresis(profile: AlertProfile) -> AlertingHysteresis | NoHysteresis
                               spec.period_s)
 
 
-def build_bands(profile: AlertProfile) -> BandsEngine | None:
+def build_bands(profile: AlertProfile, kinds: tuple[str, ...] | None = None) -> BandsEngine | None:
     """A DO-365 alerter's guidance bands (advisory/bands.py, DAIDALUS DaidalusRealBands): the profile's [bands]
     parameters and the alerter's levels, each painting its region (a sensor-only intruder's conflicts with its
-    non-cooperative alerter's, [alerter] non_cooperative); None for the tcas2 alerter."""
+    non-cooperative alerter's, [alerter] non_cooperative); None for the tcas2 alerter. kinds: the kinds computed
+    (advisory.guidance_band_kinds; None: all four)."""
     spec = profile.alerter
     if spec is None:
         return None
@@ -182,7 +183,7 @@ def build_bands(profile: AlertProfile) -> BandsEngine | None:
 
     other = None if spec.non_cooperative is None else load_profile(spec.non_cooperative).alerter.levels
     # the alerter's levels (SUM: its tests too), and the non-cooperative alerter's for the sensor-only intruders
-    return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum, non_cooperative_levels=other)
+    return BandsEngine(profile.bands, spec.levels, sum_z=spec.sum, non_cooperative_levels=other, kinds=kinds)
 
 
 def build_gate(advisory_params: AdvisoryConfig) -> AlertGate:

@@ -26,7 +26,7 @@ from pathlib import Path
 from avionics.advisory.params import AdvisoryConfig
 from avionics.conflict.params import ConflictConfig
 from avionics.base.params import ConfigError, _build
-from avionics.guidance.params import GuidanceConfig
+from avionics.guidance.params import BAND_KINDS_READ, GuidanceConfig
 from avionics.io.feeds.params import TrafficConfig
 from avionics.io.params import ROS_NAMESPACE, MavlinkConfig, VehicleConfig, ZenohConfig, traffic_source_ids
 from avionics.tracking.params import TRACK_FILTERS, AltitudeConfig, InputConfig, TrackingConfig
@@ -80,9 +80,15 @@ def _parse_override(text: str) -> dict:
 
 def validate(config: Config) -> Config:
     """Every section by its own component's rules, in the order of Config's fields, then the rules that span
-    sections (one: the ROS 2 namespace defaults to the vehicle id, which must then be a ROS name)."""
+    sections: the guidance's band kinds are computed; the ROS 2 namespace defaults to the vehicle id, which must
+    then be a ROS name."""
     for section in dataclasses.fields(Config):
         getattr(config, section.name).validate()
+    g, a = config.guidance, config.advisory
+    missing = [k for k in BAND_KINDS_READ if k not in a.guidance_band_kinds]
+    if g.mode != "passive" and not g.ladder and a.guidance_bands and missing:
+        raise ConfigError(f"advisory.guidance_band_kinds: guidance.mode {g.mode!r} turns by the {', '.join(missing)} "
+                          f"bands: keep them (or guidance.ladder = true, or advisory.guidance_bands = false)")
     z = config.zenoh
     if z.ros2 and not z.ros2_namespace and not ROS_NAMESPACE.fullmatch(config.vehicle.id):
         raise ConfigError(f"zenoh.ros2: the ROS 2 namespace defaults to vehicle.id {config.vehicle.id!r}, which is not a "

@@ -325,6 +325,40 @@ def test_mirroring_east_west_mirrors_the_track_bands(intruders, own_gs):
         assert all(abs(p.lower - q.lower) < 1e-6 and abs(p.upper - q.upper) < 1e-6 for p, q in zip(ia, ib)), kind
 
 
+@settings(max_examples=20, deadline=None)
+@given(intruders=st.lists(geometry, min_size=1, max_size=2), own_gs=st.floats(30 * KT, 300 * KT),
+       kinds=st.lists(st.sampled_from(KINDS), min_size=1, max_size=3, unique=True))
+def test_the_kinds_computed_are_those_of_all_four(intruders, own_gs, kinds):
+    """advisory.guidance_band_kinds: an engine computing some kinds gives those kinds' bands and recovery as the
+    engine computing all four (each kind is computed on its own, over calls too: their hysteresis), the others
+    empty; intruders close enough for recovery bands among the examples."""
+    pos = [[x / 10, y / 10, 3000 + z / 4] for x, y, z, *_ in intruders]  # within 1,500 m and 150 m: recoveries
+    vel = [[gs * math.sin(math.radians(tr)), gs * math.cos(math.radians(tr)), vs] for *_, tr, gs, vs in intruders]
+    every, some = BandsEngine(BandsParams(), DO365B_LEVELS), BandsEngine(BandsParams(), DO365B_LEVELS, kinds=kinds)
+    for t in (0.0, 1.0):  # a second call: the bands' hysteresis and persistence per kind
+        moved = [[p[0] + v[0] * t, p[1] + v[1] * t, p[2] + v[2] * t] for p, v in zip(pos, vel)]
+        a, b = (e.compute(t, [0, own_gs * t, 3000], [0, own_gs, 0], moved, vel, list(range(len(pos))),
+                          [2] * len(pos)) for e in (every, some))
+        for kind in KINDS:
+            assert b.intervals(kind) == (a.intervals(kind) if kind in kinds else ()), kind
+        assert b.recovery == {k: a.recovery[k] for k in kinds}
+
+
+def test_band_kinds_refused_with_a_clear_error():
+    from avionics.base.params import ConfigError
+    from avionics.config import load_config
+
+    with pytest.raises(ValueError, match="unknown band kind"):
+        BandsEngine(BandsParams(), DO365B_LEVELS, kinds=("heading_deg",))
+    for kinds in ('["heading_deg"]', "[]", '["track_deg", "track_deg"]'):
+        with pytest.raises(ConfigError, match="advisory.guidance_band_kinds: each of track_deg"):
+            load_config(overrides=[f"advisory.guidance_band_kinds={kinds}"])
+    with pytest.raises(ConfigError, match="guidance.mode 'execute' turns by the track_deg bands"):
+        load_config(overrides=['advisory.profile="do365"', 'guidance.mode="execute"',
+                               'advisory.guidance_band_kinds=["altitude_m"]'])
+    assert load_config(overrides=['advisory.guidance_band_kinds=["altitude_m"]']).advisory.guidance_band_kinds == \
+        ("altitude_m",)  # passive: the displays' choice
+
 def test_region_at_and_empty_kinds():
     b = Bands(0.0, (BandInterval(0, 10, "NEAR"), BandInterval(10, 350, "NONE"), BandInterval(350, 360, "NEAR")),
               (), (BandInterval(-30, 0, "NONE"), BandInterval(0, 30, "MID")), (), {})

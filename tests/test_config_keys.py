@@ -124,6 +124,7 @@ EXPLICIT: dict[str, list[str]] = {
     "advisory.profile": [str(ROOT / "config" / "profiles" / "small-uas.toml")],  # a profile .toml path
     "advisory.profile_overrides": ['["sl4.ra_tau_s=25", "response.delay_s=3", "descend_inhibit_below_agl_ft=1200"]'],
     "advisory.persistence_n": ["5"],
+    "advisory.guidance_band_kinds": ['["track_deg"]', '["altitude_m", "ground_speed_mps"]'],
     "advisory.ground_elevation_m": ["150.0"],
     "conflict.mc_samples": ["2000"],  # with method mc; 15000 samples would cost seconds per replay
     "conflict.seed": ["7"],
@@ -153,6 +154,7 @@ CONTEXT: dict[str, tuple[str, ...]] = {
     "advisory.persistence_m": ("advisory.persistence=m-of-n",),
     "advisory.persistence_n": ("advisory.persistence=m-of-n",),
     "advisory.persistence_confidence": ("advisory.persistence=binomial",),
+    "advisory.guidance_band_kinds": ("advisory.profile=do365",),  # the bands of a DO-365 alerter
     "conflict.n_blocks": ("conflict.method=blocks",),
     "conflict.mc_samples": ("conflict.method=mc",),
     "conflict.prefilter_alpha": ("conflict.prefilter=hwang",),

@@ -15,9 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avionics.base import jit
+from avionics.contract.bands import BAND_KIND_NAMES as KINDS
 from avionics.base.units import FT, KT
 from avionics_eval.evaluation import evaluate as ev
 from avionics_eval.evaluation import generator as gen
+from avionics_eval.evaluation.lincoln import LincolnSource
 from avionics_eval.evaluation.metrics import (
     markdown,
     metrics,
@@ -149,6 +151,23 @@ def test_the_cut_display_outputs_change_no_record(monkeypatch, profile):
     assert [ev.evaluate(gen.generate(5, i), profile, (5, i)) for i in range(6)] == cut
     assert any(r["ra"] for r in cut)  # the comparison covered RAs
 
+
+
+def test_the_band_kinds_the_guidance_does_not_read_change_no_record(monkeypatch):
+    """Flown through the guidance with the bands, an encounter computes only the kinds of bands the guidance reads
+    (guidance/params.py BAND_KINDS_READ; the others are for displays): the records equal those with all four, on
+    Lincoln encounters whose guidance flew the bands' resolution (commanding:recovery, commanding:warning)."""
+    conditions = ev.Conditions("do365-adsb", None, "guidance", "multirotor", True)
+    source = LincolnSource.of("uncor_1200exclude_rotorcraft_v1p2.txt", "uav-survey")
+
+    def records():
+        return [ev.evaluate(source.encounter(28, i), "do365", (28, i), conditions=conditions) for i in (3003, 3008)]
+
+    cut = records()
+    assert "advisory.guidance_band_kinds=[\"track_deg\"]" in conditions.overrides()
+    monkeypatch.setattr(ev, "BAND_KINDS_READ", KINDS)
+    assert records() == cut
+    assert all(r["guidance_states"].startswith("commanding:") for r in cut)  # the bands' resolution was flown
 
 
 @pytest.mark.skipif(not jit.ENABLED, reason="compiled kernels are off (AVIONICS_COMPILED=0)")

@@ -646,8 +646,10 @@ class BandsEngine:
     kind, and when each intruder was first seen, for the early alerting time)."""
 
     def __init__(self, params: BandsParams, levels: Sequence[AlertLevel], sum_z: SumZScores | None = None,
-                 non_cooperative_levels: Sequence[AlertLevel] | None = None):
-        """non_cooperative_levels: the levels of the alerter of the intruders seen only by the ownship's sensors
+                 non_cooperative_levels: Sequence[AlertLevel] | None = None, kinds: Sequence[str] | None = None):
+        """kinds: the kinds computed (None: all four, as DAIDALUS); the others come out empty, as a kind whose
+        present value is outside its range (each kind is computed on its own: the ones kept are unchanged).
+        non_cooperative_levels: the levels of the alerter of the intruders seen only by the ownship's sensors
         (DAIDALUS's per-intruder alerter: DO-365B's DWC_Non_Coop; advisory/alerting.py Alerter.non_cooperative),
         whose conflicts the bands take with those levels' volumes and times, as DAIDALUS's bands take each
         aircraft's with its own alerter (DaidalusCore.conflict_aircraft). Same SUM as `levels` (tables.py checks a
@@ -659,12 +661,14 @@ class BandsEngine:
         # the alerter's AlertThresholds
         self.levels = tuple(levels)
         p = params
-        self._kinds = (
+        if kinds is not None and not set(kinds) <= set(KINDS):
+            raise ValueError(f"unknown band kind(s) {sorted(set(kinds) - set(KINDS))}; known: {', '.join(KINDS)}")
+        self._kinds = tuple(k for k in (
             _Kind("track_deg", TWO_PI, 0.0, TWO_PI, math.radians(p.step_track_deg), p.recovery_track),
             _Kind("ground_speed_mps", 0.0, p.min_gs_mps, p.max_gs_mps, p.step_gs_mps, p.recovery_gs),
             _Kind("vertical_rate_mps", 0.0, p.min_vs_mps, p.max_vs_mps, p.step_vs_mps, p.recovery_vs),
             _Kind("altitude_m", 0.0, p.min_alt_m, p.max_alt_m, p.step_alt_m, p.recovery_alt),
-        )
+        ) if kinds is None or k.name in kinds)
         # regions painted (DaidalusCore.bands4region_): index 0 NEAR, 1 MID, 2 FAR -> the level that paints it,
         # per alerter (the cooperative one first)
         self._level_for_region = _regions(self.levels)
@@ -959,7 +963,7 @@ class BandsEngine:
         else:
             self._alerters = [(np.arange(len(ids)), self._level_for_region)]
         conf_idx, conf_at = self._conflict_aircraft(float(time_s), so, vo, si, vi, ids, levels, sum_data)
-        out, rec = {}, {}
+        out, rec = dict.fromkeys(KINDS, ()), {}
         for kind in self._kinds:
             out[kind.name], rec[kind.name] = self._kind_bands(kind, float(time_s), so, vo, si, vi, conf_idx,
                                                               conf_at, sum_data)

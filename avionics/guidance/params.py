@@ -11,6 +11,10 @@ GUIDANCE_MODES = ("passive", "advise", "execute")
 # Disabled < Warn only < Hold < Return < Land; Terminate is not offered)
 LADDER_ACTIONS = ("none", "warn", "hold", "return", "land")
 
+# The kinds of guidance bands the guidance stage reads (stage.py: the track resolution and the mission track's
+# region); advisory.guidance_band_kinds must keep them, and the evaluation computes only these.
+BAND_KINDS_READ = ("track_deg",)
+
 
 @dataclass(frozen=True)
 class GuidanceConfig:

@@ -19,6 +19,7 @@ truth grid.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, replace
 from functools import cache
@@ -41,6 +42,7 @@ from avionics.base.types import (
 )
 from avionics.base.units import FT
 from avionics.daa import Daa
+from avionics.guidance.params import BAND_KINDS_READ
 from avionics.io.encode import daa_advisory
 from avionics_eval.evaluation.generator import DT_S, DURATION_S, T_CPA_S, Encounter
 from avionics_sitl.impairments import DEFAULT, DO365_ADSB
@@ -113,7 +115,10 @@ class Conditions:
             return ()
         from avionics_eval.evaluation.guided import overrides
 
-        return (*overrides(self.vehicle), *(("advisory.guidance_bands=true",) if self.guidance_bands else ()))
+        # the bands the guidance reads; the other kinds are for displays (tests/test_evaluation.py: same records)
+        bands = ("advisory.guidance_bands=true",
+                 f"advisory.guidance_band_kinds={json.dumps(list(BAND_KINDS_READ))}") if self.guidance_bands else ()
+        return (*overrides(self.vehicle), *bands)
 
     def impairments(self):
         preset = SURVEILLANCE[self.surveillance]
