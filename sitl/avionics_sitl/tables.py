@@ -25,6 +25,7 @@ intruder's samples is a gap in its reports, not an interpolation through it (`Ta
 
 from __future__ import annotations
 
+import bisect
 import csv
 import io
 import math
@@ -438,13 +439,13 @@ class TableTrajectory(SampledTrajectory):
         self._starts = [a for a, _ in self.heard]
 
     def _interpolate(self, t_s: float):
-        t = self.times
-        i = int(np.searchsorted(t, t_s, side="right")) - 1
+        t = self._t
+        i = bisect.bisect_right(t, t_s) - 1
         if 0 <= i < len(t) - 1 and t[i + 1] - t[i] > self.gap_s:
             h = t[i + 1] - t[i]
             u = (t_s - t[i]) / h
-            chord = (self._pos[i + 1] - self._pos[i]) / h
-            return (1.0 - u) * self._pos[i] + u * self._pos[i + 1], chord
+            a, b = self._pos[i], self._pos[i + 1]
+            return tuple((1.0 - u) * p + u * q for p, q in zip(a, b)), tuple((q - p) / h for p, q in zip(a, b))
         return super()._interpolate(t_s)
 
     def heard_at(self, t_s: float) -> bool:

@@ -256,19 +256,23 @@ class SampledTrajectory:
         plane_vel = [true_velocity_to_plane(self.plane, la, lo, ve, vn)
                      for la, lo, ve, vn in zip(cols[1], cols[2], cols[4], cols[5])]
         self.times = t
-        self._pos = np.stack([np.asarray(east, float), np.asarray(north, float), cols[3]], axis=1)
-        self._vel = np.column_stack([np.array(plane_vel).reshape(n, 2), cols[6]])
+        # (east, north, up) per sample as Python floats: one interpolation is a few dozen float operations, which
+        # numpy would make as many calls on 3-vectors (the simulated autopilot asks for one every 0.1 s)
+        self._t = t.tolist()
+        self._pos = np.stack([np.asarray(east, float), np.asarray(north, float), cols[3]], axis=1).tolist()
+        self._vel = np.column_stack([np.array(plane_vel).reshape(n, 2), cols[6]]).tolist()
 
-    def _interpolate(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+    def _interpolate(self, t_s: float) -> tuple[tuple, tuple]:
+        """(position, velocity) at t_s, each (east, north, up) in the plane."""
         t_s = float(t_s)
         if not math.isfinite(t_s):
             raise ValueError(f"time must be finite, got {t_s}")
-        times, pos, vel = self.times, self._pos, self._vel
-        if t_s <= times[0]:
-            return pos[0] + vel[0] * (t_s - times[0]), vel[0].copy()
-        if t_s >= times[-1]:
-            return pos[-1] + vel[-1] * (t_s - times[-1]), vel[-1].copy()
-        i = int(np.searchsorted(times, t_s, side="right")) - 1
+        times, pos, vel = self._t, self._pos, self._vel
+        if t_s <= times[0] or t_s >= times[-1]:  # the straight line of the end sample's velocity
+            end = 0 if t_s <= times[0] else -1
+            dt = t_s - times[end]
+            return tuple(p + v * dt for p, v in zip(pos[end], vel[end])), tuple(vel[end])
+        i = bisect.bisect_right(times, t_s) - 1
         h = times[i + 1] - times[i]
         u = (t_s - times[i]) / h
         # Cubic Hermite basis on [0, 1]; slopes scaled by the interval length.
@@ -276,14 +280,14 @@ class SampledTrajectory:
         h10 = u * (1.0 - u) ** 2
         h01 = u * u * (3.0 - 2.0 * u)
         h11 = u * u * (u - 1.0)
-        p = h00 * pos[i] + h10 * h * vel[i] + h01 * pos[i + 1] + h11 * h * vel[i + 1]
-        v = (1.0 - u) * vel[i] + u * vel[i + 1]
+        p = tuple(h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1
+                  for p0, v0, p1, v1 in zip(pos[i], vel[i], pos[i + 1], vel[i + 1]))
+        v = tuple((1.0 - u) * v0 + u * v1 for v0, v1 in zip(vel[i], vel[i + 1]))
         return p, v
 
     def enu_at(self, t_s: float) -> tuple[float, float, float]:
-        p, _ = self._interpolate(t_s)
-        return float(p[0]), float(p[1]), float(p[2])
+        return self._interpolate(t_s)[0]
 
     def state_at(self, t_s: float) -> KinematicState:
         p, v = self._interpolate(t_s)
-        return _state(self.plane, t_s, float(p[0]), float(p[1]), float(p[2]), float(v[0]), float(v[1]), float(v[2]))
+        return _state(self.plane, t_s, *p, *v)
