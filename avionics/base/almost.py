@@ -80,7 +80,7 @@ def almost_equals(a, b, precision: int = PRECISION13) -> np.ndarray | bool:
     comp = ZERO_COMPARISON.get(precision, 1e-13)
     if (a.ndim or b.ndim) and jit.ready():  # the compiled loop (base/kernels.py), element for element the below
         fa, fb, shape = _flat_pair(a, b)
-        return kernels.almost_equals_flat(fa, fb, precision, comp).reshape(shape)
+        return kernels.almost_flat(fa, fb, precision, comp, False).reshape(shape)
     zero_case = ((a == 0.0) | (b == 0.0)) & (np.abs(a) < comp) & (np.abs(b) < comp)
     finite = np.isfinite(a) & np.isfinite(b)
     with np.errstate(over="ignore"):
@@ -95,9 +95,9 @@ def almost_less(a, b, precision: int = PRECISION13):
     if type(a) in _SCALARS and type(b) in _SCALARS:
         a, b = float(a), float(b)
         return np.bool_(a < b and not _almost_equals_scalar(a, b, precision))
-    if (np.ndim(a) or np.ndim(b)) and jit.ready():  # the compiled loop (base/kernels.py almost_less_flat)
+    if (np.ndim(a) or np.ndim(b)) and jit.ready():  # the compiled loop (base/kernels.py almost_flat)
         fa, fb, shape = _flat_pair(np.asarray(a, np.float64), np.asarray(b, np.float64))
-        return kernels.almost_less_flat(fa, fb, precision, ZERO_COMPARISON.get(precision, 1e-13)).reshape(shape)
+        return kernels.almost_flat(fa, fb, precision, ZERO_COMPARISON.get(precision, 1e-13), True).reshape(shape)
     return np.logical_and(np.less(a, b), np.logical_not(almost_equals(a, b, precision)))
 
 

@@ -39,24 +39,15 @@ def almost_equals_one(a, b, precision, zero):
     return 0 <= diff <= precision
 
 
-@kernel("boolean[::1](float64[::1], float64[::1], int64, float64)")
-def almost_equals_flat(a, b, precision, zero):
-    """almost_equals_one of every element pair of a and b, a one-element side against every element of the other."""
-    n = a.shape[0] if b.shape[0] == 1 else b.shape[0]  # (0,) against one element: none
-    out = np.empty(n, np.bool_)
-    one_a, one_b = a.shape[0] != n, b.shape[0] != n
-    for i in range(n):
-        out[i] = almost_equals_one(a[0] if one_a else a[i], b[0] if one_b else b[i], precision, zero)
-    return out
-
-
-@kernel("boolean[::1](float64[::1], float64[::1], int64, float64)")
-def almost_less_flat(a, b, precision, zero):
-    """Util.almost_less (a < b and not almost equal) of every element pair, as almost_equals_flat pairs them."""
+@kernel("boolean[::1](float64[::1], float64[::1], int64, float64, boolean)")
+def almost_flat(a, b, precision, zero, less):
+    """Every element pair of a and b (a one-element side against every element of the other): almost_equals_one,
+    or with less Util.almost_less (a < b and not almost equal)."""
     n = a.shape[0] if b.shape[0] == 1 else b.shape[0]  # (0,) against one element: none
     out = np.empty(n, np.bool_)
     one_a, one_b = a.shape[0] != n, b.shape[0] != n
     for i in range(n):
         x, y = a[0] if one_a else a[i], b[0] if one_b else b[i]
-        out[i] = x < y and not almost_equals_one(x, y, precision, zero)
+        equal = almost_equals_one(x, y, precision, zero)
+        out[i] = (x < y and not equal) if less else equal
     return out
