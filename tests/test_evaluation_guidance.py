@@ -202,3 +202,16 @@ def test_the_cost_benchmark_prints_both_paths_and_where_the_guidance_time_goes(c
     shares = result["guidance_profile_share"]
     assert len(shares) >= 10 and all(0.0 <= share <= 1.0 for share in shares.values())
     assert shares["loop step (Daa.step, all of it)"] > shares["  core pipeline (tracking, assessment, alerting, RAs)"]
+
+
+@pytest.mark.parametrize("index", [396])
+def test_a_turn_toward_a_turning_rotorcraft_is_not_flown(index):
+    """Lincoln encounter 396 (seed 28, do365, the bands flown): a rotorcraft turning left at about 3 deg/s. Each
+    second the recovery resolution on the side kept moved further left, and the multirotor followed it round into
+    the rotorcraft's arc: 477 ft by 51 ft, an NMAC, where the mission flown on passes 1,327 ft away (2026-12-08,
+    9caa132). A resolution that moved is flown only where, the intruder on its present turn, it passes no closer
+    than the track flown (horizontal.py closest_horizontal_m): the flown miss is not smaller than the mission's."""
+    encounter = LincolnSource.of(ROTORCRAFT, "uav-survey").encounter(28, index)
+    record = ev.evaluate(encounter, "do365", (28, index), conditions=replace(GUIDED, guidance_bands=True))
+    assert record["guidance_states"].startswith("commanding:recovery")
+    assert not record["nmac_equipped"] and record["hmd_flown_ft"] >= record["hmd_ft"] - 10.0 / FT

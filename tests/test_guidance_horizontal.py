@@ -12,7 +12,8 @@ from avionics.advisory.bands import BandInterval
 from avionics.config import load_config
 from avionics.base.units import FT
 from avionics.guidance import ardupilot
-from avionics.guidance.horizontal import horizontal_manoeuvre, track_resolution
+from avionics.advisory.bands import Bands
+from avionics.guidance.horizontal import closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_rates
 from avionics.guidance.stage import GuidanceDecision
 from avionics_sitl.encounters import load_encounter
 from avionics_sitl.impairments import PRESETS
@@ -144,3 +145,30 @@ def test_without_guidance_bands_a_do365_warning_is_flown_vertically():
     config = load_config(overrides=[*DO365, "advisory.guidance_bands=false"])
     result = replay(load_encounter("head-on"), config, PRESETS["none"], fly_guidance=True)
     assert result.guidance[0].manoeuvre in ("climb", "descend") and result.guidance[0].target_track_deg is None
+
+
+def test_a_turning_intruder_is_predicted_on_its_arc():
+    """By hand: an intruder 300 m east at 30 m/s southbound, turning right at 0.1 rad/s, circles the origin (radius
+    300 m). Straight on, it never comes within 300 m of a vehicle hovering at (0, -300); on its arc it is over it
+    a quarter turn later (pi / 2 / 0.1 = 15.7 s; sampled every 0.5 s: within 30 m/s x 0.25 s of it)."""
+    traffic = (((300.0, 0.0, 0.0), (0.0, -30.0, 0.0)),)
+    assert closest_horizontal_m((0.0, -300.0), (0.0, 0.0), traffic, 60.0) == pytest.approx(300.0)
+    assert closest_horizontal_m((0.0, -300.0), (0.0, 0.0), traffic, 60.0, [0.1]) < 7.6
+    # within 10 s it has come a radian round: 300 sqrt(2 - 2 sin 1) m away
+    assert closest_horizontal_m((0.0, -300.0), (0.0, 0.0), traffic, 10.0, [0.1]) == \
+        pytest.approx(300.0 * math.sqrt(2.0 - 2.0 * math.sin(1.0)))
+
+
+def test_turn_rates_from_two_bands_a_second_apart():
+    """The track change between two bands over their interval, across north, clockwise positive, clamped at 12
+    deg/s; 0 for a new intruder, a slow one, or bands more than 2.5 s apart."""
+    def bands(t, *tracks_deg, speed=40.0):
+        rad = [math.radians(d) for d in tracks_deg]
+        return Bands(t, (), (), (), (), intruders=tuple((f"i{k}", 2) for k in range(len(rad))),
+                     traffic=tuple(((0.0, 0.0, 0.0), (speed * math.sin(a), speed * math.cos(a), 0.0)) for a in rad))
+
+    rates = turn_rates(bands(10.0, 358.0, 90.0, 90.0), bands(11.0, 4.0, 84.0, 150.0, 10.0))
+    assert [math.degrees(r) for r in rates] == pytest.approx([6.0, -6.0, 12.0, 0.0])
+    assert turn_rates(bands(10.0, 358.0), bands(13.0, 4.0)) == [0.0]
+    assert turn_rates(None, bands(13.0, 4.0)) == [0.0]
+    assert turn_rates(bands(10.0, 0.0, speed=3.0), bands(11.0, 30.0, speed=3.0)) == [0.0]

@@ -18,17 +18,28 @@ Three departures from DAIDALUS, all ours:
 - the side chosen persists through the manoeuvre (a vehicle half-way through a right turn does not reverse because
   the left edge came nearer), unless it has no resolution any more: DAIDALUS keeps its preferred direction for
   persistence_time the same way (preferredDirectionHysteresis), we keep it until the conflict is over;
-- a resolution is flown only where, every aircraft flying straight, it leaves no intruder a smaller horizontal miss
-  than the track flown now (the other side is tried, else none: `closest_horizontal_m`). DAIDALUS's recovery
+- a resolution is flown only where it leaves no intruder a smaller horizontal miss than the track flown now, each
+  intruder on its present turn (seen between two bands: `turn_rates`) and the vehicle straight (the other side is
+  tried, else none: `closest_horizontal_m`); a resolution that moves during the manoeuvre is followed under the
+  same test, else the track flown is kept. DAIDALUS's bands project every aircraft straight, and its recovery
   resolution (saturated bands) only keeps the collision-avoidance cylinder, which the vertical separation may
-  already keep, so it can turn toward the intruder (issue 27's property: the manoeuvre never leaves a smaller miss
-  than flying the mission on).
+  already keep: it can turn toward the intruder, and against a rotorcraft turning at 3 deg/s the resolution of
+  the side kept moved round with it, second by second, into its arc (issue 27's property: the manoeuvre never
+  leaves a smaller miss than flying the mission on).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
+
+# An intruder's turn, seen between two bands: the miss a resolution leaves is predicted on its arc (closest_horizontal_m)
+TURN_SAMPLE_S = 0.5
+TURN_MIN_SPEED_MPS = 5.0  # slower, a track's direction is noise
+TURN_MAX_GAP_S = 2.5  # bands come once a second: older ones say nothing of the turn now
+MAX_TURN_RATE_RPS = math.radians(12.0)  # a helicopter's steep turn; a faster apparent turn is the track's noise
 
 # BandsRegion.orderOfConflictRegion: NONE and RECOVERY both 0 (resolutions), FAR 1, MID 2, NEAR 3
 _CONFLICT_ORDER = {"NONE": 0, "RECOVERY": 0, "FAR": 1, "MID": 2, "NEAR": 3}
@@ -145,15 +156,44 @@ def horizontal_manoeuvre(intervals, track_deg: float, alert_name: str, margin_de
     return HorizontalManoeuvre(target, side, "recovery" if region == "RECOVERY" else alert_name.lower())
 
 
-def closest_horizontal_m(own_en, velocity_en, traffic, lookahead_s: float) -> float:
-    """The least horizontal distance (m) to any intruder within [0, lookahead_s], ownship at velocity_en (east,
-    north; m/s) from own_en, every intruder on its (ENU position, velocity) of Bands.traffic, all straight;
-    inf without traffic."""
+def closest_horizontal_m(own_en, velocity_en, traffic, lookahead_s: float, turn_rates=None) -> float:
+    """The least horizontal distance (m) to any intruder within [0, lookahead_s], ownship straight at velocity_en
+    (east, north; m/s) from own_en, every intruder from its (ENU position, velocity) of Bands.traffic, straight,
+    or turning at its rate of turn_rates (rad/s, clockwise positive; None or 0: straight) at constant speed, sampled
+    every TURN_SAMPLE_S; inf without traffic."""
     closest = math.inf
-    for pos, vel in traffic:
+    for k, (pos, vel) in enumerate(traffic):
         sx, sy = pos[0] - own_en[0], pos[1] - own_en[1]
+        omega = turn_rates[k] if turn_rates is not None else 0.0
+        if omega:
+            t = np.arange(0.0, lookahead_s + TURN_SAMPLE_S, TURN_SAMPLE_S)
+            speed, psi0 = math.hypot(vel[0], vel[1]), math.atan2(vel[0], vel[1])
+            psi = psi0 + omega * t  # track, clockwise from north: east = speed sin psi, north = speed cos psi
+            ex = sx + speed / omega * (math.cos(psi0) - np.cos(psi)) - velocity_en[0] * t
+            ny = sy + speed / omega * (np.sin(psi) - math.sin(psi0)) - velocity_en[1] * t
+            closest = min(closest, float(np.hypot(ex, ny).min()))
+            continue
         vx, vy = vel[0] - velocity_en[0], vel[1] - velocity_en[1]
         v2 = vx * vx + vy * vy
         t = 0.0 if v2 <= 0.0 else min(max(-(sx * vx + sy * vy) / v2, 0.0), lookahead_s)
         closest = min(closest, math.hypot(sx + vx * t, sy + vy * t))
     return closest
+
+
+def turn_rates(previous, bands) -> list[float]:
+    """Each intruder of bands' rate of turn (rad/s, clockwise positive) from its velocity in the previous bands
+    (advisory/bands.py Bands, a second apart): 0 for one not in them, slower than TURN_MIN_SPEED_MPS, or when they
+    are more than TURN_MAX_GAP_S old; at most MAX_TURN_RATE_RPS either way."""
+    dt = bands.time_s - previous.time_s if previous is not None else math.inf
+    if not 0.0 < dt <= TURN_MAX_GAP_S:
+        return [0.0] * len(bands.traffic)
+    before = {ident[0]: vel for ident, (_, vel) in zip(previous.intruders, previous.traffic)}
+    rates = []
+    for ident, (_, vel) in zip(bands.intruders, bands.traffic):
+        old = before.get(ident[0])
+        if old is None or math.hypot(*old[:2]) < TURN_MIN_SPEED_MPS or math.hypot(*vel[:2]) < TURN_MIN_SPEED_MPS:
+            rates.append(0.0)
+            continue
+        turned = (math.atan2(vel[0], vel[1]) - math.atan2(old[0], old[1]) + math.pi) % (2.0 * math.pi) - math.pi
+        rates.append(max(-MAX_TURN_RATE_RPS, min(MAX_TURN_RATE_RPS, turned / dt)))
+    return rates

@@ -49,7 +49,9 @@ from avionics.base.types import (
 )
 from avionics.guidance import ardupilot
 from avionics.guidance.ardupilot import ARDUCOPTER
-from avionics.guidance.horizontal import closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_to
+from avionics.guidance.horizontal import (
+    closest_horizontal_m, horizontal_manoeuvre, track_resolution, turn_rates, turn_to,
+)
 from avionics.guidance.mission import MissionReader, set_current
 from avionics.guidance.arduplane import ARDUPLANE
 from avionics.guidance.px4 import PX4
@@ -211,6 +213,7 @@ class GuidanceStage:
         self.config, self.vehicle = config, vehicle
         self.turning = horizontal
         self.bands = None  # the last guidance bands (advisory/bands.py Bands), once a second
+        self.turn_rates: list[float] = []  # each of their intruders' rate of turn (horizontal.py turn_rates)
         self.held = None  # the horizontal manoeuvre in progress (horizontal.py HorizontalManoeuvre)
         self.target_track: float | None = None  # its resolution track, degrees true
         self.track_cmd: float | None = None  # the setpoint's track, stepped toward target_track at the turn rate
@@ -263,6 +266,7 @@ class GuidanceStage:
         else:
             reads = []
         if bands is not None:
+            self.turn_rates = turn_rates(self.bands, bands)  # each intruder's turn, from the last bands' velocity
             self.bands = bands
         c = self.contract
         levels = self.turning.levels if self.turning is not None and self.contract is not ARDUPLANE else frozenset()
@@ -491,6 +495,9 @@ class GuidanceStage:
         found = resolution(held.right if held is not None else None)
         if found is None:
             self.no_manoeuvre = "no_track_resolution"
+        elif held is not None and found.target_track_deg != held.target_track_deg and \
+                self._closer(bands, track, found.target_track_deg):
+            found = held  # the resolution moved toward an intruder (one turning into it): the track flown is kept
         elif held is None and self._closer(bands, track, found.target_track_deg):
             other = resolution(not found.right)  # the other side, or None
             found = other if other is not None and other.right != found.right and \
@@ -501,13 +508,13 @@ class GuidanceStage:
 
     def _closer(self, bands, track_deg: float, target_deg: float) -> bool:
         """The target track, flown at the present speed, passes some intruder closer than the present track
-        (horizontal.py closest_horizontal_m, over the bands' lookahead)."""
+        (horizontal.py closest_horizontal_m, over the bands' lookahead, each intruder on its present turn)."""
         speed = math.hypot(bands.ownship_vel[0], bands.ownship_vel[1])
 
         def closest(deg):
             rad = math.radians(deg)
             return closest_horizontal_m(bands.ownship_pos, (speed * math.sin(rad), speed * math.cos(rad)),
-                                        bands.traffic, self.turning.lookahead_s)
+                                        bands.traffic, self.turning.lookahead_s, self.turn_rates)
         return closest(target_deg) < closest(track_deg)
 
     def _mission_track_in_conflict(self, now_s: float) -> bool:
