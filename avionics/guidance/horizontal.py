@@ -159,12 +159,12 @@ def horizontal_manoeuvre(intervals, track_deg: float, alert_name: str, margin_de
 def closest_horizontal_m(own_en, velocity_en, traffic, lookahead_s: float, turn_rates=None) -> float:
     """The least horizontal distance (m) to any intruder within [0, lookahead_s], ownship straight at velocity_en
     (east, north; m/s) from own_en, every intruder from its (ENU position, velocity) of Bands.traffic, straight,
-    or turning at its rate of turn_rates (rad/s, clockwise positive; None or 0: straight) at constant speed, sampled
-    every TURN_SAMPLE_S; inf without traffic."""
+    or turning at its rate of turn_rates (rad/s, clockwise positive; None, 0 or none given: straight) at constant
+    speed, sampled every TURN_SAMPLE_S; inf without traffic."""
     closest = math.inf
     for k, (pos, vel) in enumerate(traffic):
         sx, sy = pos[0] - own_en[0], pos[1] - own_en[1]
-        omega = turn_rates[k] if turn_rates is not None else 0.0
+        omega = turn_rates[k] if turn_rates is not None and k < len(turn_rates) else 0.0
         if omega:
             t = np.arange(0.0, lookahead_s + TURN_SAMPLE_S, TURN_SAMPLE_S)
             speed, psi0 = math.hypot(vel[0], vel[1]), math.atan2(vel[0], vel[1])
