@@ -356,6 +356,7 @@ def test_band_kinds_refused_with_a_clear_error():
     with pytest.raises(ConfigError, match="guidance.mode 'execute' turns by the track_deg bands"):
         load_config(overrides=['advisory.profile="do365"', 'guidance.mode="execute"',
                                'advisory.guidance_band_kinds=["altitude_m"]'])
+    assert load_config().advisory.guidance_band_kinds == KINDS  # the default: all four, as DAIDALUS
     assert load_config(overrides=['advisory.guidance_band_kinds=["altitude_m"]']).advisory.guidance_band_kinds == \
         ("altitude_m",)  # passive: the displays' choice
 

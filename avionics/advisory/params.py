@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from avionics.base.params import ConfigError, require_positive
-from avionics.contract.bands import BAND_KIND_NAMES
 
 CRITERIA = ("tcas", "tcas+pc", "pc")
 # The re-assessment rate: at least the 1 Hz of the TCAS II logic cycle (RTCA DO-185B: threats are assessed every
@@ -24,8 +23,9 @@ class AdvisoryConfig:
     ra_enabled: bool = True
     guidance_bands: bool = True  # a DO-365 alerter's guidance bands; false: its alerts only (they never read them)
     # which of them: DAIDALUS computes all four; the others cost CPU for a display only (the guidance turns by
-    # the track bands: guidance/stage.py BAND_KINDS_READ)
-    guidance_band_kinds: tuple[str, ...] = BAND_KIND_NAMES
+    # the track bands: guidance/params.py BAND_KINDS_READ). = contract/bands.py BAND_KIND_NAMES, written out: that
+    # module imports numpy, which `avionics --help` must not (tests/test_startup.py; test_bands.py holds them equal)
+    guidance_band_kinds: tuple[str, ...] = ("track_deg", "ground_speed_mps", "vertical_rate_mps", "altitude_m")
     hmd_filter: bool = True  # TCAS II v7.1 RA horizontal miss distance filter
     # a SUM detector's uncertainties from the tracks' covariances where the surveillance states none
     # (base/uncertainty.py errors_from_covariance); false: stated ones only (conformance runs)
@@ -55,6 +55,8 @@ class AdvisoryConfig:
             raise ConfigError(f"advisory.persistence: {a.persistence!r} is not none, m-of-n or binomial")
         if not 1 <= a.persistence_m <= a.persistence_n <= 50:
             raise ConfigError("advisory.persistence_m and persistence_n: need 1 <= m <= n <= 50")
+        from avionics.contract.bands import BAND_KIND_NAMES
+
         unknown = [k for k in a.guidance_band_kinds if k not in BAND_KIND_NAMES]
         if unknown or not a.guidance_band_kinds or len(set(a.guidance_band_kinds)) != len(a.guidance_band_kinds):
             raise ConfigError(f"advisory.guidance_band_kinds: each of {', '.join(BAND_KIND_NAMES)} at most once, at "
