@@ -39,7 +39,9 @@ import numpy as np
 TURN_SAMPLE_S = 0.5
 TURN_MIN_SPEED_MPS = 5.0  # slower, a track's direction is noise
 TURN_MAX_GAP_S = 2.5  # bands come once a second: older ones say nothing of the turn now
-MAX_TURN_RATE_RPS = math.radians(12.0)  # a helicopter's steep turn; a faster apparent turn is the track's noise
+# the MIT LL uncorrelated encounter models' turn-rate bins end at 8 deg/s (their `# boundaries`, \dot \psi, in
+# eval/avionics_eval/encounter_models/models); past 12 deg/s an apparent turn is the track's noise
+MAX_TURN_RATE_RPS = math.radians(12.0)
 
 # BandsRegion.orderOfConflictRegion: NONE and RECOVERY both 0 (resolutions), FAR 1, MID 2, NEAR 3
 _CONFLICT_ORDER = {"NONE": 0, "RECOVERY": 0, "FAR": 1, "MID": 2, "NEAR": 3}
